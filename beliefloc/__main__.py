@@ -1,0 +1,3 @@
+from beliefloc.cli.app import main
+
+main()

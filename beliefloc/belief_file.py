@@ -1,0 +1,63 @@
+"""Belief files: ``{state: probability}`` in YAML or JSON, validated against a model's states.
+
+Missing states get 0. ``"row,col"`` on a map with headings names the whole cell, its probability
+split evenly over the headings. A file whose probabilities do not sum to 1 is normalised and a
+warning is returned. The output of ``beliefloc track --json`` (``{"belief": {...}, ...}``) is
+accepted too, so a tracked belief can be fed to the next command.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+from pydantic import Field, RootModel
+
+from beliefloc.errors import BeliefFileError, UsageError
+from beliefloc.model import Model
+from beliefloc.source import Source, read_source, validate_source
+
+_SUM_TOLERANCE = 1e-6
+
+
+class _BeliefMapping(RootModel[dict[str, Annotated[float, Field(ge=0.0, allow_inf_nan=False)]]]):
+    pass
+
+
+def load_belief(model: Model, path: str | Path) -> tuple[np.ndarray, list[str]]:
+    """The belief in ``path`` as a vector over ``model``'s states, and any warnings."""
+    source = read_source(path, BeliefFileError)
+    data = source.data
+    prefix: tuple[str, ...] = ()
+    if isinstance(data, dict) and isinstance(data.get("belief"), dict):
+        data, prefix = data["belief"], ("belief",)
+    inner = Source(
+        source.path, data, source.sha256, _strip(source.value_marks, prefix), _strip(source.key_marks, prefix)
+    )
+    if not isinstance(data, dict):
+        raise BeliefFileError(f"{source.path}:1:1: a belief file maps states to probabilities, e.g. {{'0,0,1': 0.5}}")
+    mapping = validate_source(inner, _BeliefMapping, BeliefFileError).root
+    belief = np.zeros(model.n_states)
+    for name, probability in mapping.items():
+        try:
+            states = model.states.indices(str(name))
+        except UsageError as exc:
+            raise inner.error((str(name),), str(exc), BeliefFileError, key=True) from None
+        belief[states] += probability / len(states)
+    total = float(belief.sum())
+    if total <= 0.0:
+        raise BeliefFileError(f"{source.path}: every probability is 0; a belief needs some mass")
+    warnings = []
+    if abs(total - 1.0) > _SUM_TOLERANCE:
+        warnings.append(f"{source.path}: probabilities sum to {total:.6g}, not 1; normalised")
+    return belief / total, warnings
+
+
+def _strip(
+    marks: dict[tuple[str | int, ...], tuple[int, int]], prefix: tuple[str, ...]
+) -> dict[tuple[str | int, ...], tuple[int, int]]:
+    if not prefix:
+        return marks
+    n = len(prefix)
+    return {key[n:]: mark for key, mark in marks.items() if key[:n] == prefix}

@@ -1,0 +1,114 @@
+"""``validate``, ``build`` and ``inspect``: maps and compiled models."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.markup import escape
+
+from beliefloc.cli.common import MODEL_SUFFIX, boundary, open_model, print_json, report_error
+from beliefloc.errors import EXIT_BAD_INPUT, BeliefLocError, UsageError
+from beliefloc.model import model_summary
+from beliefloc.model_file import save_model
+from beliefloc.render import stdout_console
+from beliefloc.render.tables import model_table
+
+JsonOption = Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")]
+
+
+def validate(
+    maps: Annotated[list[Path], typer.Argument(help="Map files to check.", show_default=False)],
+    json_output: JsonOption = False,
+) -> None:
+    """Check map files and print a one-line summary of each valid one.
+
+    Example: beliefloc validate maps/*.yaml
+    """
+    from beliefloc.semantic_map import compile_model, load_map
+
+    results = []
+    for path in maps:
+        try:
+            model = compile_model(load_map(path))
+        except BeliefLocError as exc:
+            results.append({"file": str(path), "valid": False, "error": str(exc)})
+            if not json_output:
+                report_error(exc)
+            continue
+        sensors = [a for a in model.perception_actions]
+        result = {
+            "file": str(path),
+            "valid": True,
+            "error": None,
+            "name": model.name,
+            "states": model.n_states,
+            "actions": [a.name for a in model.actions],
+        }
+        results.append(result)
+        if not json_output:
+            grid = model.grid
+            where = f"{grid.rows}x{grid.cols} grid, " if grid else ""
+            observed = ", ".join(f"{a.name}: {a.observation.n_observations} observations" for a in sensors)
+            stdout_console().print(
+                f"[green]ok[/] {escape(str(path))}: {escape(model.name)}, {where}{model.n_states} states, "
+                f"{len(model.actuation_actions)} actuation actions" + (f", {escape(observed)}" if observed else "")
+            )
+    if json_output:
+        print_json(results)
+    if not all(r["valid"] for r in results):
+        raise typer.Exit(EXIT_BAD_INPUT)
+
+
+@boundary
+def build(
+    map_file: Annotated[Path, typer.Argument(metavar="MAP", help="The map to compile.", show_default=False)],
+    output: Annotated[Path, typer.Option("-o", "--output", help="Model file to write (.npz).", show_default=False)],
+    json_output: JsonOption = False,
+) -> None:
+    """Compile a map into a model file (transition and observation matrices).
+
+    Example: beliefloc build maps/kitchen.yaml -o kitchen.npz
+    """
+    if output.suffix.lower() != MODEL_SUFFIX:
+        raise UsageError(f"{output}: a model file must end in {MODEL_SUFFIX}")
+    start = time.perf_counter()
+    model = open_model(map_file)
+    seconds = time.perf_counter() - start
+    save_model(model, output)
+    summary = model_summary(model)
+    if json_output:
+        print_json({**summary, "output": str(output), "seconds": seconds})
+    else:
+        console = stdout_console()
+        console.print(model_table(summary, seconds))
+        console.print(f"wrote {escape(str(output))}")
+
+
+@boundary
+def inspect(
+    source: Annotated[
+        Path, typer.Argument(metavar="MAP|MODEL", help="A map, model or .pomdp file.", show_default=False)
+    ],
+    json_output: JsonOption = False,
+) -> None:
+    """Show a model's states, actions, observations, sizes, sparsity and build time.
+
+    Example: beliefloc inspect maps/kitchen.yaml
+    """
+    start = time.perf_counter()
+    model = open_model(source)
+    seconds = time.perf_counter() - start
+    summary = model_summary(model)
+    if json_output:
+        print_json({**summary, "seconds": seconds})
+    else:
+        stdout_console().print(model_table(summary, seconds))
+
+
+def register(app: typer.Typer) -> None:
+    app.command()(validate)
+    app.command()(build)
+    app.command()(inspect)

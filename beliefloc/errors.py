@@ -1,0 +1,72 @@
+"""One exception family for everything the library reports to a user.
+
+The CLI catches :class:`BeliefLocError` at one boundary and turns it into a message on stderr and
+the exit code in :attr:`BeliefLocError.exit_code`; any other exception is a bug and keeps its
+traceback.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+Path = tuple[str | int, ...]
+"""A location inside a structured file: keys and list indices from the root."""
+
+EXIT_NEGATIVE = 1
+"""A negative answer: no plan, not localizable, not found."""
+EXIT_BAD_INPUT = 2
+"""Bad input or usage."""
+
+
+class BeliefLocError(Exception):
+    """Base of every error reported to a user. The message is one readable paragraph."""
+
+    exit_code: int = EXIT_BAD_INPUT
+
+
+class InputFileError(BeliefLocError):
+    """A hand-written input file is broken; the message names the file, line, column and field."""
+
+
+class MapError(InputFileError):
+    """A semantic map file is invalid."""
+
+
+class BeliefFileError(InputFileError):
+    """A belief file is invalid."""
+
+
+class DomainError(InputFileError):
+    """A domain file is invalid."""
+
+
+class KnowledgeBaseError(BeliefLocError):
+    """A knowledge base cannot be grounded or solved."""
+
+
+class ModelError(BeliefLocError):
+    """A compiled model file or a .pomdp file cannot be used (stale, unreadable, unsupported)."""
+
+
+class UsageError(BeliefLocError):
+    """A command-line argument is wrong (an unknown action or state, a malformed step)."""
+
+
+class ImpossibleObservationError(BeliefLocError):
+    """An observation has probability zero under the current belief.
+
+    Bayes' rule is undefined there (0/0); rather than return NaN we stop and say why.
+    """
+
+
+class FieldError(Exception):
+    """A validation failure at a known place in a file, raised by cross-reference checks.
+
+    Deliberately *not* a ValueError: pydantic lets it through unchanged, so the loader can map
+    ``path`` to the YAML line where the offending value was written.
+    """
+
+    def __init__(self, path: Sequence[str | int], message: str) -> None:
+        super().__init__(message)
+        self.path: Path = tuple(path)
+        self.message = message

@@ -1,0 +1,414 @@
+"""The compiled belief model (Colledanchise Defs. 1-7): states, and for every action a transition
+and an observation model, plus costs. No I/O here; see :mod:`beliefloc.model_file` and
+:mod:`beliefloc.pomdp_format` for files.
+
+Conventions
+-----------
+* ``T[i, j] = P(s_j | s_i, a)`` -- a scipy CSR matrix whose rows sum to 1. A perception action has
+  ``transition = None``, meaning the identity (perceiving does not move the robot).
+* ``O[j, o] = P(o | s_j, a)`` evaluated at the state *reached*. Observations are stored factored:
+  an :class:`ObservationModel` is a product of independent :class:`ObservationPart` s (one per Look
+  class, one per Scan, ...), so ``O[j, o] = prod_p C_p[truth_p[j], o_p]``. A joint observation index
+  is mixed-radix over the parts, the first part most significant. An action with no parts has the
+  single observation ``none`` with probability 1.
+"""
+
+from __future__ import annotations
+
+import enum
+import hashlib
+import math
+import re
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from functools import cached_property
+
+import numpy as np
+import scipy.sparse as sp
+
+from beliefloc.errors import UsageError
+
+NONE_OBSERVATION = "none"
+"""The one observation of an action that senses nothing."""
+NOTHING = "nothing"
+"""Joint observation name when every part reads its silent value (e.g. no class seen)."""
+_MAX_LISTED = 12
+
+
+class ActionKind(enum.Enum):
+    ACTUATION = "actuation"
+    PERCEPTION = "perception"
+
+
+@dataclass(frozen=True, eq=False)
+class ObservationPart:
+    """One independent component of an observation.
+
+    ``confusion[v, w] = P(reading w | true value v)``; ``truth[j]`` is the true value in state j.
+    ``values[w]`` names reading w; an empty name is *silent*: it is left out of joint names (Look's
+    "not seen"), so a joint observation reads ``chair+potted_plant`` or ``nothing``.
+    """
+
+    name: str
+    values: tuple[str, ...]
+    truth: np.ndarray
+    confusion: np.ndarray
+    aliases: dict[str, int] = field(default_factory=dict)
+    """Extra spellings accepted on the command line, e.g. ``window_seen`` or ``window_not_seen``."""
+
+    @property
+    def n_values(self) -> int:
+        return len(self.values)
+
+
+@dataclass(frozen=True, eq=False)
+class ObservationModel:
+    """``P(o | s)`` for every joint observation ``o`` of one action, stored factored."""
+
+    n_states: int
+    parts: tuple[ObservationPart, ...] = ()
+
+    def __post_init__(self) -> None:
+        for part in self.parts:
+            if part.truth.shape != (self.n_states,):
+                raise ValueError(f"part {part.name}: truth has shape {part.truth.shape}, not ({self.n_states},)")
+            if part.confusion.shape[1] != part.n_values:
+                raise ValueError(f"part {part.name}: confusion has {part.confusion.shape[1]} columns")
+
+    @cached_property
+    def radix(self) -> tuple[int, ...]:
+        return tuple(part.n_values for part in self.parts)
+
+    @property
+    def n_observations(self) -> int:
+        return math.prod(self.radix)
+
+    def decode(self, o: int) -> tuple[int, ...]:
+        """Joint index -> the reading of each part."""
+        if not 0 <= o < self.n_observations:
+            raise IndexError(o)
+        digits = []
+        for base in reversed(self.radix):
+            o, digit = divmod(o, base)
+            digits.append(digit)
+        return tuple(reversed(digits))
+
+    def encode(self, readings: Sequence[int]) -> int:
+        o = 0
+        for base, digit in zip(self.radix, readings, strict=True):
+            o = o * base + digit
+        return o
+
+    def name(self, o: int) -> str:
+        if not self.parts:
+            return NONE_OBSERVATION
+        tokens = [p.values[w] for p, w in zip(self.parts, self.decode(o), strict=True) if p.values[w]]
+        return "+".join(tokens) if tokens else NOTHING
+
+    def names(self) -> list[str]:
+        return [self.name(o) for o in range(self.n_observations)]
+
+    def index(self, text: str) -> int:
+        """Parse an observation name: ``chair+potted_plant``, ``window_seen``, ``nothing``, ``no_wall``."""
+        text = text.strip()
+        if not self.parts:
+            if text in (NONE_OBSERVATION, NOTHING, ""):
+                return 0
+            raise UsageError(f"observation {text!r}: this action observes nothing (use 'none' or omit it)")
+        readings: list[int | None] = [None] * len(self.parts)
+        tokens = [] if text in (NOTHING, NONE_OBSERVATION) else [t.strip() for t in text.split("+")]
+        for token in tokens:
+            for p, part in enumerate(self.parts):
+                w = part.values.index(token) if token in part.values else part.aliases.get(token)
+                if w is not None and token:
+                    if readings[p] is not None and readings[p] != w:
+                        raise UsageError(f"observation {text!r} gives two readings for {part.name}")
+                    readings[p] = w
+                    break
+            else:
+                raise UsageError(f"unknown observation {text!r}: {self._choices()}")
+        for p, part in enumerate(self.parts):
+            if readings[p] is None:
+                if "" not in part.values:
+                    raise UsageError(f"observation {text!r} does not say what {part.name} read: {self._choices()}")
+                readings[p] = part.values.index("")
+        return self.encode([r for r in readings if r is not None])
+
+    def _choices(self) -> str:
+        if self.n_observations <= _MAX_LISTED:
+            return "expected one of " + ", ".join(self.names())
+        parts = "; ".join(f"{p.name}: {', '.join(v or '(not seen)' for v in p.values)}" for p in self.parts)
+        return f"join one reading per part with '+' ({parts})"
+
+    def likelihood(self, o: int, states: np.ndarray | None = None) -> np.ndarray:
+        """``O[:, o]``: P(o | s_j) for every state (or for ``states``), a new float64 array."""
+        readings = self.decode(o)
+        out: np.ndarray | None = None
+        for part, w in zip(self.parts, readings, strict=True):
+            truth = part.truth if states is None else part.truth[states]
+            column = part.confusion[:, w][truth]
+            out = column if out is None else out * column
+        if out is None:
+            return np.ones(self.n_states if states is None else len(states))
+        return out.astype(np.float64, copy=False)
+
+    def likelihood_matrix(self, states: np.ndarray) -> np.ndarray:
+        """Dense ``O[states, :]`` with shape (len(states), n_observations)."""
+        table = np.ones((len(states), 1))
+        for part in self.parts:
+            block = part.confusion[part.truth[states]]  # (len(states), n_values)
+            table = (table[:, :, None] * block[:, None, :]).reshape(len(states), -1)
+        return table
+
+    def probabilities(self, predicted: np.ndarray) -> np.ndarray:
+        """``p(o) = sum_j predicted_j O[j, o]`` for every o (Colledanchise's ``p(obs | act, b)``).
+
+        States with the same true readings share a row of O, so we sum the belief per distinct
+        signature first: a 10^6-state belief becomes a handful of rows.
+        """
+        support = np.flatnonzero(predicted)
+        if not self.parts:
+            return np.array([predicted[support].sum()])
+        key = np.zeros(len(support), dtype=np.int64)
+        for part in self.parts:
+            key = key * part.confusion.shape[0] + part.truth[support]
+        signatures, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+        mass = np.bincount(inverse.ravel(), weights=predicted[support], minlength=len(signatures))
+        result: np.ndarray = mass @ self.likelihood_matrix(support[first])
+        return result
+
+    def matrix(self) -> sp.csr_matrix:
+        """The full ``|S| x |Omega|`` observation matrix, sparse (for export and comparison)."""
+        if not self.parts:
+            return sp.csr_matrix(np.ones((self.n_states, 1)))
+        states = np.arange(self.n_states)
+        rows = []
+        for start in range(0, self.n_states, 4096):
+            rows.append(sp.csr_matrix(self.likelihood_matrix(states[start : start + 4096])))
+        return sp.vstack(rows).tocsr()
+
+    def true_observation(self, state: int) -> int:
+        """The most likely reading of every part in ``state`` (the noise-free observation)."""
+        return self.encode([int(np.argmax(p.confusion[p.truth[state]])) for p in self.parts])
+
+
+@dataclass(frozen=True, eq=False)
+class Action:
+    name: str
+    kind: ActionKind
+    cost: float
+    transition: sp.csr_matrix | None
+    """``T[i, j] = P(s_j | s_i, a)``; None for a perception action (the identity)."""
+    observation: ObservationModel
+
+    @property
+    def is_actuation(self) -> bool:
+        return self.kind is ActionKind.ACTUATION
+
+
+@dataclass(frozen=True, eq=False)
+class GridLayout:
+    """Where the states are on the map, for drawing and for naming states ``"row,col,heading"``."""
+
+    rows: int
+    cols: int
+    headings: int
+    cell_size: float
+    free: np.ndarray
+    """``free[r, c]``; states are the free cells in row-major order, times headings."""
+    landmarks: tuple[tuple[str, int, int], ...] = ()
+
+    @cached_property
+    def free_cells(self) -> np.ndarray:
+        """Flat indices ``r * cols + c`` of the free cells, sorted."""
+        return np.flatnonzero(self.free.ravel())
+
+    @property
+    def n_states(self) -> int:
+        return len(self.free_cells) * self.headings
+
+    def cell_heading(self, state: int | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(row, col, heading) of one or many states."""
+        cell, heading = np.divmod(np.asarray(state), self.headings)
+        row, col = np.divmod(self.free_cells[cell], self.cols)
+        return row, col, heading
+
+    def state_of(self, row: int, col: int, heading: int = 0) -> int:
+        """Index of the state at a free cell and heading; -1 if the cell is not free."""
+        if not (0 <= row < self.rows and 0 <= col < self.cols) or not self.free[row, col]:
+            return -1
+        cell = int(np.searchsorted(self.free_cells, row * self.cols + col))
+        return cell * self.headings + heading
+
+
+_STATE_NAME = re.compile(r"^\s*(\d+)\s*,\s*(\d+)\s*(?:,\s*(\d+)\s*)?$")
+
+
+class StateSpace:
+    """State names and lookup. Grid states are named ``"r,c"`` (headings 1) or ``"r,c,h"``;
+    names are computed on demand so a 10^6-state model does not hold 10^6 strings."""
+
+    def __init__(self, n: int, *, grid: GridLayout | None = None, names: Sequence[str] | None = None) -> None:
+        if grid is None and names is None:
+            raise ValueError("a state space needs a grid or names")
+        self.n = n
+        self.grid = grid
+        self._names = list(names) if names is not None else None
+        if self._names is not None and len(self._names) != n:
+            raise ValueError("wrong number of state names")
+
+    def __len__(self) -> int:
+        return self.n
+
+    def name(self, i: int) -> str:
+        if self._names is not None:
+            return self._names[i]
+        assert self.grid is not None
+        r, c, h = self.grid.cell_heading(i)
+        return f"{r},{c}" if self.grid.headings == 1 else f"{r},{c},{h}"
+
+    @cached_property
+    def names(self) -> list[str]:
+        if self._names is not None:
+            return self._names
+        assert self.grid is not None
+        r, c, h = self.grid.cell_heading(np.arange(self.n))
+        if self.grid.headings == 1:
+            return [f"{a},{b}" for a, b in zip(r.tolist(), c.tolist(), strict=True)]
+        return [f"{a},{b},{d}" for a, b, d in zip(r.tolist(), c.tolist(), h.tolist(), strict=True)]
+
+    @cached_property
+    def _lookup(self) -> dict[str, int]:
+        return {name: i for i, name in enumerate(self.names)}
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.names)
+
+    def indices(self, text: str) -> list[int]:
+        """States named by ``text``. On a grid, ``"r,c"`` names every heading of a cell."""
+        if self.grid is not None:
+            match = _STATE_NAME.match(text)
+            if match:
+                r, c = int(match[1]), int(match[2])
+                g = self.grid
+                first = g.state_of(r, c)
+                if first >= 0:
+                    if match[3] is None:
+                        return list(range(first, first + g.headings))
+                    h = int(match[3])
+                    if h < g.headings:
+                        return [first + h]
+        elif text.strip() in self._lookup:
+            return [self._lookup[text.strip()]]
+        raise UsageError(f"unknown state {text!r}: {self._describe()}")
+
+    def index(self, text: str) -> int:
+        found = self.indices(text)
+        if len(found) != 1:
+            raise UsageError(f"state {text!r} names a cell, not one state; add the heading, e.g. '{text},0'")
+        return found[0]
+
+    def _describe(self) -> str:
+        if self.grid is not None:
+            g = self.grid
+            form = "'row,col'" if g.headings == 1 else f"'row,col,heading' with heading 0..{g.headings - 1}"
+            return f"states are {form} on a free cell of the {g.rows}x{g.cols} grid"
+        shown = ", ".join(self.names[:6])
+        return f"states are {shown}{', ...' if self.n > 6 else ''}"
+
+
+@dataclass(frozen=True, eq=False)
+class SourceInfo:
+    """What a model was compiled from, to detect a stale model file."""
+
+    path: str
+    sha256: str
+
+
+@dataclass(frozen=True, eq=False)
+class Model:
+    name: str
+    states: StateSpace
+    actions: tuple[Action, ...]
+    grid: GridLayout | None = None
+    source: SourceInfo | None = None
+
+    def __post_init__(self) -> None:
+        names = [a.name for a in self.actions]
+        if len(set(names)) != len(names):
+            raise ValueError(f"duplicate action names: {names}")
+
+    @property
+    def n_states(self) -> int:
+        return self.states.n
+
+    @cached_property
+    def _by_name(self) -> dict[str, Action]:
+        return {a.name: a for a in self.actions}
+
+    def action(self, name: str) -> Action:
+        try:
+            return self._by_name[name]
+        except KeyError:
+            raise UsageError(f"unknown action {name!r}; this model's actions are: {', '.join(self._by_name)}") from None
+
+    @property
+    def actuation_actions(self) -> list[Action]:
+        return [a for a in self.actions if a.is_actuation]
+
+    @property
+    def perception_actions(self) -> list[Action]:
+        return [a for a in self.actions if not a.is_actuation]
+
+    def fingerprint(self) -> str:
+        """A content hash of the numbers (states, T, O, costs): equal models hash equal."""
+        digest = hashlib.sha256()
+        digest.update(str(self.n_states).encode())
+        digest.update("\0".join(self.states.names).encode())
+        for action in self.actions:
+            digest.update(f"{action.name}\0{action.kind.value}\0{action.cost!r}".encode())
+            if action.transition is not None:
+                t = action.transition
+                for array in (t.indptr, t.indices, t.data):
+                    digest.update(np.ascontiguousarray(array).tobytes())
+            for part in action.observation.parts:
+                digest.update("\0".join(part.values).encode())
+                digest.update(np.ascontiguousarray(part.truth, dtype=np.int64).tobytes())
+                digest.update(np.ascontiguousarray(part.confusion, dtype=np.float64).tobytes())
+        return digest.hexdigest()
+
+
+def model_summary(model: Model) -> dict[str, object]:
+    """Sizes and sparsity of a model, as plain data (for ``inspect`` and ``build``)."""
+    n = model.n_states
+    actions = []
+    for action in model.actions:
+        nnz = action.transition.nnz if action.transition is not None else n
+        actions.append(
+            {
+                "name": action.name,
+                "kind": action.kind.value,
+                "cost": action.cost,
+                "observations": action.observation.n_observations,
+                "observation_parts": [p.name for p in action.observation.parts],
+                "transition_nonzeros": nnz,
+                "transition_density": nnz / (n * n) if n else 0.0,
+            }
+        )
+    grid = model.grid
+    return {
+        "name": model.name,
+        "states": n,
+        "grid": None
+        if grid is None
+        else {
+            "rows": grid.rows,
+            "cols": grid.cols,
+            "headings": grid.headings,
+            "cell_size": grid.cell_size,
+            "free_cells": len(grid.free_cells),
+            "landmarks": len(grid.landmarks),
+        },
+        "actions": actions,
+        "source": None if model.source is None else {"path": model.source.path, "sha256": model.source.sha256},
+    }

@@ -1,0 +1,206 @@
+"""Compile a validated :class:`SemanticMap` into a :class:`Model` (Colledanchise Defs. 1-7).
+
+Build time and memory are linear in the number of states: transitions are CSR with at most two
+entries per row, and observations are stored factored (see :mod:`beliefloc.model`).
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from beliefloc.model import (
+    Action,
+    ActionKind,
+    GridLayout,
+    Model,
+    ObservationModel,
+    ObservationPart,
+    SourceInfo,
+    StateSpace,
+)
+from beliefloc.semantic_map import geometry
+from beliefloc.semantic_map.schema import (
+    HereSensor,
+    LookSensor,
+    ScanSensor,
+    SemanticMap,
+    _grid_lines,
+    here_classes,
+)
+
+Sensor = LookSensor | ScanSensor | HereSensor
+
+
+def layout_of(smap: SemanticMap) -> GridLayout:
+    g = smap.grid
+    landmarks = tuple((lm.class_, lm.cell[0], lm.cell[1]) for lm in smap.landmarks)
+    return GridLayout(g.rows, g.cols, g.headings, g.cell_size, smap.free.copy(), landmarks)
+
+
+def compile_model(smap: SemanticMap, source: SourceInfo | None = None) -> Model:
+    """The model of ``smap``: an actuation action per map action (observing the passive sensors),
+    then a perception action per sensor offered as an action."""
+    layout = layout_of(smap)
+    n = layout.n_states
+    annotated = _annotated_states(smap, layout)
+    parts = {name: _sensor_parts(name, sensor, smap, layout, annotated) for name, sensor in smap.sensors.items()}
+    passive = tuple(p for name, sensor in smap.sensors.items() if sensor.passive for p in parts[name])
+    actions: list[Action] = []
+    for name, spec in smap.actions.items():
+        targets = geometry.motion_targets(layout, name)
+        actions.append(
+            Action(
+                name=name,
+                kind=ActionKind.ACTUATION,
+                cost=spec.cost,
+                transition=geometry.transition_matrix(targets, spec.failure),
+                observation=ObservationModel(n, passive),
+            )
+        )
+    for name, sensor in smap.sensors.items():
+        if sensor.as_action:
+            actions.append(Action(name, ActionKind.PERCEPTION, sensor.cost, None, ObservationModel(n, parts[name])))
+    return Model(
+        name=smap.name,
+        states=StateSpace(n, grid=layout),
+        actions=tuple(actions),
+        grid=layout,
+        source=source if source is not None else smap.source,
+    )
+
+
+def _annotated_states(smap: SemanticMap, layout: GridLayout) -> list[tuple[np.ndarray, dict[str, object]]]:
+    """Each annotation as (the states it covers, its readings by sensor name)."""
+    out = []
+    for annotation in smap.annotations:
+        r, c, h = smap.parse_state(annotation.state)
+        first = layout.state_of(r, c)
+        states = np.arange(first, first + layout.headings) if h is None else np.array([first + h])
+        out.append((states, annotation.readings))
+    return out
+
+
+def _sensor_parts(
+    name: str,
+    sensor: Sensor,
+    smap: SemanticMap,
+    layout: GridLayout,
+    annotated: list[tuple[np.ndarray, dict[str, object]]],
+) -> tuple[ObservationPart, ...]:
+    if isinstance(sensor, LookSensor):
+        return _look_parts(name, sensor, layout, annotated)
+    if isinstance(sensor, ScanSensor):
+        return (_scan_part(name, sensor, layout, annotated),)
+    return (_here_part(name, sensor, smap, layout, annotated),)
+
+
+def _noise(n_values: int, error: float) -> np.ndarray:
+    """Read the true value with ``1 - error``, any other one with ``error / (n - 1)``."""
+    if n_values == 1:
+        return np.ones((1, 1))
+    table = np.full((n_values, n_values), error / (n_values - 1))
+    np.fill_diagonal(table, 1.0 - error)
+    return table
+
+
+def _look_parts(
+    name: str,
+    sensor: LookSensor,
+    layout: GridLayout,
+    annotated: list[tuple[np.ndarray, dict[str, object]]],
+) -> tuple[ObservationPart, ...]:
+    n = layout.n_states
+    fov = sensor.effective_fov(layout.headings)
+    bins = np.array(sensor.angle_bins) if sensor.angle_bins else None
+    fp, fn = sensor.false_positive, sensor.false_negative
+    parts = []
+    for cls in sensor.classes:
+        best = np.full(n, np.inf)  # smallest viewing angle of any landmark of this class
+        for lm_class, lr, lc in layout.landmarks:
+            if lm_class == cls:
+                states, angles = geometry.viewing_angles(layout, (lr, lc), sensor.range, fov, sensor.occlusion)
+                np.minimum.at(best, states, angles)
+        for states, readings in annotated:
+            if name in readings:
+                best[states] = _annotated_angle(readings[name], cls)
+        truth = _angle_to_value(best, bins)
+        if bins is None:
+            values: tuple[str, ...] = ("", cls)
+            confusion = np.array([[1.0 - fp, fp], [fn, 1.0 - fn]])
+            aliases = {f"{cls}_seen": 1, f"{cls}_not_seen": 0}
+        else:
+            edges = [0.0, *bins.tolist()]
+            values = ("", *(f"{cls}@{lo:g}-{hi:g}" for lo, hi in itertools.pairwise(edges)))
+            k = len(bins)
+            confusion = np.zeros((k + 1, k + 1))
+            confusion[0, 0], confusion[0, 1:] = 1.0 - fp, fp / k
+            confusion[1:, 0] = fn
+            confusion[1:, 1:] += np.eye(k) * (1.0 - fn)
+            aliases = {f"{cls}_not_seen": 0}
+        parts.append(ObservationPart(f"{name}.{cls}", values, truth, confusion, aliases))
+    return tuple(parts)
+
+
+def _annotated_angle(reading: object, cls: str) -> float:
+    if isinstance(reading, dict):
+        angle = reading.get(cls)
+        return float("inf") if angle is None else abs(float(angle))
+    assert isinstance(reading, list)
+    return 0.0 if cls in reading else float("inf")
+
+
+def _angle_to_value(best: np.ndarray, bins: np.ndarray | None) -> np.ndarray:
+    seen = np.isfinite(best)
+    truth = np.zeros(len(best), dtype=np.int32)
+    if bins is None:
+        truth[seen] = 1
+    else:
+        truth[seen] = np.searchsorted(bins, best[seen] - 1e-9, side="left") + 1
+    return truth
+
+
+def _scan_part(
+    name: str,
+    sensor: ScanSensor,
+    layout: GridLayout,
+    annotated: list[tuple[np.ndarray, dict[str, object]]],
+) -> ObservationPart:
+    names = sensor.observation_names()
+    bins = np.array(sensor.bins)
+    distance = geometry.wall_distances(layout, sensor.bins[-1])
+    truth = np.searchsorted(bins, distance - 1e-9, side="left").astype(np.int32)
+    for states, readings in annotated:
+        if name in readings:
+            reading = readings[name]
+            if isinstance(reading, str):
+                truth[states] = names.index(reading)
+            else:
+                truth[states] = int(np.searchsorted(bins, np.float64(float(reading)) - 1e-9))  # type: ignore[arg-type]
+    return ObservationPart(name, tuple(names), truth, _noise(len(names), sensor.error))
+
+
+def _here_part(
+    name: str,
+    sensor: HereSensor,
+    smap: SemanticMap,
+    layout: GridLayout,
+    annotated: list[tuple[np.ndarray, dict[str, object]]],
+) -> ObservationPart:
+    classes = here_classes(sensor, smap)
+    lookup = {cls: i for i, cls in enumerate(classes)}
+    cell_class = np.full((layout.rows, layout.cols), lookup.get(sensor.default, 0), dtype=np.int32)
+    if sensor.labels is not None:
+        for r, line in enumerate(_grid_lines(sensor.labels)):
+            for c, ch in enumerate(line):
+                if layout.free[r, c]:
+                    cell_class[r, c] = lookup[sensor.legend[ch] if sensor.legend else ch]
+    else:
+        for lm_class, r, c in layout.landmarks:
+            cell_class[r, c] = lookup[lm_class]
+    truth = np.repeat(cell_class.ravel()[layout.free_cells], layout.headings).astype(np.int32)
+    for states, readings in annotated:
+        if name in readings:
+            truth[states] = lookup[str(readings[name])]
+    return ObservationPart(name, tuple(classes), truth, _noise(len(classes), sensor.error))

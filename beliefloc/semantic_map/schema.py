@@ -1,0 +1,379 @@
+"""The semantic map file format: pydantic models of ``maps/*.yaml``.
+
+Every field is documented in ``docs/map-format.md``. Validation happens here, once; code downstream
+works on the frozen, checked :class:`SemanticMap`. Cross-reference checks (a landmark on a blocked
+cell, an annotation naming an unknown class) raise :class:`~beliefloc.errors.FieldError` with the path
+of the offending value, so the loader can name its line.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import re
+from functools import cached_property
+from typing import Annotated, Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, field_validator, model_validator
+
+from beliefloc.errors import FieldError
+from beliefloc.model import SourceInfo
+
+Probability = Annotated[float, Field(ge=0.0, le=1.0)]
+Cost = Annotated[float, Field(ge=0.0, allow_inf_nan=False)]
+Name = Annotated[str, Field(pattern=r"^[A-Za-z0-9_\-]+$", max_length=64)]
+"""Class, action and sensor names: they become parts of observation names on the command line."""
+
+FREE, BLOCKED = ".", "#"
+MOVES_BY_HEADINGS: dict[int, tuple[str, ...]] = {
+    1: ("up", "down", "left", "right"),
+    4: ("forward", "backward", "rotate_cw", "rotate_ccw"),
+    8: ("forward", "backward", "rotate_cw", "rotate_ccw"),
+}
+_STATE_RE = re.compile(r"^\s*(-?\d+)\s*,\s*(-?\d+)\s*(?:,\s*(-?\d+)\s*)?$")
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+
+
+class Grid(_Strict):
+    rows: int = Field(ge=1, le=100_000)
+    cols: int = Field(ge=1, le=100_000)
+    cell_size: float = Field(default=1.0, gt=0.0, allow_inf_nan=False)
+    """Side of a cell in meters; ranges and scan bins are in meters too."""
+    headings: Literal[1, 4, 8] = 4
+    """1: no orientation, compass moves; 4 or 8: a triangle per heading, 0 = north, clockwise."""
+
+
+class Landmark(_Strict):
+    class_: Name = Field(alias="class")
+    cell: tuple[int, int]
+    name: str | None = None
+    """Optional label for humans (shown by ``beliefloc show``)."""
+
+
+class ActionSpec(_Strict):
+    cost: Cost = 1.0
+    failure: Probability = 0.0
+    """Probability that the move fails and the robot stays where it is."""
+
+
+class _SensorBase(_Strict):
+    cost: Cost = 1.0
+    passive: bool = False
+    """Also observe after every actuation action (Khalvati's setting)."""
+    as_action: bool = True
+    """Offer the sensor as a perception action of its own."""
+
+
+class LookSensor(_SensorBase):
+    """Which of ``classes`` are seen, each independently with false positives and negatives."""
+
+    type: Literal["look"]
+    classes: list[Name]
+    false_positive: Probability = 0.0
+    false_negative: Probability = 0.0
+    range: float | None = Field(default=None, ge=0.0, allow_inf_nan=False)
+    """Meters between cell centres; unlimited when omitted."""
+    fov: float | None = Field(default=None, gt=0.0, le=360.0)
+    """Field of view in degrees, centred on the heading. Default 90 (360 on maps with headings 1)."""
+    angle_bins: list[Annotated[float, Field(gt=0.0, le=180.0)]] | None = None
+    """Upper edges (degrees) of viewing-angle bins: [18, 30, 45] reports 0-18, 18-30 or 30-45."""
+    occlusion: bool = True
+    """Blocked cells between the robot and a landmark hide it."""
+
+    @field_validator("classes")
+    @classmethod
+    def _classes(cls, value: list[str]) -> list[str]:
+        if not value:
+            raise ValueError("a look sensor needs at least one class, or it has no observations")
+        duplicates = sorted({c for c in value if value.count(c) > 1})
+        if duplicates:
+            raise ValueError(f"classes listed twice: {', '.join(duplicates)}")
+        return value
+
+    @field_validator("angle_bins")
+    @classmethod
+    def _bins(cls, value: list[float] | None) -> list[float] | None:
+        if value is not None:
+            if not value:
+                raise ValueError("angle_bins needs at least one edge, e.g. [18, 30, 45]")
+            if any(b >= a for a, b in zip(value[1:], value[:-1], strict=False)):
+                raise ValueError(f"angle_bins must be strictly increasing, got {value}")
+        return value
+
+    def effective_fov(self, headings: int) -> float:
+        if headings == 1:
+            return 360.0
+        if self.fov is not None:
+            return self.fov
+        return 2.0 * self.angle_bins[-1] if self.angle_bins else 90.0
+
+
+class ScanSensor(_SensorBase):
+    """Distance to the wall or blocked cell in front, binned; 'no_wall' beyond the last bin."""
+
+    type: Literal["scan"]
+    bins: list[Annotated[float, Field(gt=0.0, allow_inf_nan=False)]]
+    """Upper edges in meters: [0.2, 0.8, 1.1, 1.5] gives wall_0-0.2 ... wall_1.1-1.5 and no_wall."""
+    error: Probability = 0.0
+    """Probability of reading another bin, spread evenly over the others."""
+
+    @field_validator("bins")
+    @classmethod
+    def _bins(cls, value: list[float]) -> list[float]:
+        if not value:
+            raise ValueError("a scan sensor needs at least one bin edge, e.g. [0.2, 0.8, 1.1, 1.5]")
+        if any(b >= a for a, b in zip(value[1:], value[:-1], strict=False)):
+            raise ValueError(f"bins must be strictly increasing, got {value}")
+        return value
+
+    def observation_names(self) -> list[str]:
+        edges = [0.0, *self.bins]
+        names = [f"wall_{_fmt(lo)}-{_fmt(hi)}" for lo, hi in itertools.pairwise(edges)]
+        return [*names, "no_wall"]
+
+
+class HereSensor(_SensorBase):
+    """The class of the robot's current cell (Colledanchise's Window, Khalvati's 0/1 labels)."""
+
+    type: Literal["here"]
+    labels: str | None = None
+    """One character per cell, a row per line (like ``layout``); omitted: from landmarks."""
+    legend: dict[str, Name] | None = None
+    """Character -> class name; omitted: the character itself is the class."""
+    default: Name = "nothing"
+    """Class of a cell with no landmark, when ``labels`` is omitted."""
+    error: Probability = 0.0
+    """Probability of reading another class, spread evenly over the others."""
+
+
+Sensor = Annotated[LookSensor | ScanSensor | HereSensor, Field(discriminator="type")]
+
+
+class Annotation(BaseModel):
+    """``{state: "1,1,0", look: [potted_plant]}``: the expected observation of a state, by hand.
+
+    Keys other than ``state`` are sensor names; they are checked against the map's sensors.
+    """
+
+    model_config = ConfigDict(extra="allow", frozen=True)
+    state: str
+
+    @property
+    def readings(self) -> dict[str, Any]:
+        return dict(self.model_extra or {})
+
+
+class SemanticMap(_Strict):
+    name: Name
+    description: str | None = None
+    grid: Grid
+    layout: str | None = None
+    landmarks: list[Landmark] = Field(default_factory=list)
+    actions: dict[str, ActionSpec]
+    sensors: dict[Name, Sensor] = Field(default_factory=dict)
+    annotations: list[Annotation] = Field(default_factory=list)
+    _source: SourceInfo | None = PrivateAttr(default=None)
+
+    @property
+    def source(self) -> SourceInfo | None:
+        """The file this map was read from (set by ``load_map``), for stale-model detection."""
+        return self._source
+
+    # --- derived geometry -----------------------------------------------------------------------
+    @cached_property
+    def free(self) -> np.ndarray:
+        """``free[r, c]`` is True where the robot can be (the layout's '.')."""
+        if self.layout is None:
+            return np.ones((self.grid.rows, self.grid.cols), dtype=bool)
+        lines = _grid_lines(self.layout)
+        return np.array([[ch == FREE for ch in line] for line in lines], dtype=bool)
+
+    @property
+    def classes(self) -> list[str]:
+        """Every class a sensor or landmark mentions, in first-mention order."""
+        seen: dict[str, None] = {}
+        for sensor in self.sensors.values():
+            if isinstance(sensor, LookSensor):
+                seen.update(dict.fromkeys(sensor.classes))
+        seen.update(dict.fromkeys(lm.class_ for lm in self.landmarks))
+        return list(seen)
+
+    def parse_state(self, text: str) -> tuple[int, int, int | None]:
+        """``"r,c"`` or ``"r,c,h"`` -> (r, c, h or None); raises ValueError with the reason."""
+        match = _STATE_RE.match(text)
+        if not match:
+            raise ValueError(f"state {text!r} should be 'row,col' or 'row,col,heading'")
+        r, c = int(match[1]), int(match[2])
+        h = None if match[3] is None else int(match[3])
+        g = self.grid
+        if not (0 <= r < g.rows and 0 <= c < g.cols):
+            raise ValueError(f"state {text!r} is outside the {g.rows}x{g.cols} grid")
+        if not self.free[r, c]:
+            raise ValueError(f"state {text!r} is on a blocked cell")
+        if h is not None and not 0 <= h < g.headings:
+            if g.headings == 1:
+                raise ValueError(f"state {text!r} has a heading, but the map has headings: 1")
+            raise ValueError(f"state {text!r}: heading must be 0..{g.headings - 1}")
+        return r, c, h
+
+    # --- cross-reference checks -----------------------------------------------------------------
+    @model_validator(mode="after")
+    def _check(self) -> SemanticMap:
+        self._check_layout()
+        if not self.free.any():
+            raise FieldError(("layout",), "every cell is blocked: the map has no states")
+        self._check_landmarks()
+        self._check_actions()
+        self._check_sensors()
+        self._check_annotations()
+        return self
+
+    def _check_layout(self) -> None:
+        if self.layout is None:
+            return
+        lines = _grid_lines(self.layout)
+        g = self.grid
+        if len(lines) != g.rows:
+            raise FieldError(("layout",), f"has {len(lines)} rows, but grid.rows is {g.rows}")
+        for r, line in enumerate(lines):
+            if len(line) != g.cols:
+                raise FieldError(("layout",), f"row {r} has {len(line)} cells, but grid.cols is {g.cols}")
+            bad = sorted(set(line) - {FREE, BLOCKED})
+            if bad:
+                raise FieldError(
+                    ("layout",), f"row {r} has {bad[0]!r}; use '{FREE}' for free and '{BLOCKED}' for blocked"
+                )
+
+    def _check_landmarks(self) -> None:
+        g = self.grid
+        for i, lm in enumerate(self.landmarks):
+            r, c = lm.cell
+            if not (0 <= r < g.rows and 0 <= c < g.cols):
+                raise FieldError(("landmarks", i, "cell"), f"cell [{r}, {c}] is outside the {g.rows}x{g.cols} grid")
+            if not self.free[r, c]:
+                raise FieldError(("landmarks", i, "cell"), f"cell [{r}, {c}] is blocked in the layout")
+
+    def _check_actions(self) -> None:
+        allowed = MOVES_BY_HEADINGS[self.grid.headings]
+        if not self.actions:
+            raise FieldError(("actions",), f"no actuation actions; expected some of: {', '.join(allowed)}")
+        for name in self.actions:
+            if name not in allowed:
+                raise FieldError(
+                    ("actions", name),
+                    f"unknown action {name!r} for a map with headings: {self.grid.headings}; "
+                    f"expected some of: {', '.join(allowed)}",
+                )
+            if name in self.sensors:
+                raise FieldError(("sensors", name), f"{name!r} is both an action and a sensor")
+
+    def _check_sensors(self) -> None:
+        g = self.grid
+        for name, sensor in self.sensors.items():
+            if isinstance(sensor, ScanSensor) and g.headings == 1:
+                raise FieldError(
+                    ("sensors", name, "type"), "a scan looks ahead, but the map has headings: 1 (no heading)"
+                )
+            if isinstance(sensor, HereSensor):
+                self._check_here(name, sensor)
+            if not sensor.passive and not sensor.as_action:
+                raise FieldError(
+                    ("sensors", name, "as_action"),
+                    "a sensor that is neither passive nor an action is never used",
+                )
+
+    def _check_here(self, name: str, sensor: HereSensor) -> None:
+        if sensor.labels is None:
+            if sensor.legend is not None:
+                raise FieldError(("sensors", name, "legend"), "a legend needs labels")
+            return
+        lines = _grid_lines(sensor.labels)
+        g = self.grid
+        path = ("sensors", name, "labels")
+        if len(lines) != g.rows:
+            raise FieldError(path, f"has {len(lines)} rows, but grid.rows is {g.rows}")
+        for r, line in enumerate(lines):
+            if len(line) != g.cols:
+                raise FieldError(path, f"row {r} has {len(line)} cells, but grid.cols is {g.cols}")
+            if sensor.legend is not None:
+                for c, ch in enumerate(line):
+                    if self.free[r, c] and ch not in sensor.legend:
+                        raise FieldError(path, f"row {r} has {ch!r}, which the legend does not name")
+
+    def _check_annotations(self) -> None:
+        for i, annotation in enumerate(self.annotations):
+            try:
+                self.parse_state(annotation.state)
+            except ValueError as exc:
+                raise FieldError(("annotations", i, "state"), str(exc)) from None
+            if not annotation.readings:
+                raise FieldError(("annotations", i), "names no sensor; e.g. {state: '1,1,0', look: [chair]}")
+            for key, value in annotation.readings.items():
+                path = ("annotations", i, key)
+                sensor = self.sensors.get(key)
+                if sensor is None:
+                    known = ", ".join(self.sensors) or "none"
+                    raise FieldError(path, f"unknown sensor {key!r}; the map's sensors are: {known}")
+                _check_reading(sensor, value, path, self)
+
+
+def _check_reading(
+    sensor: LookSensor | ScanSensor | HereSensor, value: Any, path: tuple[str | int, ...], smap: SemanticMap
+) -> None:
+    if isinstance(sensor, LookSensor):
+        if sensor.angle_bins is None:
+            if not isinstance(value, list) or not all(isinstance(v, str) for v in value):
+                raise FieldError(path, f"should be a list of classes seen, e.g. [{sensor.classes[0]}]")
+            classes = value
+        else:
+            if not isinstance(value, dict):
+                raise FieldError(
+                    path, f"should map each class seen to its viewing angle, e.g. {{{sensor.classes[0]}: 25}}"
+                )
+            classes = list(value)
+            for cls_name, angle in value.items():
+                if not isinstance(angle, (int, float)) or not 0 <= abs(angle) <= sensor.angle_bins[-1]:
+                    raise FieldError(
+                        (*path, cls_name),
+                        f"viewing angle must be a number of degrees within ±{sensor.angle_bins[-1]:g}",
+                    )
+        for cls_name in classes:
+            if cls_name not in sensor.classes:
+                raise FieldError(
+                    path, f"unknown class {cls_name!r}; this sensor looks for: {', '.join(sensor.classes)}"
+                )
+    elif isinstance(sensor, ScanSensor):
+        names = sensor.observation_names()
+        if isinstance(value, bool) or not (
+            (isinstance(value, (int, float)) and value >= 0) or (isinstance(value, str) and value in names)
+        ):
+            raise FieldError(path, f"should be a distance in meters or one of: {', '.join(names)}")
+    else:
+        if not isinstance(value, str) or value not in here_classes(sensor, smap):
+            raise FieldError(
+                path, f"unknown class {value!r}; this sensor reads: {', '.join(here_classes(sensor, smap))}"
+            )
+
+
+def here_classes(sensor: HereSensor, smap: SemanticMap) -> list[str]:
+    """The classes a ``here`` sensor can read, in a stable order."""
+    if sensor.labels is not None:
+        if sensor.legend is not None:
+            return list(dict.fromkeys(sensor.legend.values()))
+        lines = _grid_lines(sensor.labels)
+        free = smap.free
+        return sorted({ch for r, line in enumerate(lines) for c, ch in enumerate(line) if free[r, c]})
+    return list(dict.fromkeys([sensor.default, *(lm.class_ for lm in smap.landmarks)]))
+
+
+def _grid_lines(text: str) -> list[str]:
+    """Rows of a character grid: blank lines dropped, surrounding spaces stripped."""
+    return [line.strip() for line in text.splitlines() if line.strip()]
+
+
+def _fmt(value: float) -> str:
+    return f"{value:g}" if math.isfinite(value) else "inf"
