@@ -105,6 +105,7 @@ def save_model(model: Model, path: str | Path) -> None:
         "fingerprint": model.fingerprint(),
     }
     arrays["header"] = np.frombuffer(json.dumps(header).encode(), dtype=np.uint8)
+
     def write(handle: Any) -> None:
         np.savez_compressed(handle, allow_pickle=False, **arrays)
 

@@ -75,10 +75,12 @@ def _annotated_states(smap: SemanticMap, layout: GridLayout) -> list[tuple[np.nd
     """Each annotation as (the states it covers, its readings by sensor name)."""
     out = []
     for annotation in smap.annotations:
-        r, c, h = smap.parse_state(annotation.state)
-        first = layout.state_of(r, c)
-        states = np.arange(first, first + layout.headings) if h is None else np.array([first + h])
-        out.append((states, annotation.readings))
+        covered = []
+        for name, _ in annotation.targets:
+            r, c, h = smap.parse_state(name)
+            first = layout.state_of(r, c)
+            covered.extend(range(first, first + layout.headings) if h is None else [first + h])
+        out.append((np.array(covered, dtype=np.int64), annotation.readings))
     return out
 
 

@@ -156,15 +156,24 @@ Sensor = Annotated[LookSensor | ScanSensor | HereSensor, Field(discriminator="ty
 class Annotation(BaseModel):
     """``{state: "1,1,0", look: [potted_plant]}``: the expected observation of a state, by hand.
 
-    Keys other than ``state`` are sensor names; they are checked against the map's sensors.
+    ``state`` names one state, or a whole cell (``"r,c"`` on a map with headings); ``states`` lists
+    several (generated maps use it). Other keys are sensor names, checked against the map's sensors.
     """
 
     model_config = ConfigDict(extra="allow", frozen=True)
-    state: str
+    state: str | None = None
+    states: list[str] | None = None
 
     @property
     def readings(self) -> dict[str, Any]:
         return dict(self.model_extra or {})
+
+    @property
+    def targets(self) -> list[tuple[str, tuple[str | int, ...]]]:
+        """Each state named, with the path of where it was written."""
+        if self.state is not None:
+            return [(self.state, ("state",))]
+        return [(name, ("states", i)) for i, name in enumerate(self.states or [])]
 
 
 class SemanticMap(_Strict):
@@ -306,10 +315,13 @@ class SemanticMap(_Strict):
 
     def _check_annotations(self) -> None:
         for i, annotation in enumerate(self.annotations):
-            try:
-                self.parse_state(annotation.state)
-            except ValueError as exc:
-                raise FieldError(("annotations", i, "state"), str(exc)) from None
+            if (annotation.state is None) == (annotation.states is None):
+                raise FieldError(("annotations", i), "give either state: 'r,c,h' or states: [...], not both")
+            for name, where in annotation.targets:
+                try:
+                    self.parse_state(name)
+                except ValueError as exc:
+                    raise FieldError(("annotations", i, *where), str(exc)) from None
             if not annotation.readings:
                 raise FieldError(("annotations", i), "names no sensor; e.g. {state: '1,1,0', look: [chair]}")
             for key, value in annotation.readings.items():
