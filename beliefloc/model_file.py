@@ -121,7 +121,7 @@ def load_model(path: str | Path, *, check_source: bool = True) -> Model:
             arrays = {key: npz[key] for key in npz.files}
     except FileNotFoundError:
         raise ModelError(f"{path}: no such file") from None
-    except (OSError, ValueError, zipfile.BadZipFile) as exc:
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
         raise ModelError(f"{path}: not a beliefloc model file ({exc})") from None
     try:
         header = json.loads(arrays.pop("header").tobytes())

@@ -1,0 +1,101 @@
+"""Model files: round trip, stale detection, versions, atomic writes."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from beliefloc import compile_model, load_map, uniform, update
+from beliefloc.cli.app import app
+from beliefloc.errors import ModelError
+from beliefloc.model_file import load_model, save_model
+
+from .conftest import MAPS
+
+
+@pytest.fixture
+def window_copy(tmp_path: Path) -> Path:
+    target = tmp_path / "window.yaml"
+    shutil.copy(MAPS / "window-2x2.yaml", target)
+    return target
+
+
+def test_round_trip_keeps_every_number(tmp_path: Path, window_copy: Path) -> None:
+    model = compile_model(load_map(window_copy))
+    save_model(model, tmp_path / "w.npz")
+    loaded = load_model(tmp_path / "w.npz")
+    assert loaded.fingerprint() == model.fingerprint()
+    assert loaded.states.names == model.states.names
+    assert loaded.grid is not None and loaded.grid.landmarks == model.grid.landmarks  # type: ignore[union-attr]
+    b1, p1 = update(model, uniform(4), "look", "window_seen")
+    b2, p2 = update(loaded, uniform(4), "look", "window_seen")
+    np.testing.assert_array_equal(b1, b2)
+    assert p1 == p2
+
+
+def test_stale_model_is_refused(tmp_path: Path, window_copy: Path) -> None:
+    save_model(compile_model(load_map(window_copy)), tmp_path / "w.npz")
+    window_copy.write_text(window_copy.read_text().replace("false_positive: 0.1", "false_positive: 0.05"))
+    with pytest.raises(ModelError, match=r"stale model: .*window\.yaml has changed"):
+        load_model(tmp_path / "w.npz")
+    assert load_model(tmp_path / "w.npz", check_source=False).n_states == 4
+
+
+def test_other_version_is_refused(tmp_path: Path, window_copy: Path) -> None:
+    path = tmp_path / "w.npz"
+    save_model(compile_model(load_map(window_copy)), path)
+    with np.load(path) as npz:
+        arrays = {k: npz[k] for k in npz.files}
+    header = json.loads(arrays["header"].tobytes())
+    header["version"] = 99
+    arrays["header"] = np.frombuffer(json.dumps(header).encode(), dtype=np.uint8)
+    np.savez(path, **arrays)  # type: ignore[arg-type]
+    with pytest.raises(ModelError, match=r"version 99.*rebuild"):
+        load_model(path)
+
+
+@pytest.mark.parametrize("content", [b"", b"not a zip", b"PK\x03\x04garbage"])
+def test_not_a_model_file(tmp_path: Path, content: bytes) -> None:
+    path = tmp_path / "x.npz"
+    path.write_bytes(content)
+    with pytest.raises(ModelError, match="not a beliefloc model file"):
+        load_model(path)
+
+
+def test_failed_write_leaves_no_file(tmp_path: Path, window_copy: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    model = compile_model(load_map(window_copy))
+
+    def broken(*args: object, **kwargs: object) -> None:
+        raise OSError("disk full")
+
+    monkeypatch.setattr(np, "savez_compressed", broken)
+    with pytest.raises(OSError, match="disk full"):
+        save_model(model, tmp_path / "w.npz")
+    assert list(tmp_path.iterdir()) == [window_copy]
+
+
+def test_build_and_inspect_cli(runner, tmp_path: Path, window_copy: Path) -> None:
+    out = tmp_path / "w.npz"
+    result = runner.invoke(app, ["build", str(window_copy), "-o", str(out), "--json"])
+    assert result.exit_code == 0, result.output
+    assert json.loads(result.stdout)["states"] == 4
+    result = runner.invoke(app, ["inspect", str(out), "--json"])
+    assert result.exit_code == 0
+    summary = json.loads(result.stdout)
+    assert [a["name"] for a in summary["actions"]] == ["right", "look"]
+    assert summary["actions"][0]["transition_nonzeros"] == 6
+    window_copy.write_text(window_copy.read_text() + "\n# edited\n")
+    result = runner.invoke(app, ["inspect", str(out)])
+    assert result.exit_code == 2
+    assert "stale model" in result.stderr
+
+
+def test_build_refuses_other_suffix(runner, tmp_path: Path) -> None:
+    result = runner.invoke(app, ["build", str(MAPS / "window-2x2.yaml"), "-o", str(tmp_path / "w.model")])
+    assert result.exit_code == 2
+    assert "must end in .npz" in result.stderr
+    assert not (tmp_path / "w.model").exists()
