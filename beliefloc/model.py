@@ -126,15 +126,16 @@ class ObservationModel:
                     readings[p] = w
                     break
             else:
-                raise UsageError(f"unknown observation {text!r}: {self._choices()}")
+                raise UsageError(f"unknown observation {text!r}: {self.choices()}")
         for p, part in enumerate(self.parts):
             if readings[p] is None:
                 if "" not in part.values:
-                    raise UsageError(f"observation {text!r} does not say what {part.name} read: {self._choices()}")
+                    raise UsageError(f"observation {text!r} does not say what {part.name} read: {self.choices()}")
                 readings[p] = part.values.index("")
         return self.encode([r for r in readings if r is not None])
 
-    def _choices(self) -> str:
+    def choices(self) -> str:
+        """The observations, listed when few, else how to write one (for error messages)."""
         if self.n_observations <= _MAX_LISTED:
             return "expected one of " + ", ".join(self.names())
         parts = "; ".join(f"{p.name}: {', '.join(v or '(not seen)' for v in p.values)}" for p in self.parts)
