@@ -116,7 +116,11 @@ class ObservationModel:
                 return 0
             raise UsageError(f"observation {text!r}: this action observes nothing (use 'none' or omit it)")
         readings: list[int | None] = [None] * len(self.parts)
-        tokens = [] if text in (NOTHING, NONE_OBSERVATION) else [t.strip() for t in text.split("+")]
+        whole = any(text in p.values or text in p.aliases for p in self.parts)  # e.g. imported names with '+'
+        if text in (NOTHING, NONE_OBSERVATION) and not whole:
+            tokens: list[str] = []
+        else:
+            tokens = [text] if whole else [t.strip() for t in text.split("+")]
         for token in tokens:
             for p, part in enumerate(self.parts):
                 w = part.values.index(token) if token in part.values else part.aliases.get(token)

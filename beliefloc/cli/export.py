@@ -1,9 +1,56 @@
-"""The ``export`` command (being written)."""
+"""``export``: write a model in Cassandra's ``.pomdp`` format for other POMDP solvers."""
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import Annotated
+
 import typer
+from rich.markup import escape
+
+from beliefloc.cli.common import POMDP_SUFFIX, boundary, open_model, print_json
+from beliefloc.errors import UsageError
+from beliefloc.pomdp_format import write_pomdp
+from beliefloc.render import stdout_console
+
+
+@boundary
+def export(
+    source: Annotated[
+        Path,
+        typer.Argument(metavar="MAP|MODEL", help="A map (.yaml), a model (.npz) or a .pomdp file.", show_default=False),
+    ],
+    output: Annotated[Path, typer.Option("-o", "--output", help="The .pomdp file to write.", show_default=False)],
+    json_output: Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")] = False,
+) -> None:
+    """Write a model in Cassandra's .pomdp format (pomdp-solve, SARSOP, POMDPs.jl, pomdp_py).
+
+    Costs become negative rewards and the discount is 0.95 (localization has none of its own).
+    Names are turned into identifiers the format accepts (state 1,2,0 becomes s1_2_0); comment
+    lines keep the original names and the grid, so beliefloc reads the file back exactly.
+
+    Example: beliefloc export maps/window-2x2.yaml -o window.pomdp
+    """
+    if output.suffix.lower() != POMDP_SUFFIX:
+        raise UsageError(f"{output}: the exported file must end in {POMDP_SUFFIX}")
+    model = open_model(source)
+    summary = write_pomdp(model, output)
+    if json_output:
+        print_json(
+            {
+                "output": summary.output,
+                "states": summary.states,
+                "actions": summary.actions,
+                "observations": summary.observations,
+            }
+        )
+    else:
+        stdout_console().print(
+            f"wrote {escape(summary.output)}: {summary.states} states, {summary.actions} actions, "
+            f"{summary.observations} observations"
+        )
 
 
 def register(app: typer.Typer) -> None:
     """Adds the command to the app."""
+    app.command()(export)
