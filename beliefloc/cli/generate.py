@@ -1,9 +1,130 @@
-"""The ``generate`` command (being written)."""
+"""``generate``: maps made at random, e.g. the grid worlds of Colledanchise et al. 2020, Sec. VII-A."""
 
 from __future__ import annotations
 
+import os
+import re
+from pathlib import Path
+from typing import Annotated, Any
+
+import numpy as np
 import typer
+from rich.markup import escape
+
+from beliefloc.cli.common import MAP_SUFFIXES, boundary, print_json
+from beliefloc.errors import UsageError
+from beliefloc.generate import CLASSES, SeenModel, generate_gridworld, gridworld_yaml
+from beliefloc.model_file import write_atomically
+from beliefloc.render import stdout_console
+
+generate_app = typer.Typer(
+    name="generate",
+    help="Make maps at random (the random grid worlds of Colledanchise et al. 2020, Sec. VII-A).",
+    no_args_is_help=True,
+    rich_markup_mode=None,
+)
+
+_COUNT = re.compile(r"^\s*(\d+)\s*(?:(?:e|E|\*\*|\^)\s*(\d+))?\s*$")
+
+
+def parse_count(text: str) -> int:
+    """``1000``, ``1e3`` or ``10^3`` -> 1000 (the paper writes sizes as powers of ten)."""
+    match = _COUNT.match(text)
+    if not match:
+        raise typer.BadParameter(f"{text!r} is not a whole number (e.g. 1000, 1e3 or 10^3)")
+    base, exponent = int(match[1]), match[2]
+    if exponent is None:
+        return base
+    if len(exponent) > 2:
+        raise typer.BadParameter(f"{text!r} is far too large")
+    scientific = "e" in text.lower()  # 1e3 = 1 * 10^3; otherwise 10^3 or 10**3
+    power: int = (10 if scientific else base) ** int(exponent)
+    return base * power if scientific else power
+
+
+@generate_app.command()
+@boundary
+def gridworld(
+    states: Annotated[
+        int,
+        typer.Option(
+            "--states",
+            parser=parse_count,
+            metavar="N",
+            help="About how many states (1000, 1e3 or 10^3); the grid is round(sqrt(N/4)) on a side.",
+            show_default=False,
+        ),
+    ],
+    seed: Annotated[
+        int, typer.Option("--seed", min=0, metavar="S", help="Seed of numpy.random.default_rng.", show_default=False)
+    ],
+    output: Annotated[Path, typer.Option("-o", "--output", metavar="MAP", help="Map file to write (.yaml).")],
+    seen_model: Annotated[
+        SeenModel,
+        typer.Option(
+            "--seen-model",
+            help="objects: place objects and derive what is seen from range and field of view; "
+            "states: random states see each class, as the authors' code (the paper's Tables I-II).",
+        ),
+    ] = SeenModel.OBJECTS,
+    json_output: Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")] = False,
+) -> None:
+    """Write a random grid world as a map file, as in Colledanchise's experiments (Sec VII-A).
+
+    An open grid of round(sqrt(N/4)) x round(sqrt(N/4)) cells with 4 headings each, object classes
+    A, B, C, D, a look with false positive and negative rates 0.01 (cost 1), and moves forward,
+    backward, rotate_cw, rotate_ccw (failure 0.02, cost 10). The same seed writes the same file,
+    byte for byte; an existing file is replaced.
+
+    Example: beliefloc generate gridworld --states 1000 --seed 1 --seen-model states -o world.yaml
+    """
+    if output.suffix.lower() not in MAP_SUFFIXES:
+        raise UsageError(f"{output}: a map file must end in .yaml or .yml")
+    directory = output.parent
+    if not directory.is_dir():
+        raise UsageError(f"{output}: the directory {directory} does not exist")
+    world = generate_gridworld(states, np.random.default_rng(seed), seen_model)
+    data = gridworld_yaml(world, seed=seed).encode()
+
+    def write(handle: Any) -> None:
+        os.fchmod(handle.fileno(), _file_mode())  # a map is for people to read: not mkstemp's 0600
+        handle.write(data)
+
+    write_atomically(output, write)
+    annotations = world.annotations() if seen_model is SeenModel.STATES else []
+    if seen_model is SeenModel.OBJECTS:
+        what = f"{len(world.landmarks)} objects"
+    else:
+        what = f"{len(annotations)} annotations over {sum(len(s) for _, s in annotations)} states"
+    if json_output:
+        print_json(
+            {
+                "output": str(output),
+                "states": world.n_states,
+                "rows": world.rows,
+                "cols": world.cols,
+                "seen_model": seen_model.value,
+                "seed": seed,
+                "classes": list(CLASSES),
+                "objects": len(world.landmarks),
+                "annotations": len(annotations),
+            }
+        )
+    else:
+        stdout_console().print(
+            f"wrote {escape(str(output))}: {world.n_states} states ({world.rows}x{world.cols} grid x 4 headings), "
+            f"seen model {seen_model.value}, {what}, seed {seed}",
+            soft_wrap=True,  # one line, whatever the terminal's width
+        )
+
+
+def _file_mode() -> int:
+    """0o666 less the umask, as ``open()`` would create the file."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
 
 
 def register(app: typer.Typer) -> None:
-    """Adds the command to the app."""
+    """Adds the ``generate`` group to the app."""
+    app.add_typer(generate_app)

@@ -72,16 +72,60 @@ def compile_model(smap: SemanticMap, source: SourceInfo | None = None) -> Model:
 
 
 def _annotated_states(smap: SemanticMap, layout: GridLayout) -> list[tuple[np.ndarray, dict[str, object]]]:
-    """Each annotation as (the states it covers, its readings by sensor name)."""
+    """Each annotation as (the states it covers, its readings by sensor name).
+
+    A name ``"r,c,h"`` covers one state, ``"r,c"`` every heading of the cell, in the order written.
+    The names were checked by :meth:`SemanticMap.parse_state` when the map was validated; here the
+    indices are computed for all of them at once (generated maps list 10^6 states).
+    """
+    index = geometry.cell_index_map(layout)
+    h_count = layout.headings
     out = []
     for annotation in smap.annotations:
-        covered = []
-        for name, _ in annotation.targets:
-            r, c, h = smap.parse_state(name)
-            first = layout.state_of(r, c)
-            covered.extend(range(first, first + layout.headings) if h is None else [first + h])
-        out.append((np.array(covered, dtype=np.int64), annotation.readings))
+        names = [annotation.state] if annotation.state is not None else (annotation.states or [])
+        rows, cols, heading = _parse_state_names(names)
+        first = index[rows, cols] * h_count
+        whole = heading < 0
+        counts = np.where(whole, h_count, 1)
+        ends = np.cumsum(counts)
+        within = np.arange(int(ends[-1]) if len(ends) else 0) - np.repeat(ends - counts, counts)
+        covered = np.repeat(first, counts) + np.where(np.repeat(whole, counts), within, np.repeat(heading, counts))
+        out.append((covered.astype(np.int64, copy=False), annotation.readings))
     return out
+
+
+def _parse_state_names(names: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rows, columns and headings (-1 for a whole cell) of valid names ``"r,c"`` / ``"r,c,h"``.
+
+    ASCII names are parsed as one byte array: digits are summed per number with their place
+    values, numbers are split at commas and names at ``;`` (which no valid name contains). This
+    is ~20x faster than splitting a million strings one by one, which is what other names get.
+    """
+    text = ";".join(names)
+    if not names or not text.isascii():
+        fields = [[int(f) for f in name.split(",")] for name in names]
+        return (
+            np.array([f[0] for f in fields], dtype=np.int64),
+            np.array([f[1] for f in fields], dtype=np.int64),
+            np.array([f[2] if len(f) == 3 else -1 for f in fields], dtype=np.int64),
+        )
+    data = np.frombuffer(text.encode("ascii"), dtype=np.uint8)
+    digit = (data >= ord("0")) & (data <= ord("9"))
+    comma, semicolon = data == ord(","), data == ord(";")
+    keep = digit | comma | semicolon  # whitespace around the numbers goes
+    data, digit, comma, semicolon = data[keep], digit[keep], comma[keep], semicolon[keep]
+    number = np.cumsum(comma | semicolon)  # which number each byte belongs to
+    n_numbers = int(number[-1]) + 1
+    owner = number[digit]  # the digits of one number are consecutive
+    per_number = np.bincount(owner, minlength=n_numbers)
+    place = np.cumsum(per_number)[owner] - 1 - np.arange(len(owner))  # digits after this one
+    weights = (data[digit] - ord("0")).astype(np.float64) * 10.0**place
+    values = np.rint(np.bincount(owner, weights=weights, minlength=n_numbers)).astype(np.int64)
+    name_of_comma = np.cumsum(semicolon)[comma]
+    n_fields = np.bincount(name_of_comma, minlength=len(names)) + 1
+    start = np.cumsum(n_fields) - n_fields
+    heading = np.where(n_fields == 3, values[np.minimum(start + 2, n_numbers - 1)], -1)
+    return values[start], values[start + 1], heading
 
 
 def _sensor_parts(
@@ -117,13 +161,16 @@ def _look_parts(
     fov = sensor.effective_fov(layout.headings)
     bins = np.array(sensor.angle_bins) if sensor.angle_bins else None
     fp, fn = sensor.false_positive, sensor.false_negative
+    cells_by_class: dict[str, list[tuple[int, int]]] = {}
+    for lm_class, lr, lc in layout.landmarks:
+        cells_by_class.setdefault(lm_class, []).append((lr, lc))
     parts = []
     for cls in sensor.classes:
         best = np.full(n, np.inf)  # smallest viewing angle of any landmark of this class
-        for lm_class, lr, lc in layout.landmarks:
-            if lm_class == cls:
-                states, angles = geometry.viewing_angles(layout, (lr, lc), sensor.range, fov, sensor.occlusion)
-                np.minimum.at(best, states, angles)
+        if cls in cells_by_class:
+            cells = np.array(cells_by_class[cls], dtype=np.int64)
+            states, angles, _ = geometry.viewing_angles_many(layout, cells, sensor.range, fov, sensor.occlusion)
+            np.minimum.at(best, states, angles)
         for states, readings in annotated:
             if name in readings:
                 best[states] = _annotated_angle(readings[name], cls)

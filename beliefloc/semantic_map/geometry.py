@@ -100,56 +100,138 @@ def viewing_angles(
     ``view_range`` meters, the bearing is within ``fov / 2`` of the heading (any heading sees its
     own cell), and -- with ``occlusion`` -- no blocked cell lies on the segment between the centres.
     """
-    lr, lc = landmark
+    states, angles, _ = viewing_angles_many(layout, np.array([landmark]), view_range, fov, occlusion)
+    return states, angles
+
+
+_CHUNK = 1 << 21
+"""About how many (landmark, cell) pairs :func:`viewing_angles_many` handles at once."""
+
+
+def viewing_angles_many(
+    layout: GridLayout,
+    landmarks: np.ndarray,
+    view_range: float | None,
+    fov: float,
+    occlusion: bool,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`viewing_angles` for many landmarks at once (``landmarks[k] = (row, col)``).
+
+    Returns ``(states, angles, which)``: every (state, landmark) pair where the state sees the
+    landmark, its viewing angle, and ``which`` = the landmark's position in ``landmarks``.
+
+    Distances and bearings depend only on the offset between cell and landmark, so they are
+    computed once per offset in the ``(2 reach + 1)^2`` window; per landmark only clipping at the
+    grid's edge, blocked cells and occlusion remain, done for a chunk of landmarks at a time. Time
+    and memory are linear in ``landmarks x window``. The results are exactly those of one
+    landmark at a time (same arithmetic, element by element).
+    """
+    landmarks = np.asarray(landmarks, dtype=np.int64).reshape(-1, 2)
     h_count = layout.headings
-    index = cell_index_map(layout)
+    empty = np.zeros(0, dtype=np.int64)
+    if len(landmarks) == 0:
+        return empty, np.zeros(0), empty
     if view_range is None:
-        r0, r1, c0, c1 = 0, layout.rows, 0, layout.cols
+        reach_r, reach_c = layout.rows - 1, layout.cols - 1
     else:
         reach = math.floor(view_range / layout.cell_size + 1e-9)
-        r0, r1 = max(0, lr - reach), min(layout.rows, lr + reach + 1)
-        c0, c1 = max(0, lc - reach), min(layout.cols, lc + reach + 1)
-    rr, cc = np.mgrid[r0:r1, c0:c1]
-    rr, cc = rr.ravel(), cc.ravel()
-    cells = index[rr, cc]
-    keep = cells >= 0
-    rr, cc, cells = rr[keep], cc[keep], cells[keep]
-    dy, dx = (rr - lr).astype(float), (lc - cc).astype(float)  # north, east components towards it
+        reach_r = reach_c = reach
+    # per offset (dr, dc) from the landmark to the cell: distance, and the relative angle per heading
+    dr_grid, dc_grid = np.mgrid[-reach_r : reach_r + 1, -reach_c : reach_c + 1]
+    dr_all, dc_all = dr_grid.ravel(), dc_grid.ravel()
+    dy, dx = dr_all.astype(float), (-dc_all).astype(float)  # north, east components towards it
     distance = np.hypot(dx, dy) * layout.cell_size
-    if view_range is not None:
-        keep = distance <= view_range + 1e-9
-        rr, cc, cells, dx, dy, distance = rr[keep], cc[keep], cells[keep], dx[keep], dy[keep], distance[keep]
-    if occlusion and not layout.free.all():
-        visible = _line_of_sight(layout.free, rr, cc, lr, lc)
-        rr, cc, cells, dx, dy, distance = (
-            rr[visible],
-            cc[visible],
-            cells[visible],
-            dx[visible],
-            dy[visible],
-            distance[visible],
-        )
+    keep = np.ones(len(dr_all), dtype=bool) if view_range is None else distance <= view_range + 1e-9
+    dr_all, dc_all, dx, dy, distance = dr_all[keep], dc_all[keep], dx[keep], dy[keep], distance[keep]
     bearing = np.degrees(np.arctan2(dx, dy))  # clockwise from north
     headings = np.arange(h_count)
     if h_count == 1:
-        relative = np.zeros((len(cells), 1))
+        relative = np.zeros((len(dr_all), 1))
     else:
         relative = (bearing[:, None] - headings[None, :] * (360.0 / h_count) + 180.0) % 360.0 - 180.0
     relative = np.abs(relative)
     relative[distance == 0.0, :] = 0.0
-    seen = relative <= fov / 2.0 + 1e-9
-    states = (cells[:, None] * h_count + headings[None, :])[seen]
-    return states, relative[seen]
+    seen_offset = relative <= fov / 2.0 + 1e-9  # (offsets, headings)
+    useful = seen_offset.any(axis=1)
+    chebyshev = np.maximum(np.abs(dr_all), np.abs(dc_all))
+    check_sight = occlusion and not layout.free.all()
+    if not check_sight:  # offsets seen from no heading cannot contribute
+        dr_all, dc_all, relative, seen_offset, chebyshev = (
+            dr_all[useful],
+            dc_all[useful],
+            relative[useful],
+            seen_offset[useful],
+            chebyshev[useful],
+        )
+    index = cell_index_map(layout)
+    width = max(1, len(dr_all))
+    step = max(1, _CHUNK // width)
+    out_states, out_angles, out_which = [], [], []
+    for start in range(0, len(landmarks), step):
+        lr = landmarks[start : start + step, 0][:, None]
+        lc = landmarks[start : start + step, 1][:, None]
+        rr, cc = lr + dr_all[None, :], lc + dc_all[None, :]  # (landmarks, offsets)
+        inside = (rr >= 0) & (rr < layout.rows) & (cc >= 0) & (cc < layout.cols)
+        cells = np.where(inside, index[np.where(inside, rr, 0), np.where(inside, cc, 0)], -1)
+        valid = cells >= 0  # inside the grid, on a free cell, within range
+        if check_sight:
+            # the original samples each landmark's segments by its farthest candidate cell
+            span = np.where(valid, chebyshev[None, :], 0).max(axis=1, initial=0)
+            k_idx, o_idx = np.nonzero(valid)
+            visible = _line_of_sight_pairs(
+                layout.free, rr[k_idx, o_idx], cc[k_idx, o_idx], lr[k_idx, 0], lc[k_idx, 0], span[k_idx]
+            )
+            k_idx, o_idx = k_idx[visible], o_idx[visible]
+            # offsets seen from no heading were kept only for the span; drop them now
+            has = seen_offset[o_idx].any(axis=1)
+            k_idx, o_idx = k_idx[has], o_idx[has]
+        else:
+            k_idx, o_idx = np.nonzero(valid)
+        seen = seen_offset[o_idx]  # (pairs, headings)
+        pair, heading = np.nonzero(seen)
+        out_states.append(cells[k_idx[pair], o_idx[pair]] * h_count + heading)
+        out_angles.append(relative[o_idx[pair], heading])
+        out_which.append(k_idx[pair] + start)
+    return np.concatenate(out_states), np.concatenate(out_angles), np.concatenate(out_which)
 
 
-def _line_of_sight(free: np.ndarray, rr: np.ndarray, cc: np.ndarray, lr: int, lc: int) -> np.ndarray:
-    """True where the segment between cell centres crosses no blocked cell (endpoints excluded)."""
-    span = int(np.max(np.maximum(np.abs(rr - lr), np.abs(cc - lc)), initial=0))
+def _line_of_sight_pairs(
+    free: np.ndarray, rr: np.ndarray, cc: np.ndarray, lr: np.ndarray, lc: np.ndarray, span: np.ndarray
+) -> np.ndarray:
+    """:func:`_line_of_sight` for (cell, landmark) pairs, each landmark sampled by its own ``span``,
+    in chunks of about :data:`_CHUNK` (pair, sample) points."""
+    visible = np.ones(len(rr), dtype=bool)
+    for value in np.unique(span).tolist():
+        group = np.flatnonzero(span == value)
+        step = max(1, _CHUNK // (4 * int(value) + 1))
+        for start in range(0, len(group), step):
+            g = group[start : start + step]
+            visible[g] = _line_of_sight(free, rr[g], cc[g], lr[g], lc[g], span=int(value))
+    return visible
+
+
+def _line_of_sight(
+    free: np.ndarray,
+    rr: np.ndarray,
+    cc: np.ndarray,
+    lr: int | np.ndarray,
+    lc: int | np.ndarray,
+    span: int | None = None,
+) -> np.ndarray:
+    """True where the segment between cell centres crosses no blocked cell (endpoints excluded).
+
+    The segment is sampled at ``4 span + 1`` points, ``span`` being by default the largest
+    Chebyshev distance from the landmark to any of the cells.
+    """
+    lr_col = np.asarray(lr)[..., None] if np.ndim(lr) else lr
+    lc_col = np.asarray(lc)[..., None] if np.ndim(lc) else lc
+    if span is None:
+        span = int(np.max(np.maximum(np.abs(rr - lr), np.abs(cc - lc)), initial=0))
     samples = max(2, 4 * span + 1)
     t = (np.arange(1, samples) / samples)[None, :]
-    pr = np.floor(rr[:, None] + t * (lr - rr[:, None]) + 0.5).astype(np.int64)
-    pc = np.floor(cc[:, None] + t * (lc - cc[:, None]) + 0.5).astype(np.int64)
-    endpoint = ((pr == rr[:, None]) & (pc == cc[:, None])) | ((pr == lr) & (pc == lc))
+    pr = np.floor(rr[:, None] + t * (lr_col - rr[:, None]) + 0.5).astype(np.int64)
+    pc = np.floor(cc[:, None] + t * (lc_col - cc[:, None]) + 0.5).astype(np.int64)
+    endpoint = ((pr == rr[:, None]) & (pc == cc[:, None])) | ((pr == lr_col) & (pc == lc_col))
     blocked = ~free[pr, pc] & ~endpoint
     visible: np.ndarray = ~blocked.any(axis=1)
     return visible
