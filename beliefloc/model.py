@@ -115,28 +115,49 @@ class ObservationModel:
             if text in (NONE_OBSERVATION, NOTHING, ""):
                 return 0
             raise UsageError(f"observation {text!r}: this action observes nothing (use 'none' or omit it)")
-        readings: list[int | None] = [None] * len(self.parts)
         whole = any(text in p.values or text in p.aliases for p in self.parts)  # e.g. imported names with '+'
         if text in (NOTHING, NONE_OBSERVATION) and not whole:
             tokens: list[str] = []
         else:
             tokens = [text] if whole else [t.strip() for t in text.split("+")]
-        for token in tokens:
-            for p, part in enumerate(self.parts):
-                w = part.values.index(token) if token in part.values else part.aliases.get(token)
-                if w is not None and token:
-                    if readings[p] is not None and readings[p] != w:
-                        raise UsageError(f"observation {text!r} gives two readings for {part.name}")
-                    readings[p] = w
-                    break
-            else:
-                raise UsageError(f"unknown observation {text!r}: {self.choices()}")
+        options = [self._readers(token) for token in tokens]
+        for token, readers in zip(tokens, options, strict=True):
+            if not readers:
+                which = f"{token!r} is not a reading; " if len(tokens) > 1 else ""
+                raise UsageError(f"unknown observation {text!r}: {which}{self.choices()}")
+        readings = self._assign(options, 0, {})
+        if readings is None:
+            silent_free = [p.name for p in self.parts if "" not in p.values]
+            need = f" ({', '.join(silent_free)} must read something)" if silent_free else ""
+            raise UsageError(f"observation {text!r} cannot be read one token per part{need}: {self.choices()}")
+        return self.encode(
+            [readings.get(p, part.values.index("") if "" in part.values else 0) for p, part in enumerate(self.parts)]
+        )
+
+    def _readers(self, token: str) -> list[tuple[int, int]]:
+        """(part, reading) pairs that ``token`` can stand for."""
+        out = []
         for p, part in enumerate(self.parts):
-            if readings[p] is None:
-                if "" not in part.values:
-                    raise UsageError(f"observation {text!r} does not say what {part.name} read: {self.choices()}")
-                readings[p] = part.values.index("")
-        return self.encode([r for r in readings if r is not None])
+            w = part.values.index(token) if token and token in part.values else part.aliases.get(token)
+            if w is not None:
+                out.append((p, w))
+        return out
+
+    def _assign(self, options: list[list[tuple[int, int]]], i: int, chosen: dict[int, int]) -> dict[int, int] | None:
+        """Give every token its own part (backtracking, parts tried in order) so that each part
+        without a silent value gets a reading; None if impossible. A joint name has at most one
+        token per part, so the search is tiny."""
+        if i == len(options):
+            complete = all(p in chosen or "" in part.values for p, part in enumerate(self.parts))
+            return dict(chosen) if complete else None
+        for p, w in options[i]:
+            if p not in chosen:
+                chosen[p] = w
+                found = self._assign(options, i + 1, chosen)
+                del chosen[p]
+                if found is not None:
+                    return found
+        return None
 
     def choices(self) -> str:
         """The observations, listed when few, else how to write one (for error messages)."""

@@ -429,14 +429,9 @@ def test_failure_mass_stays_on_the_diagonal(failure: float):
         assert t.getnnz(axis=1).max() <= 2
 
 
-# --- bugs found while writing these tests (see the report); strict xfails ----------------------------
+# --- regressions: bugs found while writing these tests, now fixed -------------------------------------
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="schema.LookSensor accepts fov / 2 > angle_bins[-1]; compile then gives truth values past the last "
-    "bin and likelihood() raises IndexError",
-)
 def test_angle_bins_narrower_than_the_fov_are_rejected():
     data = _map(
         5,
@@ -448,22 +443,6 @@ def test_angle_bins_narrower_than_the_fov_are_rejected():
         SemanticMap.model_validate(data)
 
 
-def test_angle_bins_narrower_than_the_fov_crash_today():
-    """What the xfail above guards against: a state seeing the chair 53 degrees off axis."""
-    data = _map(
-        5,
-        5,
-        landmarks=[{"class": "chair", "cell": [0, 4]}],
-        sensors={"look": {"type": "look", "classes": ["chair"], "angle_bins": [18, 30, 45], "fov": 120}},
-    )
-    model = _compile(data)
-    part = model.action("look").observation.parts[0]
-    if part.truth.max() < part.n_values:
-        pytest.fail("fixed: remove this test and the xfail marker above")
-    with pytest.raises(IndexError):
-        update(model, uniform(model.n_states), "look", "nothing")
-
-
 def test_here_default_class_nothing_round_trips():
     """A here sensor's default class is 'nothing', the same word as the all-silent joint name."""
     data = _map(2, 2, headings=1, landmarks=[{"class": "window", "cell": [1, 0]}], sensors={"here": {"type": "here"}})
@@ -472,12 +451,6 @@ def test_here_default_class_nothing_round_trips():
     assert [obs.index(name) for name in obs.names()] == [0, 1]
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="model.ObservationModel.index gives a token to the first part that has it: with a passive look for "
-    "'chair' and a passive here sensor whose class is 'chair', the name 'chair' (here reads chair, look sees "
-    "nothing) is parsed as the look's reading and the here part is left unread",
-)
 def test_a_class_both_looked_for_and_read_here_round_trips():
     data = _map(
         2,
@@ -493,12 +466,6 @@ def test_a_class_both_looked_for_and_read_here_round_trips():
     assert [obs.index(name) for name in obs.names()] == [0, 1, 2, 3]
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="schema._check_here: without a legend a label character is the class name, but it is not checked "
-    "against the Name pattern (letters, digits, _ and -), so '+' or '@' become class names, which break the "
-    "'+'-joined observation names as soon as another part is observed with them",
-)
 def test_here_label_characters_must_be_names_without_a_legend():
     data = _map(1, 2, headings=1, sensors={"here": {"type": "here", "labels": "+a"}})
     with pytest.raises((ValidationError, FieldError)):

@@ -31,6 +31,7 @@ MOVES_BY_HEADINGS: dict[int, tuple[str, ...]] = {
     4: ("forward", "backward", "rotate_cw", "rotate_ccw"),
     8: ("forward", "backward", "rotate_cw", "rotate_ccw"),
 }
+_NAME_CHAR = re.compile(r"^[A-Za-z0-9_\-]$")
 _STATE_RE = re.compile(r"^\s*(-?\d+)\s*,\s*(-?\d+)\s*(?:,\s*(-?\d+)\s*)?$")
 
 
@@ -289,6 +290,14 @@ class SemanticMap(_Strict):
                 )
             if isinstance(sensor, HereSensor):
                 self._check_here(name, sensor)
+            if isinstance(sensor, LookSensor) and sensor.angle_bins and g.headings > 1:
+                half = sensor.effective_fov(g.headings) / 2.0
+                if half > sensor.angle_bins[-1] + 1e-9:
+                    raise FieldError(
+                        ("sensors", name, "fov"),
+                        f"a field of view of {2 * half:g} degrees sees up to {half:g} degrees off axis, but the "
+                        f"angle_bins stop at {sensor.angle_bins[-1]:g}; drop fov or add a bin edge of {half:g}",
+                    )
             if not sensor.passive and not sensor.as_action:
                 raise FieldError(
                     ("sensors", name, "as_action"),
@@ -308,7 +317,15 @@ class SemanticMap(_Strict):
         for r, line in enumerate(lines):
             if len(line) != g.cols:
                 raise FieldError(path, f"row {r} has {len(line)} cells, but grid.cols is {g.cols}")
-            if sensor.legend is not None:
+            if sensor.legend is None:
+                for c, ch in enumerate(line):
+                    if self.free[r, c] and not _NAME_CHAR.match(ch):
+                        raise FieldError(
+                            path,
+                            f"row {r} has {ch!r}, which is not a class name (letters, digits, _ and -); "
+                            "name it in a legend, e.g. legend: {'+': door}",
+                        )
+            else:
                 for c, ch in enumerate(line):
                     if self.free[r, c] and ch not in sensor.legend:
                         raise FieldError(path, f"row {r} has {ch!r}, which the legend does not name")
