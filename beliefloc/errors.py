@@ -66,7 +66,11 @@ class FieldError(Exception):
     ``path`` to the YAML line where the offending value was written.
     """
 
-    def __init__(self, path: Sequence[str | int], message: str) -> None:
+    def __init__(self, path: Sequence[str | int], message: str, *, row: int | None = None, column: int = 0) -> None:
         super().__init__(message)
         self.path: Path = tuple(path)
         self.message = message
+        self.row = row
+        """For a character grid written as a block (``layout: |``): the row (0-based, blank lines
+        skipped) and column of the culprit, so the message points at that very character."""
+        self.column = column

@@ -65,6 +65,8 @@ class Source:
     sha256: str
     value_marks: dict[Path, tuple[int, int]] = field(default_factory=dict)
     key_marks: dict[Path, tuple[int, int]] = field(default_factory=dict)
+    block_rows: dict[Path, list[tuple[int, int]]] = field(default_factory=dict)
+    """For block scalars (``layout: |``): (line, indentation) of each non-blank content line."""
 
     def locate(self, path: Path, *, key: bool = False) -> tuple[Path, tuple[int, int]]:
         """The part of ``path`` that exists in the file and its (line, column), both 1-based.
@@ -84,8 +86,13 @@ class Source:
         """An error naming this file, the line and column of ``path``, and the field."""
         return error_cls(self.format(path, message, key=key))
 
-    def format(self, path: Path, message: str, *, key: bool = False) -> str:
-        found, (line, column) = self.locate(path, key=key)
+    def format(self, path: Path, message: str, *, key: bool = False, row: int | None = None, column: int = 0) -> str:
+        """``file:line:col: field.path: message``; with ``row``, the line of that row of a block."""
+        found, (line, col) = self.locate(path, key=key)
+        rows = self.block_rows.get(found)
+        if row is not None and rows is not None and 0 <= row < len(rows):
+            line, col = rows[row][0], rows[row][1] + column + 1
+        column = col
         where = format_path(found)
         return f"{self.path}:{line}:{column}: {where + ': ' if where else ''}{message}"
 
@@ -129,23 +136,28 @@ def parse_source(text: str, path: FilePath, error_cls: type[InputFileError], *, 
         line, column = (mark.line + 1, mark.column + 1) if mark else (1, 1)
         problem = exc.problem or "invalid YAML"
         context = f" ({exc.context})" if exc.context else ""
+        begun = exc.context_mark
+        if begun is not None and exc.problem_mark is not None and begun.line != exc.problem_mark.line:
+            context = f" ({exc.context or 'what'} started at line {begun.line + 1}, column {begun.column + 1})"
         raise error_cls(f"{path}:{line}:{column}: YAML syntax error: {problem}{context}") from None
     except yaml.YAMLError as exc:
         raise error_cls(f"{path}: YAML syntax error: {exc}") from None
     digest = sha256 or hashlib.sha256(text.encode()).hexdigest()
     if node is None:
         return Source(path=path, data=None, sha256=digest)
-    builder = _Builder(path, error_cls)
+    builder = _Builder(path, error_cls, text)
     with _gc_paused():
         data = builder.build(node, ())
-    return Source(path, data, digest, builder.value_marks, builder.key_marks)
+    return Source(path, data, digest, builder.value_marks, builder.key_marks, builder.block_rows)
 
 
 class _Builder:
     """Turns composed YAML nodes into plain data while recording marks by path."""
 
-    def __init__(self, path: FilePath, error_cls: type[InputFileError]) -> None:
+    def __init__(self, path: FilePath, error_cls: type[InputFileError], text: str) -> None:
         self.path = path
+        self.text = text
+        self.block_rows: dict[Path, list[tuple[int, int]]] = {}
         self.error_cls = error_cls
         self.constructor = yaml.constructor.SafeConstructor()
         self.value_marks: dict[Path, tuple[int, int]] = {}
@@ -163,6 +175,16 @@ class _Builder:
             if node.tag in _PLAIN_SCALAR_TAGS:
                 return self.constructor.yaml_constructors[node.tag](self.constructor, node)
         return self.constructor.construct_object(node, deep=True)
+
+    def _content_rows(self, node: yaml.ScalarNode) -> list[tuple[int, int]]:
+        """(1-based line, indentation) of each non-blank line of a block scalar's content."""
+        lines = self.text.splitlines()
+        first, last = node.start_mark.line + 1, min(node.end_mark.line, len(lines) - 1)
+        return [
+            (i + 1, len(lines[i]) - len(lines[i].lstrip()))
+            for i in range(first, last + 1)
+            if lines[i].strip() and not lines[i].lstrip().startswith("#")
+        ]
 
     def build(self, node: yaml.Node, path: Path) -> Any:
         mark = node.start_mark
@@ -188,6 +210,8 @@ class _Builder:
             return result
         if isinstance(node, yaml.SequenceNode):
             return [self.build(item, (*path, index)) for index, item in enumerate(node.value)]
+        if isinstance(node, yaml.ScalarNode) and node.style in ("|", ">"):
+            self.block_rows[path] = self._content_rows(node)
         try:
             return self.construct(node)
         except yaml.constructor.ConstructorError as exc:
@@ -209,7 +233,7 @@ def validate_source(
         with _gc_paused():
             return model_cls.model_validate(source.data, context=context)
     except FieldError as exc:
-        raise source.error(exc.path, exc.message, error_cls) from None
+        raise error_cls(source.format(exc.path, exc.message, row=exc.row, column=exc.column)) from None
     except ValidationError as exc:
         messages = [_describe(source, model_cls, error) for error in exc.errors()]
         shown = messages[:_MAX_ERRORS_SHOWN]
@@ -224,12 +248,21 @@ def _describe(source: Source, model_cls: type[BaseModel], error: Any) -> str:
     given = error.get("input")
     if kind == "extra_forbidden":
         key = loc[-1]
-        expected = _expected_keys(model_cls, loc[:-1])
+        expected = _field_names(_models_at(model_cls, loc[:-1]))
         hint = f"; expected one of: {', '.join(expected)}" if expected else ""
         return source.format(loc, f"unknown key {key!r}{hint}", key=True)
     if kind == "missing":
         found, _ = source.locate(loc[:-1])
         return source.format(found, f"required key {loc[-1]!r} is missing")
+    if kind in ("union_tag_invalid", "union_tag_not_found"):
+        # a discriminated union (a sensor's type): say which kinds exist, at the 'type' key
+        key = str(error.get("ctx", {}).get("discriminator", "type")).strip("'")
+        kinds = ", ".join(_tags(_models_at(model_cls, loc), key))
+        noun = f"{loc[-2].rstrip('s')} " if len(loc) >= 2 and isinstance(loc[-2], str) else ""
+        if kind == "union_tag_not_found":
+            return source.format(loc, f"required key {key!r} is missing; it says which kind: {kinds}")
+        tag = error.get("ctx", {}).get("tag", given)
+        return source.format((*loc, key), f"unknown {noun}{key} {tag!r}; expected one of: {kinds}")
     message = str(error["msg"])
     for prefix in ("Value error, ", "Assertion failed, "):
         message = message.removeprefix(prefix)
@@ -240,8 +273,8 @@ def _describe(source: Source, model_cls: type[BaseModel], error: Any) -> str:
     return source.format(loc, message)
 
 
-def _expected_keys(model_cls: type[BaseModel], loc: Path) -> list[str]:
-    """Best effort: the field names of the model that sits at ``loc`` (for 'unknown key' hints)."""
+def _models_at(model_cls: type[BaseModel], loc: Path) -> list[type[BaseModel]]:
+    """Best effort: the pydantic models that may sit at ``loc`` (several for a union)."""
     candidates: list[Any] = [model_cls]
     for element in loc:
         next_candidates: list[Any] = []
@@ -250,8 +283,8 @@ def _expected_keys(model_cls: type[BaseModel], loc: Path) -> list[str]:
                 if isinstance(inner, type) and issubclass(inner, BaseModel):
                     if isinstance(element, str) and element in inner.model_fields:
                         next_candidates.append(inner.model_fields[element].annotation)
-                    elif isinstance(element, str):  # a union tag in the loc: stay on this model
-                        next_candidates.append(inner)
+                    elif isinstance(element, str) and element in _tags([inner], "type"):
+                        next_candidates.append(inner)  # pydantic puts a union member's tag in the loc
                 else:
                     origin = typing.get_origin(inner)
                     args = typing.get_args(inner)
@@ -260,12 +293,24 @@ def _expected_keys(model_cls: type[BaseModel], loc: Path) -> list[str]:
                     elif origin is dict and len(args) == 2:
                         next_candidates.append(args[1])
         candidates = next_candidates
-    names: list[str] = []
-    for candidate in candidates:
-        for inner in _unwrap(candidate):
-            if isinstance(inner, type) and issubclass(inner, BaseModel):
-                names.extend(f.alias or n for n, f in inner.model_fields.items() if f.alias or n)
-    return sorted(set(names)) if len(candidates) == 1 else []
+    return [m for c in candidates for m in _unwrap(c) if isinstance(m, type) and issubclass(m, BaseModel)]
+
+
+def _field_names(models: list[type[BaseModel]]) -> list[str]:
+    """The keys a mapping may have, when exactly one model sits there."""
+    if len(models) != 1:
+        return []
+    return sorted(f.alias or n for n, f in models[0].model_fields.items())
+
+
+def _tags(models: list[type[BaseModel]], key: str) -> list[str]:
+    """The values of a Literal discriminator field ``key`` over union members."""
+    tags: list[str] = []
+    for model in models:
+        field_info = model.model_fields.get(key)
+        if field_info is not None and typing.get_origin(field_info.annotation) is typing.Literal:
+            tags.extend(str(v) for v in typing.get_args(field_info.annotation))
+    return tags
 
 
 def _unwrap(annotation: Any) -> list[Any]:

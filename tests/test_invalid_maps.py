@@ -58,8 +58,8 @@ CASES = [
     Case("negative_probability.yaml", 5, 29, "actions.right.failure", r"greater than or equal to 0, got -0\.1"),
     Case("negative_cost.yaml", 6, 11, "actions.right.cost", r"greater than or equal to 0, got -10"),
     Case("layout_row_count.yaml", 4, 9, "layout", r"has 2 rows, but grid\.rows is 3"),
-    Case("layout_row_too_wide.yaml", 4, 9, "layout", r"row 1 has 4 cells, but grid\.cols is 3"),
-    Case("layout_unknown_character.yaml", 4, 9, "layout", r"row 1 has 'x'; use '\.' for free and '#' for blocked"),
+    Case("layout_row_too_wide.yaml", 6, 3, "layout", r"row 1 has 4 cells, but grid\.cols is 3"),
+    Case("layout_unknown_character.yaml", 6, 4, "layout", r"row 1 has 'x'; use '\.' for free and '#' for blocked"),
     Case("every_cell_blocked.yaml", 4, 9, "layout", r"every cell is blocked: the map has no states"),
     Case("landmark_outside_grid.yaml", 6, 27, "landmarks[1].cell", r"cell \[2, 0\] is outside the 2x2 grid"),
     Case("landmark_on_blocked_cell.yaml", 8, 26, "landmarks[0].cell", r"cell \[1, 1\] is blocked in the layout"),
@@ -73,11 +73,17 @@ CASES = [
     Case(
         "unknown_sensor_type.yaml",
         8,
-        5,
-        "sensors.ranger",
-        r"'lidar'.* does not match any of the expected tags: 'look', 'scan', 'here'",
+        11,
+        "sensors.ranger.type",
+        r"unknown sensor type 'lidar'; expected one of: look, scan, here",
     ),
-    Case("sensor_without_type.yaml", 8, 5, "sensors.scan", r"discriminator 'type'"),
+    Case(
+        "sensor_without_type.yaml",
+        8,
+        5,
+        "sensors.scan",
+        r"required key 'type' is missing; it says which kind: look, scan, here",
+    ),
     Case(
         "look_without_classes.yaml",
         9,
@@ -95,8 +101,8 @@ CASES = [
     Case("scan_without_headings.yaml", 8, 11, "sensors.scan.type", r"a scan looks ahead, but the map has headings: 1"),
     Case(
         "here_label_not_in_legend.yaml",
-        10,
-        13,
+        12,
+        9,
         "sensors.here.labels",
         r"row 1 has '2', which the legend does not name",
     ),
@@ -199,24 +205,14 @@ def test_missing_file_is_a_message(runner, tmp_path: Path):
     assert isinstance(result.exception, SystemExit)
 
 
-# --- messages that could be better: strict xfails, so a fix turns them into passes ----------------
+# --- messages made better after the first version of these tests ---------------------------------
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="source._expected_keys gives up on a discriminated union (Sensor): the tag 'look' in the loc keeps "
-    "all three sensor models as candidates, so no 'expected one of' hint, unlike unknown keys elsewhere",
-)
 def test_unknown_key_in_a_sensor_lists_the_sensor_keys():
     with pytest.raises(MapError, match=r"unknown key 'rnage'; expected one of: .*\brange\b"):
         load_map(INVALID / "unknown_sensor_key.yaml")
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="pydantic's union_tag_invalid text passes through source._describe unchanged and points at the "
-    "sensor, not at its 'type' value",
-)
 def test_unknown_sensor_type_names_the_type_field():
     path = INVALID / "unknown_sensor_type.yaml"
     with pytest.raises(MapError, match=r"unknown sensor type 'lidar'; expected one of: look, scan, here") as info:
@@ -224,40 +220,22 @@ def test_unknown_sensor_type_names_the_type_field():
     assert str(info.value).startswith(f"{path}:8:11: sensors.ranger.type: ")
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="pydantic's union_tag_not_found ('Unable to extract tag using discriminator') is not translated",
-)
 def test_sensor_without_type_says_type_is_required():
     with pytest.raises(MapError, match=r"required key 'type' is missing.*look, scan, here"):
         load_map(INVALID / "sensor_without_type.yaml")
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="source.parse_source reports the problem mark (line 4) but drops the context mark, the line where the "
-    "unclosed flow mapping starts (line 3)",
-)
 def test_yaml_syntax_error_says_where_the_unclosed_mapping_starts():
     with pytest.raises(MapError, match=r"line 3"):
         load_map(INVALID / "yaml_syntax.yaml")
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="a FieldError on layout points at the 'layout: |' line, not at the offending row's line",
-)
 def test_layout_error_points_at_the_offending_row():
     path = INVALID / "layout_row_too_wide.yaml"
     with pytest.raises(MapError, match=rf"^{re.escape(str(path))}:6:"):
         load_map(path)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="render.stderr_console() wraps at the terminal width, so a file:line:col message is split over "
-    "lines on stderr (editors and grep expect one line per error)",
-)
 def test_cli_message_is_one_line(runner, monkeypatch: pytest.MonkeyPatch):
     monkeypatch.chdir(ROOT)
     result = runner.invoke(app, ["validate", "tests/data/invalid/unknown_top_level_key.yaml"])

@@ -43,11 +43,11 @@ def boundary(command: Callable[P, R]) -> Callable[P, R]:
 
 
 def report_error(exc: BeliefLocError) -> None:
-    stderr_console().print(f"[bold red]error:[/] {escape(str(exc))}")
+    stderr_console().print(f"[bold red]error:[/] {escape(str(exc))}", soft_wrap=True)  # one line per error
 
 
 def warn(message: str) -> None:
-    stderr_console().print(f"[yellow]warning:[/] {escape(message)}")
+    stderr_console().print(f"[yellow]warning:[/] {escape(message)}", soft_wrap=True)
 
 
 def open_model(path: Path) -> Model:

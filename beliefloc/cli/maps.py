@@ -54,7 +54,8 @@ def validate(
             observed = ", ".join(f"{a.name}: {a.observation.n_observations} observations" for a in sensors)
             stdout_console().print(
                 f"[green]ok[/] {escape(str(path))}: {escape(model.name)}, {where}{model.n_states} states, "
-                f"{len(model.actuation_actions)} actuation actions" + (f", {escape(observed)}" if observed else "")
+                f"{len(model.actuation_actions)} actuation actions" + (f", {escape(observed)}" if observed else ""),
+                soft_wrap=True,
             )
     if json_output:
         print_json(results)

@@ -251,12 +251,15 @@ class SemanticMap(_Strict):
             raise FieldError(("layout",), f"has {len(lines)} rows, but grid.rows is {g.rows}")
         for r, line in enumerate(lines):
             if len(line) != g.cols:
-                raise FieldError(("layout",), f"row {r} has {len(line)} cells, but grid.cols is {g.cols}")
-            bad = sorted(set(line) - {FREE, BLOCKED})
-            if bad:
-                raise FieldError(
-                    ("layout",), f"row {r} has {bad[0]!r}; use '{FREE}' for free and '{BLOCKED}' for blocked"
-                )
+                raise FieldError(("layout",), f"row {r} has {len(line)} cells, but grid.cols is {g.cols}", row=r)
+            for c, ch in enumerate(line):
+                if ch not in (FREE, BLOCKED):
+                    raise FieldError(
+                        ("layout",),
+                        f"row {r} has {ch!r}; use '{FREE}' for free and '{BLOCKED}' for blocked",
+                        row=r,
+                        column=c,
+                    )
 
     def _check_landmarks(self) -> None:
         g = self.grid
@@ -316,7 +319,7 @@ class SemanticMap(_Strict):
             raise FieldError(path, f"has {len(lines)} rows, but grid.rows is {g.rows}")
         for r, line in enumerate(lines):
             if len(line) != g.cols:
-                raise FieldError(path, f"row {r} has {len(line)} cells, but grid.cols is {g.cols}")
+                raise FieldError(path, f"row {r} has {len(line)} cells, but grid.cols is {g.cols}", row=r)
             if sensor.legend is None:
                 for c, ch in enumerate(line):
                     if self.free[r, c] and not _NAME_CHAR.match(ch):
@@ -324,11 +327,13 @@ class SemanticMap(_Strict):
                             path,
                             f"row {r} has {ch!r}, which is not a class name (letters, digits, _ and -); "
                             "name it in a legend, e.g. legend: {'+': door}",
+                            row=r,
+                            column=c,
                         )
             else:
                 for c, ch in enumerate(line):
                     if self.free[r, c] and ch not in sensor.legend:
-                        raise FieldError(path, f"row {r} has {ch!r}, which the legend does not name")
+                        raise FieldError(path, f"row {r} has {ch!r}, which the legend does not name", row=r, column=c)
 
     def _check_annotations(self) -> None:
         for i, annotation in enumerate(self.annotations):
