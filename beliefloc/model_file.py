@@ -43,12 +43,20 @@ def write_atomically(path: Path, write: Any, *, binary: bool = True) -> None:
     directory = path.parent if str(path.parent) else Path(".")
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
     try:
+        os.fchmod(fd, _file_mode())  # as open() would create it, not mkstemp's private 0600
         with os.fdopen(fd, "wb" if binary else "w") as handle:
             write(handle)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def _file_mode() -> int:
+    """0o666 less the umask."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
 
 
 def save_model(model: Model, path: str | Path) -> None:

@@ -99,3 +99,15 @@ def test_build_refuses_other_suffix(runner, tmp_path: Path) -> None:
     assert result.exit_code == 2
     assert "must end in .npz" in result.stderr
     assert not (tmp_path / "w.model").exists()
+
+
+def test_written_files_are_readable_by_others(tmp_path: Path, window_copy: Path) -> None:
+    """write_atomically must not keep mkstemp's private 0600 mode."""
+    import os
+
+    umask = os.umask(0o022)
+    try:
+        save_model(compile_model(load_map(window_copy)), tmp_path / "w.npz")
+    finally:
+        os.umask(umask)
+    assert (tmp_path / "w.npz").stat().st_mode & 0o777 == 0o644

@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-import os
 import re
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 
 import numpy as np
 import typer
@@ -86,11 +85,7 @@ def gridworld(
     world = generate_gridworld(states, np.random.default_rng(seed), seen_model)
     data = gridworld_yaml(world, seed=seed).encode()
 
-    def write(handle: Any) -> None:
-        os.fchmod(handle.fileno(), _file_mode())  # a map is for people to read: not mkstemp's 0600
-        handle.write(data)
-
-    write_atomically(output, write)
+    write_atomically(output, lambda handle: handle.write(data))
     annotations = world.annotations() if seen_model is SeenModel.STATES else []
     if seen_model is SeenModel.OBJECTS:
         what = f"{len(world.landmarks)} objects"
@@ -116,15 +111,3 @@ def gridworld(
             f"seen model {seen_model.value}, {what}, seed {seed}",
             soft_wrap=True,  # one line, whatever the terminal's width
         )
-
-
-def _file_mode() -> int:
-    """0o666 less the umask, as ``open()`` would create the file."""
-    umask = os.umask(0)
-    os.umask(umask)
-    return 0o666 & ~umask
-
-
-def register(app: typer.Typer) -> None:
-    """Adds the ``generate`` group to the app."""
-    app.add_typer(generate_app)
