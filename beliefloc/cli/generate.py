@@ -111,3 +111,8 @@ def gridworld(
             f"seen model {seen_model.value}, {what}, seed {seed}",
             soft_wrap=True,  # one line, whatever the terminal's width
         )
+
+
+def register(app: typer.Typer) -> None:
+    """Adds the ``generate`` group to the app."""
+    app.add_typer(generate_app)
