@@ -253,6 +253,10 @@ class GridLayout:
     def n_states(self) -> int:
         return len(self.free_cells) * self.headings
 
+    def describe(self) -> dict[str, object]:
+        """Size and scale as plain data (for summaries and file headers)."""
+        return {"rows": self.rows, "cols": self.cols, "headings": self.headings, "cell_size": self.cell_size}
+
     def cell_heading(self, state: int | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(row, col, heading) of one or many states."""
         cell, heading = np.divmod(np.asarray(state), self.headings)
@@ -427,14 +431,7 @@ def model_summary(model: Model) -> dict[str, object]:
         "states": n,
         "grid": None
         if grid is None
-        else {
-            "rows": grid.rows,
-            "cols": grid.cols,
-            "headings": grid.headings,
-            "cell_size": grid.cell_size,
-            "free_cells": len(grid.free_cells),
-            "landmarks": len(grid.landmarks),
-        },
+        else {**grid.describe(), "free_cells": len(grid.free_cells), "landmarks": len(grid.landmarks)},
         "actions": actions,
         "source": None if model.source is None else {"path": model.source.path, "sha256": model.source.sha256},
     }

@@ -98,15 +98,7 @@ def save_model(model: Model, path: str | Path) -> None:
         "name": model.name,
         "n_states": model.n_states,
         "state_names": None if grid is not None else model.states.names,
-        "grid": None
-        if grid is None
-        else {
-            "rows": grid.rows,
-            "cols": grid.cols,
-            "headings": grid.headings,
-            "cell_size": grid.cell_size,
-            "landmarks": [list(lm) for lm in grid.landmarks],
-        },
+        "grid": None if grid is None else {**grid.describe(), "landmarks": [list(lm) for lm in grid.landmarks]},
         "source": None if model.source is None else {"path": model.source.path, "sha256": model.source.sha256},
         "actions": actions_meta,
         "parts": parts_meta,

@@ -116,6 +116,7 @@ from beliefloc.model import (
     StateSpace,
 )
 from beliefloc.model_file import write_atomically
+from beliefloc.source import read_text
 
 DISCOUNT = 0.95
 """Localization has no discount of its own; 0.95 is the conventional value solvers expect."""
@@ -377,19 +378,7 @@ def _observation_block(action: Action, ident: str, names: _Names, columns: list[
 def read_pomdp(path: str | Path) -> Model:
     """Read a Cassandra ``.pomdp`` file (see the module docs for the forms supported)."""
     path = Path(path)
-    try:
-        raw = path.read_bytes()
-    except FileNotFoundError:
-        raise ModelError(f"{path}: no such file") from None
-    except IsADirectoryError:
-        raise ModelError(f"{path}: is a directory, not a file") from None
-    except OSError as exc:
-        raise ModelError(f"{path}: cannot be read ({exc.strerror})") from None
-    try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        line = raw[: exc.start].count(b"\n") + 1
-        raise ModelError(f"{path}:{line}: not UTF-8 text (byte {exc.start})") from None
+    text, raw = read_text(path, ModelError)
     return parse_pomdp(text, path, source=SourceInfo(str(path), hashlib.sha256(raw).hexdigest()))
 
 

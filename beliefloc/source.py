@@ -24,7 +24,7 @@ from typing import Any, TypeVar
 import yaml
 from pydantic import BaseModel, ValidationError
 
-from beliefloc.errors import FieldError, InputFileError, Path
+from beliefloc.errors import BeliefLocError, FieldError, InputFileError, Path
 
 _Model = TypeVar("_Model", bound=BaseModel)
 _MAX_ERRORS_SHOWN = 6
@@ -108,8 +108,8 @@ def format_path(path: Path) -> str:
     return text
 
 
-def read_source(path: str | FilePath, error_cls: type[InputFileError]) -> Source:
-    """Read and parse a YAML (or JSON) file, keeping the marks of every key and value."""
+def read_text(path: str | FilePath, error_cls: type[BeliefLocError]) -> tuple[str, bytes]:
+    """A UTF-8 text file and its bytes; every failure is ``error_cls`` naming the file."""
     file_path = FilePath(path)
     try:
         raw = file_path.read_bytes()
@@ -120,10 +120,16 @@ def read_source(path: str | FilePath, error_cls: type[InputFileError]) -> Source
     except OSError as exc:
         raise error_cls(f"{file_path}: cannot be read ({exc.strerror})") from None
     try:
-        text = raw.decode("utf-8")
+        return raw.decode("utf-8"), raw
     except UnicodeDecodeError as exc:
-        raise error_cls(f"{file_path}: is not UTF-8 text (byte {exc.start})") from None
-    return parse_source(text, file_path, error_cls, sha256=hashlib.sha256(raw).hexdigest())
+        line = raw[: exc.start].count(b"\n") + 1
+        raise error_cls(f"{file_path}:{line}: not UTF-8 text (byte {exc.start})") from None
+
+
+def read_source(path: str | FilePath, error_cls: type[InputFileError]) -> Source:
+    """Read and parse a YAML (or JSON) file, keeping the marks of every key and value."""
+    text, raw = read_text(path, error_cls)
+    return parse_source(text, FilePath(path), error_cls, sha256=hashlib.sha256(raw).hexdigest())
 
 
 def parse_source(text: str, path: FilePath, error_cls: type[InputFileError], *, sha256: str | None = None) -> Source:
