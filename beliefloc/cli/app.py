@@ -5,7 +5,7 @@ from __future__ import annotations
 import typer
 
 from beliefloc import __version__
-from beliefloc.cli import export, generate, maps, show, track
+from beliefloc.cli import export, generate, maps, plan, show, simulate, track
 
 app = typer.Typer(
     name="beliefloc",
@@ -34,7 +34,7 @@ def _root(
     """beliefloc."""
 
 
-for module in (maps, track, show, export, generate):
+for module in (maps, track, show, plan, simulate, export, generate):
     module.register(app)
 
 

@@ -1,0 +1,165 @@
+"""``simulate``: whole episodes -- act, perceive, update, replan -- against a simulated robot."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+
+import numpy as np
+import typer
+from rich.markup import escape
+
+from beliefloc.cli.common import boundary, initial_belief, open_model, print_json
+from beliefloc.cli.plan import BeliefOption, HeuristicOption, MaxExpansions, Threshold, TimeLimit
+from beliefloc.cli.show import CompactOption, warn_if_too_wide
+from beliefloc.errors import EXIT_NEGATIVE, UsageError
+from beliefloc.model import Model
+from beliefloc.planning.best_first import DEFAULT_MAX_EXPANSIONS, DEFAULT_THRESHOLD, DEFAULT_TIME_LIMIT, Heuristic
+from beliefloc.render import stderr_console, stdout_console
+from beliefloc.render.grid import belief_view, uses_color
+from beliefloc.render.plan import plan_table, summary_table
+from beliefloc.render.progress import progress_bar
+from beliefloc.simulation.episode import DEFAULT_MAX_STEPS, EpisodeRecord, StepRecord, run_experiment, summarize
+from beliefloc.simulation.strategies import STRATEGIES, PlannerSettings
+
+
+@boundary
+def simulate(
+    map_file: Annotated[
+        Path, typer.Argument(metavar="MAP|MODEL", help="A map, model or .pomdp file.", show_default=False)
+    ],
+    episodes: Annotated[int, typer.Option("--episodes", "-n", min=1, help="How many episodes.")] = 1,
+    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the starts and of the world's noise.")] = 0,
+    start: Annotated[
+        str, typer.Option("--start", help="The robot's true start state, or 'random' (per episode).")
+    ] = "random",
+    strategy: Annotated[
+        list[str] | None,
+        typer.Option("--strategy", "-s", help=f"Repeat to compare: {', '.join(STRATEGIES)}.", show_default="bestfirst"),
+    ] = None,
+    belief: BeliefOption = "uniform",
+    threshold: Threshold = DEFAULT_THRESHOLD,
+    heuristic: HeuristicOption = None,
+    max_expansions: MaxExpansions = DEFAULT_MAX_EXPANSIONS,
+    time_limit: TimeLimit = DEFAULT_TIME_LIMIT,
+    max_steps: Annotated[
+        int, typer.Option("--max-steps", min=1, help="Stop an episode after this many actions.")
+    ] = DEFAULT_MAX_STEPS,
+    world: Annotated[
+        Path | None,
+        typer.Option("--world", help="Simulate the robot in this model instead (same states).", show_default=False),
+    ] = None,
+    show: Annotated[bool, typer.Option("--show", help="Print the belief grid after every step.")] = False,
+    compact: CompactOption = None,
+    timings: Annotated[
+        bool, typer.Option("--timings/--no-timings", help="Include plan times in --json (off: byte-identical reruns).")
+    ] = True,
+    json_output: Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")] = False,
+) -> None:
+    """Run localization episodes: every strategy from the same seeded starts (paired trials).
+
+    Exit code 1 when an episode of the first strategy does not end localized.
+
+    Example: beliefloc simulate maps/kitchen.yaml --show
+    Example: beliefloc simulate maps/kitchen.yaml -n 50 -s bestfirst -s uniform -s random
+    """
+    model = open_model(map_file)
+    names = strategy or ["bestfirst"]
+    for name in names:
+        if name not in STRATEGIES:
+            raise UsageError(f"unknown strategy {name!r}; expected one of: {', '.join(STRATEGIES)}")
+    start_belief = initial_belief(model, belief)
+    start_state = None if start == "random" else model.states.index(start)
+    world_model = _world(world, model) if world is not None else None
+    settings = PlannerSettings(threshold, heuristic or Heuristic.ENTROPY_MAX_PROB, max_expansions, time_limit)
+
+    out = stdout_console()
+    color = uses_color(out)
+    if show and not json_output:
+        warn_if_too_wide(model.grid, compact, out.width, color)
+        out.print(belief_view(model, start_belief, compact=compact, width=out.width, color=color, title="start belief"))
+
+    def on_step(record: EpisodeRecord, step: StepRecord, current: np.ndarray) -> None:
+        if step.plan is not None:
+            what = "plan" if record.steps == 1 else "replan"
+            out.print(
+                plan_table(
+                    step.plan, f"{record.strategy}, episode {record.episode + 1}: {what} ({step.plan.seconds:.3f} s)"
+                )
+            )
+        seen = "" if step.observation is None else f" → {step.observation} (p = {step.probability:.3g})"
+        out.print(
+            belief_view(
+                model,
+                current,
+                compact=compact,
+                width=out.width,
+                color=color,
+                legend=False,
+                title=f"{record.strategy}, episode {record.episode + 1}, step {record.steps}: "
+                f"{step.action}{seen}   [true state {step.true_state}]",
+            )
+        )
+
+    total = episodes * len(names)
+    with progress_bar(stderr_console()) as progress:
+        task = progress.add_task("episodes", total=total, visible=total > 1 and not show)
+        records = run_experiment(
+            model,
+            names,
+            episodes=episodes,
+            seed=seed,
+            start=start_state,
+            start_belief=start_belief,
+            world=world_model,
+            settings=settings,
+            max_steps=max_steps,
+            on_step=on_step if show and not json_output else None,
+            on_episode=lambda _: progress.advance(task),
+        )
+    summary = summarize(records)
+    if json_output:
+        print_json(
+            {"episodes": [_episode_json(r, timings) for r in records], "summary": _summary_json(summary, timings)}
+        )
+    else:
+        if show or episodes == 1:
+            for r in records:
+                out.print(_episode_line(r))
+        out.print(summary_table(summary, threshold))
+    first = [r for r in records if r.strategy == names[0]]
+    if any(r.status != "localized" for r in first):
+        raise typer.Exit(EXIT_NEGATIVE)
+
+
+def _world(path: Path, model: Model) -> Model:
+    world = open_model(path)
+    if world.states.names != model.states.names:
+        raise UsageError(f"{path}: the world must have the same states as {model.name} (the robot's model)")
+    return world
+
+
+def _episode_line(r: EpisodeRecord) -> str:
+    verdict = "localized" if r.status == "localized" else r.status.replace("_", " ")
+    right = "correctly" if r.correct else "WRONGLY"
+    return escape(
+        f"{r.strategy}, episode {r.episode + 1}: {verdict} {right} at {r.final} (p = {r.max_belief:.3f}; true "
+        f"{r.true_final}, started at {r.start}) after {r.steps} steps, cost {r.cost:g}, {r.replans} replans"
+    )
+
+
+def _episode_json(r: EpisodeRecord, timings: bool) -> dict[str, Any]:
+    data = r.as_json()
+    if not timings:
+        data["plan_seconds"] = None
+    return data
+
+
+def _summary_json(summary: dict[str, dict[str, Any]], timings: bool) -> dict[str, dict[str, Any]]:
+    if timings:
+        return summary
+    return {name: {k: (None if "seconds" in k else v) for k, v in stats.items()} for name, stats in summary.items()}
+
+
+def register(app: typer.Typer) -> None:
+    app.command()(simulate)

@@ -1,0 +1,122 @@
+"""Colledanchise's ``NextNodes`` (Algorithm 1, lines 39-52), vectorised.
+
+For a belief ``b`` and every action ``a`` and observation ``o`` with ``p(o | a, b) > 0``, the
+successor ``b'`` has::
+
+    predicted = T_aᵀ b                     (b itself for a perception action)
+    p_o       = Σ_j predicted_j O_a[j, o]
+    b'_j      = predicted_j O_a[j, o] / p_o
+
+The search needs only ``p_o``, ``H(b')`` and ``max(b')`` to rank a successor, and states with the
+same noise-free readings (the same *signature*) share their row of ``O_a``. So with per-signature
+sums ``A_g = Σ_{j∈g} predicted_j``, ``B_g = Σ_{j∈g} predicted_j ln predicted_j`` and maxima
+``M_g``, and ``C[g, o]`` the likelihood of o in group g::
+
+    p_o      = Σ_g A_g C[g, o]
+    H(b'_o)  = ln p_o - (1 / p_o) Σ_g C[g, o] (B_g + A_g ln C[g, o])
+    max b'_o = max_g M_g C[g, o] / p_o
+
+which costs O(|S|) per action plus O(groups × observations) -- never |Ω| posterior vectors.
+Beliefs are materialised only for nodes the search actually expands (:meth:`successor`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from beliefloc.belief import entropy, predict
+from beliefloc.model import Action, Model
+
+
+@dataclass(frozen=True)
+class SuccessorStats:
+    """What the search needs to know about one successor before it is expanded."""
+
+    action: int
+    """Index into ``model.actions``."""
+    observation: int | None
+    """Joint observation index, or None for an action that observes nothing."""
+    probability: float
+    """``p(o | a, b)`` (1 for an action that observes nothing)."""
+    entropy: float
+    """``H(b')`` in nats."""
+    max_belief: float
+    """``max_j b'_j``."""
+
+
+@dataclass(frozen=True, eq=False)
+class _Groups:
+    """States of one observation model sorted by signature, with the group boundaries."""
+
+    order: np.ndarray
+    starts: np.ndarray
+    likelihood: np.ndarray
+    """``C[g, o]``: likelihood of every observation in each group (groups × observations)."""
+    log_likelihood: np.ndarray
+    """``C ln C`` is written ``C * log_likelihood`` with 0 where C = 0."""
+
+
+def _groups(action: Action, n_states: int) -> _Groups | None:
+    parts = action.observation.parts
+    if not parts:
+        return None
+    key = np.zeros(n_states, dtype=np.int64)
+    for part in parts:
+        key = key * part.confusion.shape[0] + part.truth
+    order = np.argsort(key, kind="stable")
+    sorted_key = key[order]
+    starts = np.flatnonzero(np.r_[True, sorted_key[1:] != sorted_key[:-1]])
+    table = action.observation.likelihood_matrix(order[starts])
+    with np.errstate(divide="ignore"):
+        log_table = np.where(table > 0.0, np.log(np.where(table > 0.0, table, 1.0)), 0.0)
+    return _Groups(order, starts, table, log_table)
+
+
+class SuccessorEvaluator:
+    """Successor statistics and beliefs for one model; precomputes signature groups once."""
+
+    def __init__(self, model: Model) -> None:
+        self.model = model
+        self._groups = [_groups(action, model.n_states) for action in model.actions]
+
+    def evaluate(self, belief: np.ndarray) -> list[SuccessorStats]:
+        """Every successor of ``belief`` with non-zero probability, in action then observation order."""
+        out: list[SuccessorStats] = []
+        for index, action in enumerate(self.model.actions):
+            predicted = predict(action, belief)
+            groups = self._groups[index]
+            if groups is None:
+                out.append(SuccessorStats(index, None, 1.0, entropy(predicted), float(predicted.max())))
+                continue
+            out.extend(self._observe(index, groups, predicted))
+        return out
+
+    def _observe(self, index: int, groups: _Groups, predicted: np.ndarray) -> list[SuccessorStats]:
+        ordered = predicted[groups.order]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xlogx = np.where(ordered > 0.0, ordered * np.log(ordered), 0.0)
+        mass = np.add.reduceat(ordered, groups.starts)
+        mass_log_mass = np.add.reduceat(xlogx, groups.starts)
+        peak = np.maximum.reduceat(ordered, groups.starts)
+        table = groups.likelihood
+        probability = mass @ table
+        inner = table.T @ mass_log_mass + (table * groups.log_likelihood).T @ mass
+        top = (peak[:, None] * table).max(axis=0)
+        out = []
+        for o in np.flatnonzero(probability > 0.0).tolist():
+            p = float(probability[o])
+            entropy = max(0.0, float(np.log(p) - inner[o] / p))
+            out.append(SuccessorStats(index, o, p, entropy, min(1.0, float(top[o] / p))))
+        return out
+
+    def successor(self, belief: np.ndarray, action: int, observation: int | None) -> np.ndarray:
+        """The successor belief itself (a new array)."""
+        act = self.model.actions[action]
+        predicted = predict(act, belief)
+        if observation is None:
+            return predicted
+        weighted: np.ndarray = predicted * act.observation.likelihood(observation)
+        weighted /= weighted.sum()
+        return weighted

@@ -1,0 +1,75 @@
+"""Plans, search statistics and experiment summaries as rich tables."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from rich import box
+from rich.table import Table
+
+from beliefloc.planning.best_first import PlanResult
+
+
+def plan_table(result: PlanResult, title: str) -> Table:
+    table = Table(title=title, title_justify="left")
+    table.add_column("step", justify="right")
+    table.add_column("action")
+    table.add_column("expected observation")
+    table.add_column("p(o|a,b)", justify="right")
+    table.add_column("max belief", justify="right")
+    table.add_column("cost", justify="right")
+    for i, step in enumerate(result.steps, start=1):
+        table.add_row(
+            str(i),
+            step.action,
+            step.observation if step.observation is not None else "-",
+            f"{step.probability:.3f}" if step.observation is not None else "-",
+            f"{step.max_belief:.3f}",
+            f"{step.cost:g}",
+        )
+    return table
+
+
+def search_line(result: PlanResult) -> str:
+    return (
+        f"{result.status.value}: {result.expanded} beliefs expanded, {result.generated} generated, "
+        f"{result.seconds:.3f} s"
+    )
+
+
+def summary_table(summary: dict[str, dict[str, Any]], threshold: float) -> Table:
+    """Per strategy: episodes, localized, correct, mean plan time, replans, cost ± sd, steps, failures."""
+    runs = max((s["episodes"] for s in summary.values()), default=0)
+    table = Table(
+        title=f"{runs} episodes per strategy (localized: max belief >= {threshold:g}; correct: at the true state)",
+        title_justify="left",
+        box=box.SIMPLE_HEAD,
+        pad_edge=False,
+        padding=(0, 1),
+    )
+    for column in ("strategy", "localized", "correct", "plan s", "replans", "cost", "steps", "failures"):
+        table.add_column(
+            column, justify="left" if column in ("strategy", "failures") else "right", no_wrap=column != "failures"
+        )
+    for name, s in summary.items():
+        table.add_row(
+            name,
+            str(s["localized"]),
+            str(s["correct"]),
+            _num(s["mean_plan_seconds"], "{:.4f}"),
+            _num(s["mean_replans"], "{:.2f}"),
+            _pm(s["mean_cost"], s["stdev_cost"], "{:.1f}"),  # mean ± sd
+            _num(s["mean_steps"], "{:.1f}"),
+            ", ".join(f"{k}: {v}" for k, v in s["failures"].items()) or "-",
+        )
+    return table
+
+
+def _num(value: float | None, fmt: str) -> str:
+    return "-" if value is None else fmt.format(value)
+
+
+def _pm(mean: float | None, spread: float | None, fmt: str) -> str:
+    if mean is None:
+        return "-"
+    return fmt.format(mean) + ("" if spread is None else "±" + fmt.format(spread))
