@@ -11,6 +11,14 @@ ROOT = Path(__file__).resolve().parent.parent
 MAPS = ROOT / "maps"
 DATA = Path(__file__).resolve().parent / "data"
 
+TWINS = {
+    "name": "twins",
+    "grid": {"rows": 1, "cols": 2, "headings": 1},
+    "actions": {"up": {"cost": 1}, "down": {"cost": 1}},
+    "sensors": {"look": {"type": "look", "classes": ["door"], "false_positive": 0.1, "false_negative": 0.1}},
+}
+"""Two cells nothing can tell apart: moving up or down bumps, looking sees no door anywhere."""
+
 
 @pytest.fixture
 def runner(monkeypatch: pytest.MonkeyPatch) -> CliRunner:

@@ -1,0 +1,205 @@
+"""Best-first search in belief space (Colledanchise Algorithm 1, Plan)."""
+
+from __future__ import annotations
+
+import json
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import strategies as st
+
+from beliefloc import compile_model, load_map, uniform, update
+from beliefloc.belief import entropy, point
+from beliefloc.cli.app import app
+from beliefloc.errors import EXIT_NEGATIVE
+from beliefloc.model import Model
+from beliefloc.planning.best_first import Heuristic, PlanStatus, SearchMemory, belief_key, plan
+from beliefloc.planning.successors import SuccessorEvaluator
+from beliefloc.semantic_map.schema import SemanticMap
+
+from .conftest import MAPS, TWINS
+
+
+def model_of(data: dict[str, Any]) -> Model:
+    return compile_model(SemanticMap.model_validate(data))
+
+
+def replay(model: Model, belief: np.ndarray, steps: Any) -> np.ndarray:
+    for step in steps:
+        belief, _ = update(model, belief, step.action, step.observation)
+    return belief
+
+
+def test_fig4_perfect_window_world_plan():
+    model = compile_model(load_map(MAPS / "window-2x2-perfect.yaml"))
+    result = plan(model, uniform(4))
+    assert result.status is PlanStatus.FOUND
+    assert [(s.action, s.observation) for s in result.steps] in (
+        [("look", "nothing"), ("right", None)],
+        [("look", "window"), ("right", None)],
+    )
+    assert result.cost == 11
+    assert result.belief is not None and result.belief.max() == 1.0
+
+
+@pytest.mark.parametrize("heuristic", list(Heuristic))
+def test_every_heuristic_finds_a_plan_that_replays_to_the_goal(heuristic: Heuristic):
+    model = compile_model(load_map(MAPS / "kitchen.yaml"))
+    result = plan(model, uniform(model.n_states), heuristic=heuristic)
+    assert result.found
+    final = replay(model, uniform(model.n_states), result.steps)
+    assert final.max() >= 0.95
+    np.testing.assert_allclose(final, result.belief)
+    assert result.steps[-1].max_belief == pytest.approx(final.max())
+
+
+def test_the_paper_plans_start_with_a_perception_action():
+    """Sec. VII-B: from the uniform belief, the kitchen's and the hallway's plans begin by perceiving."""
+    for name in ("kitchen.yaml", "hallway.yaml"):
+        model = compile_model(load_map(MAPS / name))
+        first = plan(model, uniform(model.n_states)).steps[0]
+        assert not model.action(first.action).is_actuation, name
+
+
+def test_heuristic_formulas():
+    assert Heuristic.ENTROPY_MAX_PROB(2.0, 0.5, 0.25) == pytest.approx(16.0)
+    assert Heuristic.ENTROPY_PROB(2.0, 0.5, 0.25) == pytest.approx(8.0)
+    assert Heuristic.ZERO(2.0, 0.5, 0.25) == 0.0
+
+
+def test_two_states_no_action_separates_is_no_plan():
+    result = plan(model_of(TWINS), uniform(2))
+    assert result.status is PlanStatus.NO_PLAN
+    assert result.expanded >= 1 and result.steps == ()
+
+
+def test_budget_gives_up_honestly():
+    model = compile_model(load_map(MAPS / "window-2x2.yaml"))
+    result = plan(model, uniform(4), max_expansions=2)
+    assert result.status is PlanStatus.BUDGET_EXCEEDED
+    assert not result.found and result.steps == ()
+    assert result.expanded == 2
+
+
+def test_already_localized_is_an_empty_plan():
+    model = compile_model(load_map(MAPS / "window-2x2.yaml"))
+    result = plan(model, point(4, 2))
+    assert result.found and result.steps == () and result.cost == 0.0
+
+
+def test_belief_key_tolerance():
+    b = np.array([0.1, 0.2, 0.3, 0.4])
+    assert belief_key(b) == belief_key(b + np.array([1e-13, -1e-13, 0.0, 0.0]))
+    assert belief_key(b) != belief_key(np.array([0.1 + 1e-6, 0.2 - 1e-6, 0.3, 0.4]))
+    assert belief_key(np.array([1.0, 0.0])) != belief_key(np.array([0.0, 1.0]))
+
+
+def test_kept_closed_list_spares_the_successor_computations(monkeypatch: pytest.MonkeyPatch):
+    model = compile_model(load_map(MAPS / "kitchen.yaml"))
+    evaluator = SuccessorEvaluator(model)
+    calls = []
+    original = evaluator.evaluate
+    monkeypatch.setattr(evaluator, "evaluate", lambda b: calls.append(1) or original(b))
+    memory = SearchMemory()
+    first = plan(model, uniform(model.n_states), memory=memory, evaluator=evaluator)
+    n_first = len(calls)
+    again = plan(model, uniform(model.n_states), memory=memory, evaluator=evaluator)
+    assert [s.action for s in again.steps] == [s.action for s in first.steps]
+    assert n_first == first.expanded and len(calls) == n_first  # nothing recomputed
+
+
+def test_successor_statistics_match_the_bayes_update():
+    model = compile_model(load_map(MAPS / "kitchen.yaml"))
+    rng = np.random.default_rng(3)
+    belief = rng.random(model.n_states) * (rng.random(model.n_states) < 0.5)
+    belief /= belief.sum()
+    for stats in SuccessorEvaluator(model).evaluate(belief):
+        posterior, p = update(model, belief, model.actions[stats.action], stats.observation)
+        assert stats.probability == pytest.approx(p, abs=1e-12)
+        assert stats.entropy == pytest.approx(entropy(posterior), abs=1e-9)
+        assert stats.max_belief == pytest.approx(posterior.max(), abs=1e-12)
+
+
+def test_plan_cli_no_plan_and_gave_up_exit_1(runner, tmp_path: Path):
+    twins = tmp_path / "twins.yaml"
+    twins.write_text(yaml.safe_dump(TWINS))
+    result = runner.invoke(app, ["plan", str(twins)])
+    assert result.exit_code == EXIT_NEGATIVE
+    assert "no plan" in result.stderr and "cannot be told apart" in result.stderr
+    result = runner.invoke(app, ["plan", str(MAPS / "window-2x2.yaml"), "--max-expansions", "2"])
+    assert result.exit_code == EXIT_NEGATIVE
+    assert "gave up" in result.stderr
+
+
+def test_plan_cli_json(runner):
+    result = runner.invoke(app, ["plan", str(MAPS / "window-2x2-perfect.yaml"), "--json"])
+    assert result.exit_code == 0
+    data = json.loads(result.stdout)
+    assert data["found"] is True and data["cost"] == 11
+    assert [s["action"] for s in data["steps"]] == ["look", "right"]
+    assert data["steps"][1]["observation"] is None and data["steps"][1]["max_belief"] == 1.0
+    assert set(data) >= {"found", "cost", "steps", "expanded", "seconds"}
+
+
+def test_plan_cli_uniform_rejects_a_heuristic(runner):
+    args = ["plan", str(MAPS / "kitchen.yaml"), "--search", "uniform", "--heuristic", "entropy-prob"]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 2
+    assert "h = 0" in result.stderr
+
+
+# --- property: uniform-cost plans are never costlier; both replay through `track` to the goal ------
+
+
+@st.composite
+def small_maps(draw: st.DrawFn) -> dict[str, Any]:
+    rows, cols = draw(st.integers(1, 3)), draw(st.integers(1, 3))
+    headings = draw(st.sampled_from([1, 4]))
+    cells = [[r, c] for r in range(rows) for c in range(cols)]
+    landmarks = draw(st.lists(st.sampled_from(cells), min_size=1, max_size=3, unique_by=tuple))
+    classes = ["a", "b"]
+    moves = ["up", "down", "left", "right"] if headings == 1 else ["forward", "backward", "rotate_cw"]
+    failure = draw(st.sampled_from([0.0, 0.1]))
+    noise = draw(st.sampled_from([0.0, 0.05]))
+    return {
+        "name": "random",
+        "grid": {"rows": rows, "cols": cols, "headings": headings},
+        "landmarks": [{"class": classes[i % 2], "cell": cell} for i, cell in enumerate(landmarks)],
+        "actions": {m: {"cost": draw(st.sampled_from([1, 10])), "failure": failure} for m in moves},
+        "sensors": {
+            "look": {
+                "type": "look",
+                "classes": classes,
+                "range": 1.0,
+                "false_positive": noise,
+                "false_negative": noise,
+                "cost": 1,
+            }
+        },
+    }
+
+
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(data=small_maps())
+def test_uniform_cost_is_never_costlier_and_both_plans_replay(runner, data: dict[str, Any]):
+    model = model_of(data)
+    start = uniform(model.n_states)
+    best = plan(model, start, max_expansions=3000)
+    cheapest = plan(model, start, heuristic=Heuristic.ZERO, max_expansions=3000)
+    assume(best.found and cheapest.found)
+    assert cheapest.cost <= best.cost + 1e-9
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "map.yaml"
+        path.write_text(yaml.safe_dump(data))
+        for result in (best, cheapest):
+            steps = [s.action if s.observation is None else f"{s.action}={s.observation}" for s in result.steps]
+            if not steps:
+                continue
+            out = runner.invoke(app, ["track", str(path), "--json", *steps])
+            assert out.exit_code == 0, out.output
+            assert max(json.loads(out.stdout)["belief"].values()) >= 0.95
