@@ -1,9 +1,125 @@
-"""The ``prior`` command group (being written)."""
+"""``prior``: the room prior of a target class from a domain's knowledge base (Zhang et al. Sec. III-C1)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
+
 import typer
+from rich.markup import escape
+
+from beliefloc.cli.common import boundary, print_json, warn
+from beliefloc.errors import UsageError
+from beliefloc.render import stdout_console
+
+if TYPE_CHECKING:
+    from beliefloc.knowledge import Observation
+
+DomainArgument = Annotated[
+    Path, typer.Argument(metavar="DOMAIN", help="A domain file (domains/*.yaml).", show_default=False)
+]
+KbOption = Annotated[
+    list[Path] | None,
+    typer.Option(
+        "--kb", help="An extra .lp file, added to kb/axioms.lp and the domain's own (repeatable).", show_default=False
+    ),
+]
+SeenOption = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--seen",
+        help="An observed fact OBJECT=ROOM (OBJECT:CLASS=ROOM for a new object), at the last step (repeatable).",
+        show_default=False,
+    ),
+]
+DefaultsOption = Annotated[
+    bool, typer.Option("--defaults/--no-defaults", help="Use the domain file's defaults (those in .lp files stay).")
+]
+
+
+def parse_seen(specs: list[str] | None) -> list[Observation]:
+    """``OBJECT=ROOM`` or ``OBJECT:CLASS=ROOM`` -> observations."""
+    from beliefloc.knowledge import Observation
+
+    observations = []
+    for spec in specs or []:
+        what, sep, room = spec.partition("=")
+        obj, _, cls = what.partition(":")
+        if not sep or not obj.strip() or not room.strip():
+            raise UsageError(f"--seen {spec!r}: write OBJECT=ROOM or OBJECT:CLASS=ROOM, e.g. --seen book5=kitchen")
+        observations.append(Observation(obj.strip(), room.strip(), cls.strip() or None))
+    return observations
+
+
+@boundary
+def prior(
+    domain_file: DomainArgument,
+    target: Annotated[
+        str | None,
+        typer.Option(
+            "--target", "-t", help="The class searched for (default: the domain's `target`).", show_default=False
+        ),
+    ] = None,
+    kb: KbOption = None,
+    seen: SeenOption = None,
+    defaults: DefaultsOption = True,
+    floor: Annotated[float, typer.Option("--floor", help="Prior of a room with no support (below 1/rooms).")] = 0.01,
+    explain: Annotated[
+        bool, typer.Option("--explain", help="Show every psi term: class, count, LCA, H, the W's.")
+    ] = False,
+    json_output: Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")] = False,
+) -> None:
+    """The prior over rooms for a target class: alpha (Eq. 4) and alpha / alpha_0 (Eq. 5).
+
+    Example: beliefloc prior domains/printer-example.yaml --target printer --explain
+    """
+    from beliefloc.knowledge import KnowledgeBase, load_domain
+    from beliefloc.render.knowledge import prior_table, psi_table
+
+    domain = load_domain(domain_file)
+    chosen = target or domain.target
+    if chosen is None:
+        raise UsageError(f"{domain_file}: no target: give --target CLASS (the domain names none)")
+    if chosen not in domain.classes:
+        raise UsageError(f"--target {chosen!r}: unknown class; expected one of: {', '.join(sorted(domain.classes))}")
+    base = KnowledgeBase(domain, kb or [], use_defaults=defaults)
+    for observation in parse_seen(seen):
+        base.observe(observation)
+    result = base.prior(chosen, floor=floor)
+    for message in base.warnings:
+        warn(f"clingo: {message}")
+    if result.message:
+        warn(result.message)
+    if json_output:
+        print_json(
+            {
+                "rooms": list(result.rooms),
+                "alpha": result.alpha,
+                "prior": result.prior,
+                "target": result.target,
+                "uniform": result.uniform,
+                "floored": list(result.floored),
+                "answer_sets": result.models,
+                "terms": [
+                    {
+                        "room": t.room,
+                        "class": t.primary,
+                        "count": t.count,
+                        "lca": t.lca,
+                        "height": t.height,
+                        "weights": list(t.weights),
+                        "psi": t.psi,
+                    }
+                    for t in result.terms
+                ],
+            }
+        )
+        return
+    console = stdout_console()
+    console.print(prior_table(result, f"where is a {escape(result.target)}? ({escape(domain.name)})"))
+    if explain:
+        console.print(psi_table(result))
 
 
 def register(app: typer.Typer) -> None:
-    """Adds the command to the app."""
+    app.command()(prior)

@@ -1,0 +1,186 @@
+"""The domain file format: pydantic models of ``domains/*.yaml``, loaded with file:line errors.
+
+A domain says what the robot knows about a home or an office (Zhang, Sridharan & Wyatt 2015,
+Sec. III-A): its rooms, the object class hierarchy (a tree), known object instances and the rooms
+they are in, defaults with their exceptions, and the target class. Every field is documented in
+``docs/domain-format.md``. Validation happens here, once; cross-reference checks raise
+:class:`~beliefloc.errors.FieldError` with the path of the culprit so the loader names its line.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Any
+
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, field_validator, model_validator
+
+from beliefloc.errors import DomainError, FieldError
+from beliefloc.source import read_source, validate_source
+
+AspName = Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*$", max_length=64)]
+"""Rooms, classes, objects and defaults become clingo constants: a lowercase letter, then
+lowercase letters, digits and ``_`` (the paper's ``computer-access`` is written ``computer_access``)."""
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+
+
+class Room(_Strict):
+    accessible: bool = True
+    """The basic fluent ``accessible(R)`` at step 1 (``-holds(accessible(R), 1)`` when false)."""
+
+
+class ObjectInstance(_Strict):
+    class_: AspName = Field(alias="class")
+    """The object's primary class (``is(O, C)``): a class of the hierarchy."""
+    room: AspName | None = None
+    """The room it is known to be in at step 1; omitted: unknown (a default may place it)."""
+    on: AspName | None = None
+    """Another object it stands on (``holds(on(O, P), 1)``); it is then in that object's room."""
+
+
+class Default(_Strict):
+    """``class`` objects are typically in ``room``, with the paper's three kinds of exceptions."""
+
+    class_: AspName = Field(alias="class")
+    room: AspName
+    weak_exceptions: list[AspName] = Field(default_factory=list)
+    """Classes whose instances are abnormal: the default says nothing about them."""
+    possible_exceptions: list[AspName] = Field(default_factory=list)
+    """Classes an instance is abnormal for unless it is known not to belong to them (the paper's
+    second weak form, ``ab(d(X)) <- not -cookbook(X), book(X)``)."""
+    strong_exceptions: list[AspName] = Field(default_factory=list)
+    """Classes whose instances are known NOT to be in ``room`` (the paper's strong exception)."""
+
+
+class Domain(_Strict):
+    """A validated domain: every cross-reference checked, the class hierarchy a tree."""
+
+    name: Annotated[str, Field(min_length=1, max_length=128)]
+    description: str = ""
+    rooms: dict[AspName, Room]
+    classes: dict[AspName, AspName | None]
+    """Class -> parent class; the one root has no parent (``object:`` with nothing after it)."""
+    objects: dict[AspName, ObjectInstance] = Field(default_factory=dict)
+    defaults: dict[AspName, Default] = Field(default_factory=dict)
+    target: AspName | None = None
+    """The class searched for when ``--target`` is not given."""
+    steps: int = Field(default=2, ge=1, le=100)
+    """Time steps 1..steps: step 1 is the initial knowledge; observations go to the last step."""
+    kb: list[str] = Field(default_factory=list)
+    """Extra ``.lp`` files of this domain, relative to the domain file."""
+
+    _path: Path | None = PrivateAttr(default=None)
+
+    @field_validator("rooms", mode="before")
+    @classmethod
+    def _rooms(cls, value: Any) -> Any:
+        # ``bedroom:`` with nothing after it is a room with the default settings
+        if isinstance(value, dict):
+            return {k: ({} if v is None else v) for k, v in value.items()}
+        if isinstance(value, list):
+            return {k: {} for k in value}
+        return value
+
+    @model_validator(mode="after")
+    def _check_references(self) -> Domain:
+        if not self.rooms:
+            raise FieldError(("rooms",), "a domain needs at least one room")
+        if not self.classes:
+            raise FieldError(("classes",), "a domain needs a class hierarchy (class: parent)")
+        clash = sorted(set(self.rooms) & set(self.classes))
+        if clash:
+            raise FieldError(("classes", clash[0]), f"{clash[0]!r} is both a room and a class")
+        for child, parent in self.classes.items():
+            if parent is not None and parent not in self.classes:
+                raise FieldError(("classes", child), f"unknown parent class {parent!r}{_hint(parent, self.classes)}")
+        self._raise_cycle()
+        roots = [c for c, p in self.classes.items() if p is None]
+        if len(roots) > 1:  # none at all is impossible without a cycle
+            raise FieldError(
+                ("classes", roots[1]), f"several root classes ({', '.join(roots)}); the hierarchy must be one tree"
+            )
+        names = set(self.rooms) | set(self.classes)
+        for name, obj in self.objects.items():
+            if name in names:
+                raise FieldError(("objects", name), f"{name!r} is already a room or a class")
+            if obj.class_ not in self.classes:
+                raise FieldError(
+                    ("objects", name, "class"), f"unknown class {obj.class_!r}{_hint(obj.class_, self.classes)}"
+                )
+            if obj.room is not None and obj.room not in self.rooms:
+                raise FieldError(("objects", name, "room"), f"unknown room {obj.room!r}{_hint(obj.room, self.rooms)}")
+            if obj.on is not None:
+                if obj.on not in self.objects:
+                    raise FieldError(("objects", name, "on"), f"unknown object {obj.on!r}")
+                if obj.on == name:
+                    raise FieldError(("objects", name, "on"), "an object cannot be on itself")
+        for name, default in self.defaults.items():
+            if default.class_ not in self.classes:
+                raise FieldError(
+                    ("defaults", name, "class"),
+                    f"unknown class {default.class_!r}{_hint(default.class_, self.classes)}",
+                )
+            if default.room not in self.rooms:
+                raise FieldError(
+                    ("defaults", name, "room"), f"unknown room {default.room!r}{_hint(default.room, self.rooms)}"
+                )
+            for key in ("weak_exceptions", "possible_exceptions", "strong_exceptions"):
+                for index, cls in enumerate(getattr(default, key)):
+                    if cls not in self.classes:
+                        raise FieldError(
+                            ("defaults", name, key, index), f"unknown class {cls!r}{_hint(cls, self.classes)}"
+                        )
+        if self.target is not None and self.target not in self.classes:
+            raise FieldError(("target",), f"unknown target class {self.target!r}{_hint(self.target, self.classes)}")
+        return self
+
+    def _raise_cycle(self) -> None:
+        for start in self.classes:
+            seen = [start]
+            current = self.classes[start]
+            while current is not None:
+                if current in seen:
+                    cycle = [*seen[seen.index(current) :], current]
+                    raise FieldError(("classes", start), f"cycle in the class hierarchy: {' -> '.join(cycle)}")
+                seen.append(current)
+                current = self.classes.get(current)
+
+    @property
+    def path(self) -> Path | None:
+        """The file the domain was read from (None when built in code)."""
+        return self._path
+
+    def kb_files(self) -> list[Path]:
+        """The domain's own ``.lp`` files, resolved relative to the domain file."""
+        base = self._path.parent if self._path is not None else Path.cwd()
+        return [base / name for name in self.kb]
+
+
+def _hint(name: str, known: Any) -> str:
+    options = sorted(known)
+    shown = ", ".join(options[:12]) + (", ..." if len(options) > 12 else "")
+    return f"; expected one of: {shown}"
+
+
+def load_domain(path: str | Path) -> Domain:
+    """Read and validate a domain file; raises :class:`DomainError` naming file, line and field."""
+    source = read_source(path, DomainError)
+    if not isinstance(source.data, dict):
+        raise DomainError(f"{source.path}:1:1: a domain file is a YAML mapping (name:, rooms:, classes:, ...)")
+    domain = validate_source(source, Domain, DomainError)
+    domain._path = Path(path)
+    return domain
+
+
+def domain_from_data(data: dict[str, Any], path: Path | None = None) -> Domain:
+    """A domain from plain data (tests, generated domains); errors without line numbers."""
+    try:
+        domain = Domain.model_validate(data)
+    except FieldError as exc:
+        raise DomainError(f"{'.'.join(str(p) for p in exc.path)}: {exc.message}") from None
+    except ValueError as exc:
+        raise DomainError(str(exc)) from None
+    domain._path = path
+    return domain

@@ -1,0 +1,346 @@
+"""Grounding and solving a domain's knowledge base with clingo -- the only module that imports clingo.
+
+The program is ``kb/axioms.lp`` + the domain's own ``.lp`` files + any extra files, and the domain's
+facts. Facts reach clingo as symbols: each kind of fact is a parametrised program part
+(``#program is_fact(o, c). is(o, c).``) grounded with :func:`clingo.Function` arguments -- nothing
+from a domain file is ever pasted into program text.
+
+Revision (multi-shot solving): every (object, room, step) has an external atom ``observed(O, R, I)``
+with ``holds(in(O, R), I) :- observed(O, R, I).``; observing an object that the domain knows sets
+its external true and solves again, without grounding again. An object the domain does not know
+needs new ground rules, so the program is grounded afresh with it. ``benchmarks/bench_prior.py``
+measures both.
+"""
+
+from __future__ import annotations
+
+import re
+import time
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import clingo
+
+from beliefloc.errors import KnowledgeBaseError
+from beliefloc.knowledge.answer import AnswerSet, Literal, Timings
+from beliefloc.knowledge.domain import Domain
+from beliefloc.knowledge.prior import DEFAULT_FLOOR, RoomPrior, room_prior
+
+KB_DIR = Path(__file__).resolve().parent.parent.parent / "kb"
+"""The repository's ``kb/`` folder (the package is installed editable from the repository)."""
+AXIOMS = KB_DIR / "axioms.lp"
+
+_PARTS = """
+#program room_fact(r). room(r).
+#program class_fact(c). class(c).
+#program subclass_fact(c, p). subclass(c, p).
+#program is_fact(o, c). object(o). is(o, c).
+#program in_fact(o, r). holds(in(o, r), 1).
+#program on_fact(o, p). holds(on(o, p), 1).
+#program accessible_fact(r). holds(accessible(r), 1).
+#program inaccessible_fact(r). -holds(accessible(r), 1).
+#program step_fact(i). step(i).
+#program default_fact(d, c, r). default(d, c, r).
+#program weak_fact(d, c). weak_exception(d, c).
+#program possible_fact(d, c). possible_exception(d, c).
+#program strong_fact(d, c). strong_exception(d, c).
+#program base.
+% observations made by the robot, switched on through the API (multi-shot revision)
+#external observed(O, R, I) : object(O), room(R), step(I).
+holds(in(O, R), I) :- observed(O, R, I).
+"""
+_PARTS_NAME = "<beliefloc facts>"
+_LOCATION = re.compile(r"^(?P<file>.+?):(?P<line>\d+):(?P<col>\d+)(?:-\d+(?::\d+)?)?: (?P<text>.*)$", re.DOTALL)
+
+
+@dataclass(frozen=True)
+class Observation:
+    """An object seen in a room at a step (default: the last step); ``cls`` for a new object."""
+
+    obj: str
+    room: str
+    cls: str | None = None
+    step: int | None = None
+
+    def describe(self, step: int) -> str:
+        return f"holds(in({self.obj},{self.room}),{self.step or step})"
+
+
+def _fn(name: str, *args: clingo.Symbol) -> clingo.Symbol:
+    return clingo.Function(name, list(args))
+
+
+def _const(name: str) -> clingo.Symbol:
+    return clingo.Function(name)
+
+
+class KnowledgeBase:
+    """A domain's knowledge base, grounded once and solved again after each observation.
+
+    ``warnings`` holds clingo's warnings (each once); ``last_changed`` the facts added last.
+    """
+
+    def __init__(
+        self,
+        domain: Domain,
+        kb_files: Sequence[Path] = (),
+        observations: Iterable[Observation] = (),
+        *,
+        use_defaults: bool = True,
+    ) -> None:
+        self.domain = domain
+        self.use_defaults = use_defaults
+        """False: leave out the domain file's ``defaults:`` (defaults written in .lp files stay)."""
+        files = [AXIOMS, *domain.kb_files(), *kb_files]
+        seen: set[Path] = set()
+        self.files: list[Path] = []
+        for path in files:
+            key = path.resolve()
+            if key not in seen:
+                seen.add(key)
+                self.files.append(path)
+        self.warnings: list[str] = []
+        self._errors: list[str] = []
+        self.last_changed: list[str] = []
+        self.timings = Timings()
+        self._new_objects: dict[str, str] = {}
+        self._observations: list[Observation] = []
+        self._answer: AnswerSet | None = None
+        self._control = self._ground()
+        for observation in observations:
+            self.observe(observation)
+
+    # -- grounding ----------------------------------------------------------------------------
+    def _log(self, code: clingo.MessageCode, message: str) -> None:
+        text = message.strip()
+        if code == clingo.MessageCode.RuntimeError:
+            self._errors.append(text)
+        elif text not in self.warnings:
+            self.warnings.append(text)
+
+    def _ground(self) -> clingo.Control:
+        self._errors = []
+        ctl = clingo.Control(["--models=0", "--enum-mode=cautious"], logger=self._log, message_limit=100)
+        for path in self.files:
+            if not path.is_file():
+                raise KnowledgeBaseError(f"{path}: no such knowledge-base file")
+            try:
+                ctl.load(str(path))
+            except RuntimeError:
+                raise KnowledgeBaseError(self._error_text(f"{path}: cannot be parsed")) from None
+        try:
+            ctl.add("base", [], _PARTS)
+        except RuntimeError:  # pragma: no cover - the fixed program text is tested
+            raise KnowledgeBaseError(self._error_text("internal program")) from None
+        start = time.perf_counter()
+        try:
+            ctl.ground(self._fact_parts())
+        except RuntimeError:
+            raise KnowledgeBaseError(self._error_text("grounding failed")) from None
+        self.timings = Timings(ground=time.perf_counter() - start)
+        return ctl
+
+    def _error_text(self, fallback: str) -> str:
+        """clingo's first error as ``file:line:col: message``."""
+        for text in self._errors:
+            match = _LOCATION.match(text)
+            if match:
+                body = match["text"].removeprefix("error: ").strip()
+                return f"{match['file']}:{match['line']}:{match['col']}: {body}"
+        return self._errors[0] if self._errors else fallback
+
+    def _fact_parts(self) -> list[tuple[str, Sequence[clingo.Symbol]]]:
+        d = self.domain
+        parts: list[tuple[str, Sequence[clingo.Symbol]]] = [("base", [])]
+        parts += [("step_fact", [clingo.Number(i)]) for i in range(1, d.steps + 1)]
+        for name, room in d.rooms.items():
+            parts.append(("room_fact", [_const(name)]))
+            parts.append(("accessible_fact" if room.accessible else "inaccessible_fact", [_const(name)]))
+        for cls, parent in d.classes.items():
+            parts.append(("class_fact", [_const(cls)]))
+            if parent is not None:
+                parts.append(("subclass_fact", [_const(cls), _const(parent)]))
+        objects = {**{o: spec.class_ for o, spec in d.objects.items()}, **self._new_objects}
+        for obj, cls in objects.items():
+            parts.append(("is_fact", [_const(obj), _const(cls)]))
+        for obj, spec in d.objects.items():
+            if spec.room is not None:
+                parts.append(("in_fact", [_const(obj), _const(spec.room)]))
+            if spec.on is not None:
+                parts.append(("on_fact", [_const(obj), _const(spec.on)]))
+        for name, default in (d.defaults if self.use_defaults else {}).items():
+            parts.append(("default_fact", [_const(name), _const(default.class_), _const(default.room)]))
+            for kind, classes in (
+                ("weak_fact", default.weak_exceptions),
+                ("possible_fact", default.possible_exceptions),
+                ("strong_fact", default.strong_exceptions),
+            ):
+                parts += [(kind, [_const(name), _const(cls)]) for cls in classes]
+        return parts
+
+    # -- solving ------------------------------------------------------------------------------
+    def answer(self) -> AnswerSet:
+        """The answer set (or the cautious consequences of several); raises when there is none."""
+        if self._answer is None:
+            self._answer = self._solve()
+        return self._answer
+
+    def _solve(self) -> AnswerSet:
+        start = time.perf_counter()
+        models = 0
+        symbols: Sequence[clingo.Symbol] = ()
+        with self._control.solve(yield_=True) as handle:
+            for model in handle:  # cautious mode: each model is a smaller intersection; keep the last
+                models += 1
+                symbols = model.symbols(shown=True)
+        solve_seconds = time.perf_counter() - start
+        texts = [str(symbol) for symbol in symbols]
+        self.timings = Timings(self.timings.ground, solve_seconds)
+        if models == 0:
+            what = "; ".join(self.last_changed) if self.last_changed else "the domain's facts and the axioms"
+            raise KnowledgeBaseError(
+                f"the knowledge base is inconsistent (it has no answer set); the facts that last changed it: {what}"
+            )
+        return _to_answer(texts, list(self.domain.rooms), self.domain.steps, models, self.timings)
+
+    # -- revision -----------------------------------------------------------------------------
+    def observe(self, observation: Observation) -> bool:
+        """Add an observed fact and re-solve; returns whether it was new.
+
+        The same observation twice changes nothing. An observation that makes the knowledge base
+        inconsistent is taken back and raises :class:`KnowledgeBaseError` naming it.
+        """
+        step = observation.step or self.domain.steps
+        if not 1 <= step <= self.domain.steps:
+            raise KnowledgeBaseError(f"step {step} is outside the domain's steps 1..{self.domain.steps}")
+        if observation.room not in self.domain.rooms:
+            raise KnowledgeBaseError(
+                f"unknown room {observation.room!r}; expected one of: {', '.join(self.domain.rooms)}"
+            )
+        key = Observation(observation.obj, observation.room, None, step)
+        if key in self._observations:
+            return False
+        known = self._control.symbolic_atoms[self._observed(key)] is not None  # also objects from .lp files
+        if not known:
+            if observation.cls is None:
+                raise KnowledgeBaseError(f"unknown object {observation.obj!r}: give its class to add it")
+            if observation.cls not in self.domain.classes:
+                raise KnowledgeBaseError(f"unknown class {observation.cls!r} for the new object {observation.obj!r}")
+        previous = (self._control, dict(self._new_objects), self.timings)
+        self._observations.append(key)
+        self.last_changed = [key.describe(step)]
+        if not known:
+            assert observation.cls is not None
+            self._new_objects[observation.obj] = observation.cls
+            self._control = self._ground()
+            for earlier in self._observations:
+                self._switch(earlier, True)
+        else:
+            self._switch(key, True)
+        try:
+            self._answer = self._solve()
+        except KnowledgeBaseError:
+            self._observations.pop()
+            self._control, self._new_objects, self.timings = previous
+            self._switch(key, False)
+            self._answer = None
+            raise
+        return True
+
+    @staticmethod
+    def _observed(observation: Observation) -> clingo.Symbol:
+        step = clingo.Number(observation.step or 1)
+        return _fn("observed", _const(observation.obj), _const(observation.room), step)
+
+    def _switch(self, observation: Observation, value: bool) -> None:
+        self._control.assign_external(self._observed(observation), value)
+
+    @property
+    def observations(self) -> tuple[Observation, ...]:
+        return tuple(self._observations)
+
+    def prior(self, target: str, *, floor: float = DEFAULT_FLOOR) -> RoomPrior:
+        """Eq. 2-5 from the current answer set, for ``target`` (a class)."""
+        return prior_from_answer(self.answer(), target, floor=floor)
+
+
+def prior_from_answer(answer: AnswerSet, target: str, *, floor: float = DEFAULT_FLOOR) -> RoomPrior:
+    """The room prior for ``target`` from the objects located at the answer set's last step."""
+    if target not in answer.classes:
+        shown = ", ".join(sorted(answer.classes))
+        raise KnowledgeBaseError(f"unknown target class {target!r}; expected one of: {shown}")
+    try:
+        return room_prior(answer.rooms, answer.parents, answer.counts(), target, floor=floor, models=answer.models)
+    except ValueError as exc:
+        raise KnowledgeBaseError(str(exc)) from None
+
+
+def domain_prior(
+    domain: Domain,
+    target: str,
+    *,
+    observations: Iterable[Observation] = (),
+    kb_files: Sequence[Path] = (),
+    floor: float = DEFAULT_FLOOR,
+    use_defaults: bool = True,
+) -> RoomPrior:
+    """The prior over rooms for ``target``: a validated domain (+ observed facts) -> Eq. 5."""
+    kb = KnowledgeBase(domain, kb_files, observations, use_defaults=use_defaults)
+    return kb.prior(target, floor=floor)
+
+
+_HOLDS = re.compile(r"^(-?)holds\(([a-z_][A-Za-z0-9_']*)(?:\((.*)\))?,(-?\d+)\)$")
+_ATOM = re.compile(r"^([a-z_][A-Za-z0-9_']*)\((.*)\)$")
+
+
+def _to_answer(
+    symbols: Sequence[str], room_order: list[str], last_step: int, models: int, timings: Timings
+) -> AnswerSet:
+    """The shown atoms, parsed from their text: one call into clingo per atom instead of one per part
+    (the 1,200 atoms of domains/home.yaml took 14 ms through Symbol.name/arguments, 3 ms so)."""
+    literals: list[Literal] = []
+    abnormal: list[str] = []
+    rooms: list[str] = []
+    classes: list[str] = []
+    parents: dict[str, str] = {}
+    members: list[tuple[str, str]] = []
+    for text in symbols:
+        holds = _HOLDS.match(text)
+        if holds is not None:
+            sign, fluent, args, step = holds.groups()
+            literals.append(Literal(int(step), fluent, tuple(args.split(",")) if args else (), not sign))
+            continue
+        atom = _ATOM.match(text)
+        if atom is None:
+            continue
+        name, inner = atom.groups()
+        if name == "ab":
+            abnormal.append(text)
+            continue
+        args = inner.split(",")
+        if name == "room" and len(args) == 1:
+            rooms.append(args[0])
+        elif name == "class" and len(args) == 1:
+            classes.append(args[0])
+        elif name == "subclass" and len(args) == 2:
+            child, parent = args
+            if child in parents and parents[child] != parent:
+                raise KnowledgeBaseError(
+                    f"class {child!r} has two parents ({parents[child]}, {parent}); the class hierarchy must be a tree"
+                )
+            parents[child] = parent
+        elif name == "is" and len(args) == 2:
+            members.append((args[0], args[1]))
+    order = {room: index for index, room in enumerate(room_order)}
+    return AnswerSet(
+        literals=tuple(sorted(literals)),
+        abnormal=tuple(sorted(abnormal)),
+        rooms=tuple(sorted(rooms, key=lambda r: (order.get(r, len(order)), r))),
+        classes=tuple(sorted(classes)),
+        parents=parents,
+        members=tuple(sorted(members)),
+        last_step=last_step,
+        models=models,
+        timings=timings,
+    )

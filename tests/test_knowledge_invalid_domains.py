@@ -1,0 +1,70 @@
+"""Broken domain files and the message each must give (tests/data/invalid_domains/).
+
+Each case is checked through the library (``load_domain`` raises :class:`DomainError`) and the CLI
+(``beliefloc kb check FILE`` exits 2 with ``FILE:LINE:COL: field: message`` and no traceback).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+import pytest
+from typer.testing import CliRunner
+
+from beliefloc.cli.app import app
+from beliefloc.errors import EXIT_BAD_INPUT, DomainError
+from beliefloc.knowledge import load_domain
+
+from .conftest import DATA
+
+INVALID = DATA / "invalid_domains"
+
+
+@dataclass(frozen=True)
+class Case:
+    file: str
+    line: int
+    column: int
+    message: str
+
+    def __str__(self) -> str:
+        return self.file.removesuffix(".yaml")
+
+
+CASES = [
+    Case("unknown_target.yaml", 6, 9, r"target: unknown target class 'printer'; expected one of: book, object"),
+    Case("class_cycle.yaml", 5, 6, r"classes\.a: cycle in the class hierarchy: a -> b -> c -> a"),
+    Case("object_unknown_room.yaml", 8, 30, r"objects\.book2\.room: unknown room 'garage'; expected one of: kitchen"),
+    Case("object_unknown_class.yaml", 7, 17, r"objects\.cup1\.class: unknown class 'cup'"),
+    Case("unknown_key.yaml", 6, 1, r"object: unknown key 'object'; expected one of: classes, defaults"),
+    Case("unknown_parent.yaml", 5, 9, r"classes\.book: unknown parent class 'objet'"),
+    Case("two_roots.yaml", 6, 9, r"classes\.thing: several root classes \(object, thing\)"),
+    Case("bad_name.yaml", 2, 8, r"rooms: .*should match pattern"),
+    Case("default_unknown_room.yaml", 9, 11, r"defaults\.books_in_study\.room: unknown room 'libary'"),
+    Case("exception_unknown_class.yaml", 10, 29, r"weak_exceptions\[1\]: unknown class 'cokbook'"),
+    Case("room_and_class.yaml", 5, 10, r"classes\.study: 'study' is both a room and a class"),
+    Case("not_a_mapping.yaml", 1, 1, r"a domain file is a YAML mapping"),
+    Case("steps_zero.yaml", 5, 8, r"steps: should be greater than or equal to 1, got 0"),
+]
+
+
+def test_every_file_has_a_case() -> None:
+    assert sorted(c.file for c in CASES) == sorted(p.name for p in INVALID.glob("*.yaml"))
+
+
+@pytest.mark.parametrize("case", CASES, ids=str)
+def test_library_message(case: Case) -> None:
+    path = INVALID / case.file
+    with pytest.raises(DomainError) as info:
+        load_domain(path)
+    prefix = f"{path}:{case.line}:{case.column}: "
+    assert str(info.value).startswith(prefix), str(info.value)
+    assert re.search(case.message, str(info.value)[len(prefix) :]), str(info.value)
+
+
+@pytest.mark.parametrize("case", CASES[:4], ids=str)
+def test_cli_exit_2(case: Case, runner: CliRunner) -> None:
+    out = runner.invoke(app, ["kb", "check", str(INVALID / case.file)])
+    assert out.exit_code == EXIT_BAD_INPUT
+    assert f":{case.line}:{case.column}: " in out.stderr and "Traceback" not in out.output
