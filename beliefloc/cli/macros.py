@@ -1,9 +1,188 @@
-"""The ``macros`` command group (being written)."""
+"""``macros``: Khalvati & Mackworth's macro actions (Algorithm 2) and the localizability test."""
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import Annotated, Any
+
+import numpy as np
 import typer
+from rich.markup import escape
+
+from beliefloc.cli.common import boundary, open_model, print_json
+from beliefloc.cli.select import GammaOption
+from beliefloc.errors import EXIT_NEGATIVE, UsageError
+from beliefloc.model import Model
+from beliefloc.planning.ec2 import pair_context
+from beliefloc.planning.macros import MacroTable, build_macros, expected_path
+from beliefloc.render import stderr_console, stdout_console
+from beliefloc.render.ec2 import classes_table, longest_macros_table, macro_path_table, macro_summary_table
+from beliefloc.render.progress import progress_bar
+
+macros_app = typer.Typer(
+    name="macros",
+    help="Macro actions over pairs of states that no sensor tells apart, and the localizability test.",
+    no_args_is_help=True,
+    rich_markup_mode=None,
+)
+
+
+@macros_app.command("build")
+@boundary
+def build(
+    source: Annotated[
+        Path, typer.Argument(metavar="MAP|MODEL", help="A map, model or .pomdp file.", show_default=False)
+    ],
+    output: Annotated[Path, typer.Option("--output", "-o", help="Where to write the macro table (.npz).")],
+    gamma: GammaOption = None,
+    json_output: Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")] = False,
+) -> None:
+    """Find, for every pair of states that look alike, the cheapest actions that tell them apart.
+
+    Reports the pairs, the macros and their lengths, and the localizability verdict: the classes of
+    states that no sequence of actions ever tells apart (in the noise-free model). The table is
+    written either way; exit code 1 when the map is not fully localizable.
+
+    Example: beliefloc macros build maps/corridors.yaml -o corridors-macros.npz
+    """
+    from beliefloc.macro_file import save_macros
+
+    model = open_model(source)
+    with progress_bar(stderr_console()) as progress:
+        task = progress.add_task("pairs settled", total=None)
+
+        def advance(done: int, total: int) -> None:
+            progress.update(task, completed=done, total=total)
+
+        table = build_macros(model, gamma, progress=advance)
+    save_macros(table, output, model=model)
+    summary = table.summary()
+    classes = [[model.states.name(s) for s in c] for c in table.never_classes()]
+    if json_output:
+        print_json({**summary, "never_distinguishable_classes": classes, "output": str(output)})
+    else:
+        out = stdout_console()
+        out.print(macro_summary_table(summary, f"macros of {model.name} -> {output}"))
+        if classes:
+            out.print(classes_table(classes))
+        else:
+            out.print("localizable: every pair of states can be told apart by some sequence of actions")
+    if classes:
+        stderr_console().print(
+            f"[bold]not localizable:[/] from the {sum(map(len, classes))} states of these {len(classes)} classes "
+            f"the robot can never tell where it is ({summary['never_distinguishable_pairs']} pairs of "
+            f"{escape(model.name)} no sequence of actions distinguishes)"
+        )
+        raise typer.Exit(EXIT_NEGATIVE)
+
+
+@macros_app.command("show")
+@boundary
+def show(
+    macros: Annotated[Path, typer.Argument(metavar="MACROS", help="A table from 'macros build'.", show_default=False)],
+    pair: Annotated[
+        tuple[str, str] | None,
+        typer.Option("--pair", metavar="A B", help="Show the macro of this pair of states.", show_default=False),
+    ] = None,
+    model_path: Annotated[
+        Path | None,
+        typer.Option(
+            "--model", help="The map or model it was built from (default: the one it names).", show_default=False
+        ),
+    ] = None,
+    json_output: Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")] = False,
+) -> None:
+    """Summarise a macro table, or print one pair's macro with the expected path of both states.
+
+    Example: beliefloc macros show corridors-macros.npz --pair 1,2,1 1,12,1
+    """
+    from beliefloc.macro_file import load_macros, read_header
+
+    header, _ = read_header(macros)
+    if model_path is None:
+        if not header.get("source"):
+            raise UsageError(f"{macros}: the table does not name its map; give it with --model MAP|MODEL")
+        model_path = Path(header["source"])
+    model = open_model(model_path)
+    table = load_macros(macros, model)
+    out = stdout_console()
+    if pair is None:
+        summary = table.summary()
+        longest = _longest(model, table)
+        if json_output:
+            print_json({**summary, "longest": longest})
+            return
+        out.print(macro_summary_table(summary, f"macros of {model.name} ({macros})"))
+        if longest:
+            out.print(longest_macros_table(longest))
+        return
+    i, j = (model.states.index(name) for name in pair)
+    data = _pair(model, table, i, j)
+    if json_output:
+        print_json(data)
+    else:
+        out.print(escape(data["verdict"]))
+        if data["steps"]:
+            title = f"macro of ({pair[0]}, {pair[1]}): {' '.join(data['actions'])}, cost {data['cost']:g}"
+            out.print(macro_path_table(title, data["steps"]))
+    if data["cost"] is None:
+        raise typer.Exit(EXIT_NEGATIVE)
+
+
+def _longest(model: Model, table: MacroTable, count: int = 10) -> list[dict[str, Any]]:
+    ok = np.flatnonzero(np.isfinite(table.cost))
+    order = ok[np.lexsort((ok, -table.length[ok]))][:count]
+    return [
+        {
+            "s_i": model.states.name(int(table.pair_i[p])),
+            "s_j": model.states.name(int(table.pair_j[p])),
+            "cost": float(table.cost[p]),
+            "actions": [table.action_names[a] for a in table.pair_sequence(int(p))],
+        }
+        for p in order.tolist()
+    ]
+
+
+def _pair(model: Model, table: MacroTable, i: int, j: int) -> dict[str, Any]:
+    names = model.states
+    base: dict[str, Any] = {"s_i": names.name(i), "s_j": names.name(j), "actions": [], "cost": 0.0, "steps": []}
+    if i == j:
+        raise UsageError("--pair names the same state twice")
+    p = int(table.find(i, j))
+    if p < 0:
+        return {
+            **base,
+            "verdict": f"{names.name(i)} and {names.name(j)} are distinguishable where they stand: no macro is needed",
+        }
+    if not np.isfinite(table.cost[p]):
+        return {**base, "cost": None, "verdict": f"{names.name(i)} and {names.name(j)} can never be told apart"}
+    ctx = pair_context(model, table.gamma)
+    actions = table.pair_sequence(p)
+    path_i, path_j = expected_path(ctx, i, actions), expected_path(ctx, j, actions)
+    steps = []
+    for k, (a, b) in enumerate(zip(path_i, path_j, strict=True)):
+        act = model.actions[actions[k - 1]] if k else None
+        read_i = act.observation.name(act.observation.true_observation(a)) if act else "-"
+        read_j = act.observation.name(act.observation.true_observation(b)) if act else "-"
+        steps.append(
+            {
+                "action": act.name if act else "(start)",
+                "at_i": names.name(a),
+                "reads_i": read_i,
+                "at_j": names.name(b),
+                "reads_j": read_j,
+            }
+        )
+    return {
+        **base,
+        "actions": [model.actions[a].name for a in actions],
+        "cost": float(table.cost[p]),
+        "steps": steps,
+        "verdict": f"{names.name(i)} and {names.name(j)} look alike; {len(actions)} "
+        + ("action tells" if len(actions) == 1 else "actions tell")
+        + " them apart",
+    }
 
 
 def register(app: typer.Typer) -> None:
-    """Adds the command to the app."""
+    app.add_typer(macros_app, name="macros")

@@ -43,8 +43,25 @@ def simulate(
     max_expansions: MaxExpansions = DEFAULT_MAX_EXPANSIONS,
     time_limit: TimeLimit = DEFAULT_TIME_LIMIT,
     max_steps: Annotated[
-        int, typer.Option("--max-steps", min=1, help="Stop an episode after this many actions.")
+        int,
+        typer.Option(
+            "--max-steps", "--max-actions", min=1, help="Stop an episode after this many actions (the paper: 500)."
+        ),
     ] = DEFAULT_MAX_STEPS,
+    macros: Annotated[
+        Path | None,
+        typer.Option(
+            "--macros",
+            help="ec2-macros: a table from 'beliefloc macros build' (default: built for the model in memory).",
+            show_default=False,
+        ),
+    ] = None,
+    gamma: Annotated[
+        float | None,
+        typer.Option(
+            "--gamma", min=0.0, max=1.0, help="ec2: distinguishability threshold (Eq. 5).", show_default=False
+        ),
+    ] = None,
     world: Annotated[
         Path | None,
         typer.Option("--world", help="Simulate the robot in this model instead (same states).", show_default=False),
@@ -62,6 +79,7 @@ def simulate(
 
     Example: beliefloc simulate maps/kitchen.yaml --show
     Example: beliefloc simulate maps/kitchen.yaml -n 50 -s bestfirst -s uniform -s random
+    Example: beliefloc simulate maps/corridors.yaml -n 20 -s ec2-macros -s ec2 --max-actions 500
     """
     model = open_model(map_file)
     names = strategy or ["bestfirst"]
@@ -71,7 +89,14 @@ def simulate(
     start_belief = initial_belief(model, belief)
     start_state = None if start == "random" else model.states.index(start)
     world_model = _world(world, model) if world is not None else None
-    settings = PlannerSettings(threshold, heuristic or Heuristic.ENTROPY_MAX_PROB, max_expansions, time_limit)
+    table = None
+    if macros is not None:
+        from beliefloc.macro_file import load_macros
+
+        table = load_macros(macros, model)
+    settings = PlannerSettings(
+        threshold, heuristic or Heuristic.ENTROPY_MAX_PROB, max_expansions, time_limit, gamma=gamma, macros=table
+    )
 
     out = stdout_console()
     color = uses_color(out)

@@ -138,7 +138,7 @@ def _sensor_parts(
     if isinstance(sensor, LookSensor):
         return _look_parts(name, sensor, layout, annotated)
     if isinstance(sensor, ScanSensor):
-        return (_scan_part(name, sensor, layout, annotated),)
+        return _scan_parts(name, sensor, layout, annotated)
     return (_here_part(name, sensor, smap, layout, annotated),)
 
 
@@ -210,24 +210,43 @@ def _angle_to_value(best: np.ndarray, bins: np.ndarray | None) -> np.ndarray:
     return truth
 
 
-def _scan_part(
+def _scan_parts(
     name: str,
     sensor: ScanSensor,
     layout: GridLayout,
     annotated: list[tuple[np.ndarray, dict[str, object]]],
-) -> ObservationPart:
+) -> tuple[ObservationPart, ...]:
+    """One independent part per beam. A single beam straight ahead (the default) is the part
+    ``name`` with readings ``wall_0-0.2``, ...; with several beams each is ``name@angle`` and its
+    readings are suffixed ``@angle`` (``wall_0-0.2@-90``), so joint names stay unambiguous."""
     names = sensor.observation_names()
     bins = np.array(sensor.bins)
     distance = geometry.wall_distances(layout, sensor.bins[-1])
-    truth = np.searchsorted(bins, distance - 1e-9, side="left").astype(np.int32)
-    for states, readings in annotated:
-        if name in readings:
-            reading = readings[name]
-            if isinstance(reading, str):
-                truth[states] = names.index(reading)
-            else:
-                truth[states] = int(np.searchsorted(bins, np.float64(float(reading)) - 1e-9))  # type: ignore[arg-type]
-    return ObservationPart(name, tuple(names), truth, _noise(len(names), sensor.error))
+    parts = []
+    for k, angle in enumerate(sensor.beams):
+        offset = round(angle / (360.0 / layout.headings))
+        beam = geometry.beam_distances(layout, distance, offset)
+        truth = np.searchsorted(bins, beam - 1e-9, side="left").astype(np.int32)
+        for states, readings in annotated:
+            if name in readings:
+                reading = readings[name]
+                if sensor.multi_beam:
+                    assert isinstance(reading, list)
+                    reading = reading[k]
+                if isinstance(reading, str):
+                    truth[states] = names.index(reading)
+                else:
+                    truth[states] = int(np.searchsorted(bins, np.float64(float(reading)) - 1e-9))  # type: ignore[arg-type]
+        if sensor.multi_beam:
+            label = f"{angle:g}"
+            parts.append(
+                ObservationPart(
+                    f"{name}@{label}", tuple(f"{v}@{label}" for v in names), truth, _noise(len(names), sensor.error)
+                )
+            )
+        else:
+            parts.append(ObservationPart(name, tuple(names), truth, _noise(len(names), sensor.error)))
+    return tuple(parts)
 
 
 def _here_part(

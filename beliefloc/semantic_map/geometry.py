@@ -262,3 +262,16 @@ def wall_distances(layout: GridLayout, max_distance: float) -> np.ndarray:
                 result[hit * h_count + h] = distance
             pending = pending[~wall]
     return result
+
+
+def beam_distances(layout: GridLayout, ahead: np.ndarray, offset: int) -> np.ndarray:
+    """A beam turned ``offset`` headings clockwise from the robot's: for state (cell, h) the
+    distance :func:`wall_distances` measured straight ahead at (cell, h + offset). ``offset`` 0
+    returns ``ahead`` itself."""
+    if offset % layout.headings == 0:
+        return ahead
+    h_count = layout.headings
+    by_heading = ahead.reshape(-1, h_count)
+    turned = (np.arange(h_count) + offset) % h_count
+    result: np.ndarray = by_heading[:, turned].ravel()
+    return result

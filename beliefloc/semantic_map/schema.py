@@ -121,6 +121,26 @@ class ScanSensor(_SensorBase):
     """Upper edges in meters: [0.2, 0.8, 1.1, 1.5] gives wall_0-0.2 ... wall_1.1-1.5 and no_wall."""
     error: Probability = 0.0
     """Probability of reading another bin, spread evenly over the others."""
+    beams: list[Annotated[float, Field(gt=-360.0, lt=360.0, allow_inf_nan=False)]] = Field(
+        default_factory=lambda: [0.0]
+    )
+    """Directions of the beams in degrees, relative to the heading (clockwise positive), each read
+    independently with the same bins and error: ``[-90, 0, 90]`` looks left, ahead and right.
+    Multiples of 360/headings. The default ``[0]`` is one beam straight ahead."""
+
+    @field_validator("beams")
+    @classmethod
+    def _beams(cls, value: list[float]) -> list[float]:
+        if not value:
+            raise ValueError("a scan needs at least one beam, e.g. [0] (straight ahead)")
+        turns = [v % 360.0 for v in value]
+        if len(set(turns)) != len(turns):
+            raise ValueError(f"beams point the same way twice: {value}")
+        return value
+
+    @property
+    def multi_beam(self) -> bool:
+        return self.beams != [0.0]
 
     @field_validator("bins")
     @classmethod
@@ -293,6 +313,15 @@ class SemanticMap(_Strict):
                 )
             if isinstance(sensor, HereSensor):
                 self._check_here(name, sensor)
+            if isinstance(sensor, ScanSensor) and g.headings > 1:
+                step = 360.0 / g.headings
+                for k, angle in enumerate(sensor.beams):
+                    if abs(angle / step - round(angle / step)) > 1e-9:
+                        raise FieldError(
+                            ("sensors", name, "beams", k),
+                            f"a beam at {angle:g} degrees falls between headings; with headings: {g.headings} "
+                            f"use multiples of {step:g}",
+                        )
             if isinstance(sensor, LookSensor) and sensor.angle_bins and g.headings > 1:
                 half = sensor.effective_fov(g.headings) / 2.0
                 if half > sensor.angle_bins[-1] + 1e-9:
@@ -382,10 +411,17 @@ def _check_reading(
                 )
     elif isinstance(sensor, ScanSensor):
         names = sensor.observation_names()
-        if isinstance(value, bool) or not (
-            (isinstance(value, (int, float)) and value >= 0) or (isinstance(value, str) and value in names)
-        ):
-            raise FieldError(path, f"should be a distance in meters or one of: {', '.join(names)}")
+        if sensor.multi_beam:
+            if not isinstance(value, list) or len(value) != len(sensor.beams):
+                raise FieldError(path, f"should list one reading per beam ({len(sensor.beams)}), e.g. [0.5, no_wall]")
+            readings = [(v, (*path, k)) for k, v in enumerate(value)]
+        else:
+            readings = [(value, path)]
+        for reading, where in readings:
+            if isinstance(reading, bool) or not (
+                (isinstance(reading, (int, float)) and reading >= 0) or (isinstance(reading, str) and reading in names)
+            ):
+                raise FieldError(where, f"should be a distance in meters or one of: {', '.join(names)}")
     else:
         if not isinstance(value, str) or value not in here_classes(sensor, smap):
             raise FieldError(

@@ -1,0 +1,360 @@
+"""Minimum-cost macro actions over pairs of states: Khalvati & Mackworth, Sec. V and Algorithm 2.
+
+Pure numpy, no I/O (files: :mod:`beliefloc.macro_file`).
+
+**The pair graph.** A node is an unordered pair of states ``{s_i, s_j}`` that no sensor tells apart
+where they stand: their noise-free readings of every sensor are equal (the paper's ``d <= gamma``;
+:mod:`beliefloc.planning.ec2` explains why, with the default gamma, that is the same). An actuation
+action ``a`` leads from ``{s_i, s_j}`` to ``{f*(s_i, a), f*(s_j, a)}`` at the cost ``C(s_i, s_j, a)``
+(Eq. 7). A pair whose successor is distinguishable is done after ``a``; one whose two states meet
+(``f*(s_i, a) = f*(s_j, a)``, ``d = 0``) is a dead end, as in the paper. Perception actions do not
+move, so they never lead anywhere new.
+
+**Algorithm 2 as a shortest path.** The paper's rounds define every pair's macro by the least cost
+of reaching a distinguishable pair, settling the cheapest pairs of each round first -- Dijkstra's
+algorithm with the distinguishable pairs as sources, run *backwards* along the actions. Here it runs
+level by level: all pairs whose tentative cost is the current minimum are settled at once, and their
+predecessors under every action are relaxed with numpy. Each pair is touched about once per action;
+``tests/test_macros.py`` keeps a literal transcription of the paper's rounds as the reference.
+
+**Only the indistinguishable pairs exist.** States are grouped by their signature (the noise-free
+readings of every sensor); the pairs are those inside a group, enumerated with numpy -- never an
+``|S| x |S|`` array. For each pair we store its cost, its first action and the pair it leads to, so
+every macro is recovered by following pointers. Pairs that no sequence distinguishes (cost ``inf``)
+are the localizability verdict: if the robot is in one of them, it can never tell which.
+
+Ties: on equal cost the first action in model order wins, then the successor found first.
+"""
+
+from __future__ import annotations
+
+import heapq
+from collections.abc import Callable
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+from beliefloc.errors import UsageError
+from beliefloc.model import Model
+from beliefloc.planning.ec2 import PairContext, gamma_bounds, pair_context
+
+DEFAULT_MAX_PAIRS = 100_000_000
+"""Refuse maps with more indistinguishable pairs than this (about 3 GB of tables)."""
+_EPS = 1e-9
+
+Progress = Callable[[int, int], None]
+"""``progress(pairs_settled, pairs_total)``."""
+
+
+@dataclass(frozen=True, eq=False)
+class MacroTable:
+    """Every indistinguishable pair's macro, as pointers. Arrays are indexed by pair number; pairs
+    are sorted by ``pair_i * n_states + pair_j`` with ``pair_i < pair_j``."""
+
+    n_states: int
+    gamma: float
+    action_names: tuple[str, ...]
+    fingerprint: str
+    pair_i: np.ndarray
+    pair_j: np.ndarray
+    cost: np.ndarray
+    """Least cost of a sequence that makes the pair distinguishable; ``inf`` when there is none."""
+    first_action: np.ndarray
+    """Index into ``action_names``; -1 when never distinguishable."""
+    next_pair: np.ndarray
+    """The pair ``(f*(s_i, a), f*(s_j, a))`` reached, or -1 when that pair is distinguishable."""
+    length: np.ndarray
+    """Number of basic actions of the macro (0 when never distinguishable)."""
+    macro_id: np.ndarray
+    """Which distinct action sequence the pair's macro is (-1 when never distinguishable)."""
+    macro_first: np.ndarray
+    """Per distinct macro: its first action."""
+    macro_next: np.ndarray
+    """Per distinct macro: the distinct macro that follows its first action, or -1."""
+    seconds: float = 0.0
+
+    @property
+    def n_pairs(self) -> int:
+        return len(self.pair_i)
+
+    @property
+    def n_macros(self) -> int:
+        return len(self.macro_first)
+
+    def find(self, i: np.ndarray | int, j: np.ndarray | int) -> np.ndarray:
+        """The pair numbers of ``(i, j)`` (either order), -1 where the pair is not in the table."""
+        a, b = np.minimum(i, j), np.maximum(i, j)
+        key = np.asarray(a, dtype=np.int64) * self.n_states + np.asarray(b, dtype=np.int64)
+        keys = self.keys
+        pos = np.searchsorted(keys, key)
+        pos = np.minimum(pos, max(len(keys) - 1, 0))
+        found = (len(keys) > 0) & (keys[pos] == key) if len(keys) else np.zeros(np.shape(key), dtype=bool)
+        result: np.ndarray = np.where(found & (a != b), pos, -1)
+        return result
+
+    @cached_property
+    def keys(self) -> np.ndarray:
+        """``pair_i * n_states + pair_j``, sorted (computed once: :meth:`find` runs every step)."""
+        keys: np.ndarray = self.pair_i.astype(np.int64) * self.n_states + self.pair_j.astype(np.int64)
+        return keys
+
+    def sequence(self, macro: int) -> tuple[int, ...]:
+        """The action indices of distinct macro ``macro``."""
+        out = []
+        while macro >= 0:
+            out.append(int(self.macro_first[macro]))
+            macro = int(self.macro_next[macro])
+        return tuple(out)
+
+    def pair_sequence(self, pair: int) -> tuple[int, ...]:
+        """The actions of a pair's macro (empty when never distinguishable)."""
+        return self.sequence(int(self.macro_id[pair])) if pair >= 0 else ()
+
+    def never(self) -> np.ndarray:
+        """Pair numbers that can never be distinguished."""
+        return np.flatnonzero(~np.isfinite(self.cost))
+
+    def never_classes(self) -> list[list[int]]:
+        """The states of never-distinguishable pairs, grouped (connected by such pairs), each sorted,
+        the classes in order of their first state."""
+        never = self.never()
+        if len(never) == 0:
+            return []
+        i, j = self.pair_i[never], self.pair_j[never]
+        graph = sp.coo_matrix((np.ones(len(never)), (i, j)), shape=(self.n_states, self.n_states)).tocsr()
+        _, labels = connected_components(graph, directed=False)
+        involved = np.unique(np.concatenate([i, j]))
+        classes: dict[int, list[int]] = {}
+        for s in involved.tolist():
+            classes.setdefault(int(labels[s]), []).append(s)
+        return sorted(classes.values(), key=lambda c: c[0])
+
+    def summary(self) -> dict[str, float | int]:
+        """The numbers ``macros build`` reports."""
+        ok = np.isfinite(self.cost)
+        lengths = self.length[ok]
+        return {
+            "states": self.n_states,
+            "indistinguishable_pairs": self.n_pairs,
+            "macros": self.n_macros,
+            "pairs_with_macro": int(ok.sum()),
+            "max_length": int(lengths.max()) if len(lengths) else 0,
+            "mean_length": float(lengths.mean()) if len(lengths) else 0.0,
+            "never_distinguishable_pairs": int((~ok).sum()),
+            "gamma": self.gamma,
+            "seconds": self.seconds,
+        }
+
+
+def indistinguishable_pairs(signature: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """All pairs ``i < j`` with equal signature, sorted by ``i * n + j``; vectorised, never ``|S|^2``."""
+    n = len(signature)
+    order = np.lexsort((np.arange(n), signature))
+    sig = signature[order]
+    start = np.ones(n, dtype=bool)
+    start[1:] = sig[1:] != sig[:-1]
+    group_start = np.maximum.accumulate(np.where(start, np.arange(n), 0))
+    sizes = np.diff(np.append(np.flatnonzero(start), n))
+    group_end = np.repeat(np.flatnonzero(start) + sizes, sizes)  # one past the group's last position
+    partners = group_end - np.arange(n) - 1  # later members of the group
+    del group_start
+    total = int(partners.sum())
+    first = np.repeat(np.arange(n), partners)
+    offset = np.arange(total, dtype=np.int64) - np.repeat(np.cumsum(partners) - partners, partners)
+    second = first + 1 + offset
+    a, b = order[first], order[second]
+    i, j = np.minimum(a, b), np.maximum(a, b)
+    key = i.astype(np.int64) * n + j
+    sort = np.argsort(key, kind="stable")
+    return i[sort].astype(np.int32), j[sort].astype(np.int32)
+
+
+def count_indistinguishable_pairs(signature: np.ndarray) -> int:
+    _, counts = np.unique(signature, return_counts=True)
+    return int((counts * (counts - 1) // 2).sum())
+
+
+def build_macros(
+    model: Model,
+    gamma: float | None = None,
+    *,
+    context: PairContext | None = None,
+    max_pairs: int = DEFAULT_MAX_PAIRS,
+    progress: Progress | None = None,
+) -> MacroTable:
+    """Algorithm 2 as a backward Dijkstra over the indistinguishable pairs (module docstring)."""
+    import time
+
+    started = time.perf_counter()
+    ctx = context if context is not None else pair_context(model, gamma)
+    lo, hi = gamma_bounds(model)
+    if not lo <= ctx.gamma < hi:
+        raise UsageError(
+            f"gamma {ctx.gamma:g} is outside [{lo:.4g}, {hi:.4g}), the range in which 'distinguishable' means "
+            "'different noise-free readings' for this model's sensors; macros are built on that grouping. "
+            "Omit --gamma for the default (the middle of the range)."
+        )
+    n = model.n_states
+    sig = ctx.full_signature
+    total = count_indistinguishable_pairs(sig)
+    if total > max_pairs:
+        raise UsageError(
+            f"{model.name}: {total:,} pairs of states look alike, more than the {max_pairs:,} a macro table "
+            "may hold; give the robot a sensor that tells more places apart"
+        )
+    pi, pj = indistinguishable_pairs(sig)
+    keys = pi.astype(np.int64) * n + pj
+    n_pairs = len(pi)
+    dist = np.full(n_pairs, np.inf)
+    first = np.full(n_pairs, -1, dtype=np.int16)
+    nxt = np.full(n_pairs, -1, dtype=np.int64)
+    src_parts, dst_parts, act_parts = [], [], []
+    moving = [k for k, a in enumerate(model.actions) if a.transition is not None]
+    for a in moving:
+        fi, fj = ctx.fstar[a, pi], ctx.fstar[a, pj]
+        lo_s, hi_s = np.minimum(fi, fj), np.maximum(fi, fj)
+        merged = lo_s == hi_s
+        same = sig[lo_s] == sig[hi_s]
+        done = ~same  # distinguishable after a: the macro ends here
+        better = done & (ctx.costs[a] < dist - _EPS)
+        dist[better] = ctx.costs[a]
+        first[better] = a
+        nxt[better] = -1
+        inside = same & ~merged
+        src = np.flatnonzero(inside)
+        dst = np.searchsorted(keys, lo_s[inside] * n + hi_s[inside])
+        keep = src != dst  # a self-loop never helps
+        src_parts.append(src[keep])
+        dst_parts.append(dst[keep])
+        act_parts.append(np.full(int(keep.sum()), a, dtype=np.int16))
+        del fi, fj, lo_s, hi_s, merged, same, done, better, inside
+    src = np.concatenate(src_parts) if src_parts else np.zeros(0, dtype=np.int64)
+    dst = np.concatenate(dst_parts) if dst_parts else np.zeros(0, dtype=np.int64)
+    act = np.concatenate(act_parts) if act_parts else np.zeros(0, dtype=np.int16)
+    del src_parts, dst_parts, act_parts
+    order = np.argsort(dst, kind="stable")  # reverse adjacency: edges into each pair, action order kept
+    rev_src, rev_act = src[order], act[order]
+    rev_ptr = np.zeros(n_pairs + 1, dtype=np.int64)
+    np.cumsum(np.bincount(dst, minlength=n_pairs), out=rev_ptr[1:])
+    del src, dst, act, order
+
+    settled = np.zeros(n_pairs, dtype=bool)
+    length = np.zeros(n_pairs, dtype=np.int32)
+    buckets: dict[float, list[np.ndarray]] = {}
+    heap: list[float] = []
+    for value in np.unique(dist[np.isfinite(dist)]).tolist():
+        buckets[value] = [np.flatnonzero(dist == value)]
+        heapq.heappush(heap, value)
+    done_count = 0
+    while heap:
+        level = heapq.heappop(heap)
+        frontier = np.unique(np.concatenate(buckets.pop(level)))
+        frontier = frontier[~settled[frontier] & (dist[frontier] == level)]
+        if len(frontier) == 0:
+            continue
+        settled[frontier] = True
+        follow = nxt[frontier]
+        length[frontier] = 1 + np.where(follow >= 0, length[np.maximum(follow, 0)], 0)
+        done_count += len(frontier)
+        if progress is not None:
+            progress(done_count, n_pairs)
+        starts, ends = rev_ptr[frontier], rev_ptr[frontier + 1]
+        counts = ends - starts
+        if counts.sum() == 0:
+            continue
+        edge = np.repeat(starts - np.cumsum(counts) + counts, counts) + np.arange(int(counts.sum()))
+        target = np.repeat(frontier, counts)
+        pred, pa = rev_src[edge], rev_act[edge].astype(np.int64)
+        cand = level + ctx.costs[pa]
+        ok = ~settled[pred] & (cand < dist[pred] - _EPS)
+        pred, pa, cand, target = pred[ok], pa[ok], cand[ok], target[ok]
+        if len(pred) == 0:
+            continue
+        pick = np.lexsort((target, pa, cand, pred))  # per predecessor: cheapest, then first action
+        pred, pa, cand, target = pred[pick], pa[pick], cand[pick], target[pick]
+        firsts = np.ones(len(pred), dtype=bool)
+        firsts[1:] = pred[1:] != pred[:-1]
+        pred, pa, cand, target = pred[firsts], pa[firsts], cand[firsts], target[firsts]
+        dist[pred] = cand
+        first[pred] = pa
+        nxt[pred] = target
+        for value in np.unique(cand).tolist():
+            if value not in buckets:
+                buckets[value] = []
+                heapq.heappush(heap, value)
+            buckets[value].append(pred[cand == value])
+    macro_id, macro_first, macro_next = _distinct_macros(first, nxt, length)
+    return MacroTable(
+        n_states=n,
+        gamma=ctx.gamma,
+        action_names=tuple(a.name for a in model.actions),
+        fingerprint=model.fingerprint(),
+        pair_i=pi,
+        pair_j=pj,
+        cost=dist,
+        first_action=first,
+        next_pair=nxt,
+        length=length,
+        macro_id=macro_id,
+        macro_first=macro_first,
+        macro_next=macro_next,
+        seconds=time.perf_counter() - started,
+    )
+
+
+def _distinct_macros(first: np.ndarray, nxt: np.ndarray, length: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Hash-cons the macros: a macro is (first action, the distinct macro after it). Shortest first,
+    so the macro after the first action always has its id already."""
+    macro_id = np.full(len(first), -1, dtype=np.int64)
+    firsts: list[np.ndarray] = []
+    nexts: list[np.ndarray] = []
+    count = 0
+    for k in np.unique(length[length > 0]).tolist():
+        members = np.flatnonzero(length == k)
+        follow = np.where(nxt[members] >= 0, macro_id[np.maximum(nxt[members], 0)], -1)
+        combined = first[members].astype(np.int64) * (count + 2) + (follow + 1)
+        unique, inverse = np.unique(combined, return_inverse=True)
+        macro_id[members] = count + inverse.ravel()
+        firsts.append(unique // (count + 2))
+        nexts.append(unique % (count + 2) - 1)
+        count += len(unique)
+    macro_first = np.concatenate(firsts).astype(np.int16) if firsts else np.zeros(0, dtype=np.int16)
+    macro_next = np.concatenate(nexts).astype(np.int64) if nexts else np.zeros(0, dtype=np.int64)
+    return macro_id, macro_first, macro_next
+
+
+def expected_path(ctx: PairContext, state: int, actions: tuple[int, ...]) -> list[int]:
+    """Eq. 12: the states ``f*`` visits from ``state`` along ``actions`` (the start included)."""
+    path = [state]
+    for a in actions:
+        path.append(int(ctx.fstar[a, path[-1]]))
+    return path
+
+
+def macro_candidates(
+    table: MacroTable, states: np.ndarray, belief: np.ndarray, *, limit: int = 32
+) -> list[tuple[int, ...]]:
+    """Algorithm 3, line 2: the macros of the pairs of hypotheses, those of the most probable pairs
+    first, at most ``limit`` distinct ones (Sec. VII-B's reduction, applied to the candidates)."""
+    if len(states) < 2 or table.n_pairs == 0:
+        return []
+    top = states[np.lexsort((states, -belief[states]))][: max(2, min(len(states), 64))]
+    ii, jj = np.triu_indices(len(top), 1)
+    i, j = top[ii], top[jj]
+    pairs = table.find(i, j)
+    has = pairs >= 0
+    pairs, weight = pairs[has], (belief[i] * belief[j])[has]
+    ids = table.macro_id[pairs]
+    ok = ids >= 0
+    ids, weight = ids[ok], weight[ok]
+    order = np.lexsort((ids, -weight))
+    chosen: list[int] = []
+    for macro in ids[order].tolist():
+        if macro not in chosen:
+            chosen.append(int(macro))
+            if len(chosen) >= limit:
+                break
+    return [table.sequence(m) for m in chosen]
