@@ -32,9 +32,10 @@ def point(n_states: int, state: int) -> np.ndarray:
 
 def predict(action: Action, belief: np.ndarray) -> np.ndarray:
     """``predicted = T_aᵀ b``: where the robot may be after ``action`` (before it observes)."""
-    if action.transition is None:
+    transposed = action.transition_transposed
+    if transposed is None:
         return belief.copy()
-    predicted: np.ndarray = action.transition.T @ belief
+    predicted: np.ndarray = transposed @ belief
     return predicted
 
 

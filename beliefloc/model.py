@@ -231,6 +231,12 @@ class Action:
     def is_actuation(self) -> bool:
         return self.kind is ActionKind.ACTUATION
 
+    @cached_property
+    def transition_transposed(self) -> sp.csr_matrix | None:
+        """``T_aᵀ`` as CSR, kept once: prediction is ``T_aᵀ b``, and rebuilding the transpose's
+        wrapper on every call was a third of the planner's successor time."""
+        return None if self.transition is None else self.transition.T.tocsr()
+
 
 @dataclass(frozen=True, eq=False)
 class GridLayout:
