@@ -8,8 +8,6 @@ find the model. Writes are atomic (:func:`beliefloc.model_file.write_atomically`
 
 from __future__ import annotations
 
-import json
-import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -17,7 +15,7 @@ import numpy as np
 
 from beliefloc.errors import ModelError
 from beliefloc.model import Model
-from beliefloc.model_file import write_atomically
+from beliefloc.model_file import read_versioned, write_versioned
 from beliefloc.planning.macros import MacroTable
 
 FORMAT = "beliefloc-macros"
@@ -49,36 +47,14 @@ def save_macros(table: MacroTable, path: str | Path, *, model: Model | None = No
         "actions": list(table.action_names),
         "seconds": table.seconds,
     }
-    arrays = {name: getattr(table, name) for name in _ARRAYS}
-    arrays["header"] = np.frombuffer(json.dumps(header).encode(), dtype=np.uint8)
-
-    def write(handle: Any) -> None:
-        np.savez_compressed(handle, allow_pickle=False, **arrays)
-
-    write_atomically(Path(path), write)
+    write_versioned(path, header, {name: getattr(table, name) for name in _ARRAYS})
 
 
 def read_header(path: str | Path) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
     """The header and arrays of a macro file, checked for format and version."""
-    path = Path(path)
-    try:
-        with np.load(path, allow_pickle=False) as npz:
-            arrays = {key: npz[key] for key in npz.files}
-    except FileNotFoundError:
-        raise ModelError(f"{path}: no such file") from None
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
-        raise ModelError(f"{path}: not a beliefloc macro file ({exc})") from None
-    try:
-        header = json.loads(arrays.pop("header").tobytes())
-    except (KeyError, ValueError):
-        raise ModelError(f"{path}: not a beliefloc macro file (no header)") from None
-    if not isinstance(header, dict) or header.get("format") != FORMAT:
-        raise ModelError(f"{path}: not a beliefloc macro file (written by 'beliefloc macros build')")
-    if header.get("version") != VERSION:
-        raise ModelError(
-            f"{path}: macro file version {header.get('version')}, but this beliefloc reads version {VERSION}; "
-            f"rebuild it with 'beliefloc macros build MAP -o {path}'"
-        )
+    header, arrays = read_versioned(
+        path, FORMAT, VERSION, kind="beliefloc macro file", rebuild=f"beliefloc macros build MAP -o {path}"
+    )
     missing = [name for name in _ARRAYS if name not in arrays]
     if missing:
         raise ModelError(f"{path}: broken macro file (missing {', '.join(missing)})")

@@ -59,6 +59,44 @@ def _file_mode() -> int:
     return 0o666 & ~umask
 
 
+def write_versioned(path: str | Path, header: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
+    """Write a JSON ``header`` (with its ``format`` and ``version``) and ``arrays`` as one ``.npz``."""
+    contents = {**arrays, "header": np.frombuffer(json.dumps(header).encode(), dtype=np.uint8)}
+
+    def write(handle: Any) -> None:
+        np.savez_compressed(handle, allow_pickle=False, **contents)
+
+    write_atomically(Path(path), write)
+
+
+def read_versioned(
+    path: str | Path, file_format: str, version: int, *, kind: str, rebuild: str
+) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
+    """The header and arrays of a file written by :func:`write_versioned`; a :class:`ModelError`
+    if it is missing, not such a file (``kind``), or of another version (``rebuild`` says how to
+    make a new one)."""
+    path = Path(path)
+    try:
+        with np.load(path, allow_pickle=False) as npz:
+            arrays = {key: npz[key] for key in npz.files}
+    except FileNotFoundError:
+        raise ModelError(f"{path}: no such file") from None
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+        raise ModelError(f"{path}: not a {kind} ({exc})") from None
+    try:
+        header = json.loads(arrays.pop("header").tobytes())
+    except (KeyError, ValueError):
+        raise ModelError(f"{path}: not a {kind} (no header)") from None
+    if not isinstance(header, dict) or header.get("format") != file_format:
+        raise ModelError(f"{path}: not a {kind}")
+    if header.get("version") != version:
+        raise ModelError(
+            f"{path}: {kind} version {header.get('version')}, but this beliefloc reads version {version}; "
+            f"rebuild it with '{rebuild}'"
+        )
+    return header, arrays
+
+
 def save_model(model: Model, path: str | Path) -> None:
     """Write ``model`` to ``path`` (conventionally ``*.npz``)."""
     arrays: dict[str, np.ndarray] = {}
@@ -104,36 +142,16 @@ def save_model(model: Model, path: str | Path) -> None:
         "parts": parts_meta,
         "fingerprint": model.fingerprint(),
     }
-    arrays["header"] = np.frombuffer(json.dumps(header).encode(), dtype=np.uint8)
-
-    def write(handle: Any) -> None:
-        np.savez_compressed(handle, allow_pickle=False, **arrays)
-
-    write_atomically(Path(path), write)
+    write_versioned(path, header, arrays)
 
 
 def load_model(path: str | Path, *, check_source: bool = True) -> Model:
     """Read a model file. Raises :class:`ModelError` if it is not one, is of another version, or
     (with ``check_source``) its source map has changed since it was built."""
     path = Path(path)
-    try:
-        with np.load(path, allow_pickle=False) as npz:
-            arrays = {key: npz[key] for key in npz.files}
-    except FileNotFoundError:
-        raise ModelError(f"{path}: no such file") from None
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
-        raise ModelError(f"{path}: not a beliefloc model file ({exc})") from None
-    try:
-        header = json.loads(arrays.pop("header").tobytes())
-    except (KeyError, ValueError):
-        raise ModelError(f"{path}: not a beliefloc model file (no header)") from None
-    if header.get("format") != FORMAT:
-        raise ModelError(f"{path}: not a beliefloc model file")
-    if header.get("version") != VERSION:
-        raise ModelError(
-            f"{path}: model file version {header.get('version')}, but this beliefloc reads version "
-            f"{VERSION}; rebuild it with 'beliefloc build MAP -o {path}'"
-        )
+    header, arrays = read_versioned(
+        path, FORMAT, VERSION, kind="beliefloc model file", rebuild=f"beliefloc build MAP -o {path}"
+    )
     model = _from_header(header, arrays)
     if check_source and model.source is not None:
         check_fresh(model.source, path)
