@@ -1,0 +1,72 @@
+"""Golden outputs: seeded runs whose JSON must not change unnoticed.
+
+A deliberate change of behaviour is recorded with ``python -m pytest tests/test_golden.py --update-golden``
+and reviewed in the diff of ``tests/golden/``. Wall-clock fields are removed before comparing.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from beliefloc.cli.app import app
+
+from .conftest import MAPS
+
+GOLDEN = Path(__file__).resolve().parent / "golden"
+
+CASES = {
+    "simulate-kitchen-seed0": [
+        "simulate",
+        str(MAPS / "kitchen.yaml"),
+        "-n",
+        "3",
+        "--seed",
+        "0",
+        "--json",
+        "--no-timings",
+        "-s",
+        "bestfirst",
+        "-s",
+        "random",
+    ],
+    "plan-kitchen": ["plan", str(MAPS / "kitchen.yaml"), "--json"],
+    "plan-hallway-uniform": ["plan", str(MAPS / "hallway.yaml"), "--json", "--search", "uniform"],
+    "track-kitchen-story": [
+        "track",
+        str(MAPS / "kitchen.yaml"),
+        "--json",
+        "look=nothing",
+        "scan=no_wall",
+        "rotate_ccw",
+        "look=potted_plant",
+        "forward",
+        "scan=wall_0.2-0.8",
+    ],
+}
+
+
+def _without_clocks(data: Any) -> Any:
+    if isinstance(data, dict):
+        return {k: _without_clocks(v) for k, v in data.items() if k not in ("seconds", "plan_seconds")}
+    if isinstance(data, list):
+        return [_without_clocks(v) for v in data]
+    if isinstance(data, float):
+        return round(data, 10)  # last-bit differences between BLAS builds are not behaviour
+    return data
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_golden(runner, update_golden: bool, name: str):
+    result = runner.invoke(app, CASES[name])
+    assert result.exit_code == 0, result.output
+    actual = _without_clocks(json.loads(result.stdout))
+    path = GOLDEN / f"{name}.json"
+    if update_golden or not path.exists():
+        path.write_text(json.dumps(actual, indent=1, sort_keys=True) + "\n")
+        if not update_golden:
+            pytest.fail(f"{path.name} did not exist; it was written now: review and commit it")
+    assert actual == json.loads(path.read_text()), f"{name} changed; if intended, rerun with --update-golden"
