@@ -54,6 +54,65 @@ class Default(_Strict):
     """Classes whose instances are known NOT to be in ``room`` (the paper's strong exception)."""
 
 
+Pair = tuple[Annotated[int, Field(ge=0)], Annotated[int, Field(ge=0)]]
+"""``[row, col]`` on the plane, in cells."""
+Size = tuple[Annotated[int, Field(ge=1, le=1000)], Annotated[int, Field(ge=1, le=1000)]]
+"""``[rows, cols]`` of a room, in cells."""
+
+
+class RobotStart(_Strict):
+    room: AspName
+    cell: Pair
+    """``[row, col]`` inside the room, from its top-left cell ``[0, 0]``."""
+
+
+class Sensor(_Strict):
+    """The detector analysing one view: ``p(present | target in view)`` and ``p(present | not)``."""
+
+    true_positive: Annotated[float, Field(gt=0, le=1)] = 0.9
+    false_positive: Annotated[float, Field(ge=0, lt=1)] = 0.1
+    """p(FP); the true-negative rate p(TN) is 1 - p(FP)."""
+    view: Annotated[int, Field(ge=1, le=99)] = 3
+    """The side of the square of cells a view covers, centred on the robot's cell (odd), clipped to
+    the robot's room: a camera does not see through walls."""
+
+
+class Costs(_Strict):
+    travel: Annotated[float, Field(ge=0)] = 0.5
+    """Time units per cell of straight-line distance between view points."""
+    analysis: Annotated[float, Field(gt=0)] = 1.0
+    """Time units to analyse one view."""
+
+
+class Existence(_Strict):
+    """The Beta(alpha', beta') prior of the target existing in the domain (Eq. 8)."""
+
+    alpha: Annotated[float, Field(gt=0)] = 6.0
+    beta: Annotated[float, Field(gt=0)] = 2.0
+
+
+class SearchSpace(_Strict):
+    """Rooms as grids of cells placed on a plane, where the robot starts, and its sensor."""
+
+    room_size: Size = (5, 5)
+    """``[rows, cols]`` of every room not listed in ``room_sizes``."""
+    room_sizes: dict[AspName, Size] = Field(default_factory=dict)
+    placement: dict[AspName, Pair]
+    """Every room's top-left cell on the plane; travel cost grows with the distance on this plane."""
+    robot_start: RobotStart
+    sensor: Sensor = Field(default_factory=Sensor)
+    costs: Costs = Field(default_factory=Costs)
+    time_limit: Annotated[float, Field(gt=0)] = 100.0
+    existence: Existence = Field(default_factory=Existence)
+    tau_found: Annotated[float, Field(gt=0, lt=1)] = 0.8
+    """tau+: stop with Found when one cell's belief exceeds it."""
+    tau_absent: Annotated[float, Field(gt=0, lt=1)] = 0.7
+    """tau-: stop with NotFound when p(not E) exceeds it."""
+
+    def size_of(self, room: str) -> tuple[int, int]:
+        return self.room_sizes.get(room, self.room_size)
+
+
 class Domain(_Strict):
     """A validated domain: every cross-reference checked, the class hierarchy a tree."""
 
@@ -70,6 +129,8 @@ class Domain(_Strict):
     """Time steps 1..steps: step 1 is the initial knowledge; observations go to the last step."""
     kb: list[str] = Field(default_factory=list)
     """Extra ``.lp`` files of this domain, relative to the domain file."""
+    search: SearchSpace | None = None
+    """The geometry for object search (``beliefloc search``); knowledge-only domains leave it out."""
 
     _path: Path | None = PrivateAttr(default=None)
 
@@ -134,7 +195,51 @@ class Domain(_Strict):
                         )
         if self.target is not None and self.target not in self.classes:
             raise FieldError(("target",), f"unknown target class {self.target!r}{_hint(self.target, self.classes)}")
+        if self.search is not None:
+            self._check_search(self.search)
         return self
+
+    def _check_search(self, search: SearchSpace) -> None:
+        for key in ("placement", "room_sizes"):
+            for room in getattr(search, key):
+                if room not in self.rooms:
+                    raise FieldError(("search", key, room), f"unknown room {room!r}{_hint(room, self.rooms)}")
+        missing = [room for room in self.rooms if room not in search.placement]
+        if missing:
+            raise FieldError(
+                ("search", "placement"), f"every room needs a place on the plane; missing: {', '.join(missing)}"
+            )
+        boxes = {room: (*search.placement[room], *search.size_of(room)) for room in self.rooms}
+        names = list(boxes)
+        for i, first in enumerate(names):
+            r1, c1, h1, w1 = boxes[first]
+            for second in names[:i]:
+                r2, c2, h2, w2 = boxes[second]
+                if r1 < r2 + h2 and r2 < r1 + h1 and c1 < c2 + w2 and c2 < c1 + w1:
+                    raise FieldError(("search", "placement", first), f"room {first!r} overlaps room {second!r}")
+        sensor = search.sensor
+        if sensor.view % 2 == 0:
+            raise FieldError(
+                ("search", "sensor", "view"),
+                f"a view is a square centred on the robot: its side must be odd, got {sensor.view}",
+            )
+        if sensor.true_positive <= sensor.false_positive:
+            raise FieldError(
+                ("search", "sensor", "true_positive"),
+                f"a detection must be likelier with the target in view: true_positive {sensor.true_positive} "
+                f"<= false_positive {sensor.false_positive}",
+            )
+        start = search.robot_start
+        if start.room not in self.rooms:
+            raise FieldError(
+                ("search", "robot_start", "room"), f"unknown room {start.room!r}{_hint(start.room, self.rooms)}"
+            )
+        rows, cols = search.size_of(start.room)
+        if not (start.cell[0] < rows and start.cell[1] < cols):
+            raise FieldError(
+                ("search", "robot_start", "cell"),
+                f"cell {list(start.cell)} is outside room {start.room!r} ({rows} x {cols} cells)",
+            )
 
     def _raise_cycle(self) -> None:
         for start in self.classes:

@@ -1,0 +1,219 @@
+"""The control loop of Zhang, Sridharan & Wyatt 2015, Algorithm 1: select, execute, update, decide.
+
+Each iteration (line numbers of Algorithm 1)::
+
+    4   v_t  = policy(b_{t-1}, robot)                          choose a view
+    5   o_t  = world.detect(view v_t)                          travel + analysis time units
+    11  p(o_t | E), p(o_t | ¬E)   from b_{t-1}                 Eq. 9 (the predictive likelihood)
+    6   b_t ∝ b_ob · b_kb, b_ob *= O(·, v_t, o_t)              Eq. 6-7 (CellBelief.observe)
+    12  p(E | o_1:t)                                           Eq. 10-12 (ExistenceBelief)
+    14  p(¬E | o_1:t) > τ-        -> NOT_FOUND
+    16  max(b_t) > τ+             -> FOUND (the most likely cell)
+        time ≥ time limit         -> TIME_LIMIT (the most likely cell is reported)
+
+Eq. 9 is evaluated on the belief *before* ``o_t`` is folded in, so the product over steps is the
+likelihood of the whole sequence, ``p(o_1:t | E)``, as Eq. 12 keeps it.
+
+Not in this version: lines 7-10, revising the knowledge base when another object is seen and
+committed (``--dynamic-kb``); :meth:`CellBelief.revise` is ready for it.
+
+Accuracy (Sec. IV: "falls off as a Gaussian function of the distance between the reported location
+and the ground truth"): ``exp(-d² / (2 σ²))`` with ``d`` the Euclidean distance on the plane in
+cells and σ = :data:`ACCURACY_SIGMA` = 2 cells (a neighbour scores 0.88, two cells away 0.61, four
+0.14; the paper does not give σ). A NOT_FOUND verdict scores 1 when the target is absent and 0
+when it is present; reporting a cell when the target is absent scores 0.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from beliefloc.object_search.existence import ExistenceBelief, ExistenceStrategy, detection_likelihoods
+from beliefloc.object_search.policy import Policy
+from beliefloc.object_search.posterior import CellBelief, spread_room_prior
+from beliefloc.object_search.world import SearchSpace, SimulatedTarget
+
+ACCURACY_SIGMA = 2.0
+"""σ of the Gaussian accuracy fall-off, in cells."""
+TAU_FOUND = 0.8
+TAU_ABSENT = 0.7
+TIME_LIMIT = 100.0
+
+
+class Verdict(enum.Enum):
+    FOUND = "found"
+    NOT_FOUND = "not-found"
+    TIME_LIMIT = "time-limit"
+
+
+@dataclass(frozen=True)
+class Step:
+    """One iteration: where the robot went, what it saw, and the beliefs after."""
+
+    index: int
+    view: int
+    """The view point (= the cell the robot stands on)."""
+    present: bool
+    cost: float
+    """Travel and analysis time of this step."""
+    time: float
+    """Time units used so far."""
+    p_exists: float
+    best_cell: int
+    best_belief: float
+    belief: np.ndarray | None = None
+    """The cell belief after the step (only with ``keep_beliefs``)."""
+
+
+@dataclass(frozen=True)
+class SearchRecord:
+    """A whole search as plain data."""
+
+    policy: str
+    strategy: str
+    steps: tuple[Step, ...]
+    verdict: Verdict
+    time: float
+    reported_cell: int | None
+    """The cell claimed (FOUND, TIME_LIMIT); None for NOT_FOUND."""
+    true_cell: int | None
+    """Where the target was; None when absent."""
+    error_cells: float | None
+    """Distance between the reported and the true cell, when both exist."""
+    accuracy: float
+    initial_belief: np.ndarray
+
+
+def accuracy(space: SearchSpace, reported: int | None, true: int | None, sigma: float = ACCURACY_SIGMA) -> float:
+    """The Gaussian fall-off of the module docstring."""
+    if reported is None:
+        return 1.0 if true is None else 0.0
+    if true is None:
+        return 0.0
+    distance = float(space.distances_from(true)[reported])
+    return math.exp(-(distance**2) / (2 * sigma**2))
+
+
+def initial_prior(space: SearchSpace, room_prior: np.ndarray, policy: Policy) -> np.ndarray:
+    """``b_kb``: the room prior (axis: ``space.rooms``) spread over cells, or uniform for a policy without KB."""
+    if not policy.kb_prior:
+        return np.full(space.n_cells, 1.0 / space.n_cells)
+    return spread_room_prior(np.asarray(room_prior, dtype=float), space.room_of_cell)
+
+
+def run_search(
+    space: SearchSpace,
+    room_prior: np.ndarray,
+    target: SimulatedTarget,
+    policy: Policy,
+    existence: ExistenceBelief,
+    *,
+    tau_found: float = TAU_FOUND,
+    time_limit: float = TIME_LIMIT,
+    sigma: float = ACCURACY_SIGMA,
+    keep_beliefs: bool = False,
+) -> SearchRecord:
+    """Algorithm 1 until a verdict. ``existence`` is updated in place (it holds the MC samples);
+    ``existence.tau_minus`` is τ-. Deterministic given the target's and existence's generators."""
+    if not 0 < tau_found < 1 or time_limit <= 0:
+        raise ValueError("tau_found must be in (0, 1) and time_limit positive")
+    cells = CellBelief.start(initial_prior(space, room_prior, policy))
+    start_belief = cells.posterior
+    belief = start_belief
+    robot, time = space.start, 0.0
+    steps: list[Step] = []
+    detector = space.detector
+    while True:
+        view = policy.select(space, belief, robot)
+        cost = float(space.action_costs(robot)[view])
+        in_view = space.views[view]
+        present = target.detect(in_view)
+        like_e, like_not_e = detection_likelihoods(
+            belief, in_view, present, detector.true_positive, detector.false_positive
+        )
+        cells = cells.observe(detector.likelihood(in_view, present))
+        belief = cells.posterior
+        existence.observe(like_e, like_not_e)
+        p_exists = existence.probability_exists()
+        robot, time = view, time + cost
+        best = int(np.argmax(belief))
+        steps.append(
+            Step(
+                len(steps) + 1,
+                view,
+                present,
+                cost,
+                time,
+                p_exists,
+                best,
+                float(belief[best]),
+                belief if keep_beliefs else None,
+            )
+        )
+        if 1.0 - p_exists > existence.tau_minus:
+            verdict, reported = Verdict.NOT_FOUND, None
+        elif belief[best] > tau_found:
+            verdict, reported = Verdict.FOUND, best
+        elif time >= time_limit:
+            verdict, reported = Verdict.TIME_LIMIT, best
+        else:
+            continue
+        break
+    error = None
+    if reported is not None and target.cell is not None:
+        error = float(space.distances_from(target.cell)[reported])
+    return SearchRecord(
+        policy=policy.name,
+        strategy=existence.strategy.value,
+        steps=tuple(steps),
+        verdict=verdict,
+        time=time,
+        reported_cell=reported,
+        true_cell=target.cell,
+        error_cells=error,
+        accuracy=accuracy(space, reported, target.cell, sigma),
+        initial_belief=start_belief,
+    )
+
+
+def seeded_search(
+    space: SearchSpace,
+    room_prior: np.ndarray,
+    policy: Policy,
+    strategy: ExistenceStrategy,
+    *,
+    seed: int,
+    target_cell: int | None = None,
+    absent: bool = False,
+    alpha: float = 6.0,
+    beta: float = 2.0,
+    tau_found: float = TAU_FOUND,
+    tau_absent: float = TAU_ABSENT,
+    time_limit: float = TIME_LIMIT,
+    keep_beliefs: bool = False,
+) -> SearchRecord:
+    """One search from one seed: independent streams (spawned from the seed) place the target,
+    draw the detections and draw the Beta samples, so two policies run on the same seed face the
+    same target (paired trials)."""
+    place_rng, detect_rng, beta_rng = (np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(3))
+    if absent:
+        target = SimulatedTarget(None, space.detector, detect_rng)
+    elif target_cell is not None:
+        target = SimulatedTarget(target_cell, space.detector, detect_rng)
+    else:
+        target = SimulatedTarget.at_random(space, place_rng, detect_rng)
+    existence = ExistenceBelief(alpha, beta, strategy, tau_minus=tau_absent, rng=beta_rng)
+    return run_search(
+        space,
+        room_prior,
+        target,
+        policy,
+        existence,
+        tau_found=tau_found,
+        time_limit=time_limit,
+        keep_beliefs=keep_beliefs,
+    )

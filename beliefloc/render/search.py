@@ -1,0 +1,116 @@
+"""Object search traces: one line per step, the cell belief drawn on the plane, the verdict.
+
+The plane shows every room at its placement, two characters per cell, blank between rooms. A
+cell's shade is its probability relative to the largest one drawn (viridis, as in
+:mod:`beliefloc.render.grid`); ``R`` marks the robot, ``*`` the most likely cell (red), ``T`` the
+simulated target's true cell (the simulator knows it; the robot does not). Without colour a cell
+is a shade character and its mark.
+
+Functions here only observe a search record; they return rich renderables and never print.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from rich.console import JustifyMethod
+from rich.table import Table
+from rich.text import Text
+
+from beliefloc.object_search.loop import SearchRecord, Step, Verdict
+from beliefloc.object_search.world import SearchSpace
+from beliefloc.render.grid import HIGHLIGHT, LEVELS, PALETTE, PLAIN_SHADES
+
+_VERDICT_STYLE = {Verdict.FOUND: "bold green", Verdict.NOT_FOUND: "bold yellow", Verdict.TIME_LIMIT: "bold red"}
+
+
+def step_line(space: SearchSpace, step: Step) -> Text:
+    """``step 3: study:2,3 (2.1 time units) present  p(E) 0.812  max b 0.441 at study:1,3``."""
+    text = Text(f"step {step.index:>3}: ")
+    text.append(f"{space.cell_name(step.view):<16}", style="bold")
+    text.append(f" +{step.cost:5.1f} = {step.time:6.1f}  ")
+    text.append("present" if step.present else "absent ", style="green" if step.present else "dim")
+    text.append(f"  p(E) {step.p_exists:.3f}  max b {step.best_belief:.3f} at {space.cell_name(step.best_cell)}")
+    return text
+
+
+def belief_plane(
+    space: SearchSpace,
+    belief: np.ndarray,
+    *,
+    robot: int | None = None,
+    target: int | None = None,
+    color: bool = True,
+) -> Text:
+    """The belief over every room's cells, drawn where the rooms are on the plane."""
+    rows = space.plane[:, 0].astype(int)
+    cols = space.plane[:, 1].astype(int)
+    top = float(belief.max())
+    best = int(np.argmax(belief))
+    levels = np.where(belief > 0, np.clip(np.ceil(belief / top * LEVELS - 1e-9), 1, LEVELS), 0).astype(int)
+    at = {(int(r), int(c)): i for i, (r, c) in enumerate(zip(rows, cols, strict=True))}
+    text = Text()
+    for r in range(int(rows.max()) + 1):
+        for c in range(int(cols.max()) + 1):
+            cell = at.get((r, c))
+            if cell is None:
+                text.append("  ")
+                continue
+            mark = "R" if cell == robot else "T" if cell == target else "*" if cell == best else " "
+            level = int(levels[cell])
+            if color:
+                background = HIGHLIGHT if cell == best else PALETTE[level - 1] if level else "grey23"
+                ink = "bold white" if background == HIGHLIGHT or background in PALETTE[:4] else "bold black"
+                text.append(f"{mark} ", style=f"{ink} on {background}")
+            else:
+                shade = PLAIN_SHADES[level - 1] if level else "."
+                text.append(f"{shade}{mark if mark != ' ' else shade}")
+        text.append("\n")
+    legend = ", ".join(
+        f"{room} {float(belief[space.room_of_cell == i].sum()):.3f}" for i, room in enumerate(space.rooms)
+    )
+    text.append(f"rooms: {legend}; max b {top:.3f} at {space.cell_name(best)}", style="dim")
+    return text
+
+
+def steps_table(space: SearchSpace, record: SearchRecord) -> Table:
+    """Every step of a search in one table."""
+    table = Table(title=f"{record.policy} search, {record.strategy} metareasoning", title_justify="left")
+    columns: tuple[tuple[str, JustifyMethod], ...] = (
+        ("step", "right"),
+        ("view", "left"),
+        ("cost", "right"),
+        ("time", "right"),
+        ("observation", "left"),
+        ("p(E)", "right"),
+        ("max b", "right"),
+        ("at", "left"),
+    )
+    for name, justify in columns:
+        table.add_column(name, justify=justify)
+    for step in record.steps:
+        table.add_row(
+            str(step.index),
+            space.cell_name(step.view),
+            f"{step.cost:.1f}",
+            f"{step.time:.1f}",
+            "present" if step.present else "absent",
+            f"{step.p_exists:.3f}",
+            f"{step.best_belief:.3f}",
+            space.cell_name(step.best_cell),
+        )
+    return table
+
+
+def verdict_text(space: SearchSpace, record: SearchRecord) -> Text:
+    """``found at study:1,3 after 12 steps, 23.5 time units (true cell study:1,3, accuracy 1.000)``."""
+    text = Text()
+    what = {Verdict.FOUND: "found", Verdict.NOT_FOUND: "not found", Verdict.TIME_LIMIT: "time limit"}[record.verdict]
+    text.append(what, style=_VERDICT_STYLE[record.verdict])
+    if record.reported_cell is not None:
+        text.append(f" at {space.cell_name(record.reported_cell)}")
+    elif record.verdict is Verdict.NOT_FOUND:
+        text.append(" (the target is probably not in the domain)")
+    text.append(f" after {len(record.steps)} steps, {record.time:.1f} time units")
+    true = "absent" if record.true_cell is None else space.cell_name(record.true_cell)
+    text.append(f" (true cell: {true}; accuracy {record.accuracy:.3f})", style="dim")
+    return text
