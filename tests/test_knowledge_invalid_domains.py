@@ -46,11 +46,27 @@ CASES = [
     Case("room_and_class.yaml", 5, 10, r"classes\.study: 'study' is both a room and a class"),
     Case("not_a_mapping.yaml", 1, 1, r"a domain file is a YAML mapping"),
     Case("steps_zero.yaml", 5, 8, r"steps: should be greater than or equal to 1, got 0"),
+    # the search: section of object search (issue 6)
+    Case(
+        "search/unknown_room.yaml",
+        7,
+        38,
+        r"search\.placement\.garage: unknown room 'garage'; expected one of: kitchen, study",
+    ),
+    Case(
+        "search/missing_room.yaml", 7, 14, r"search\.placement: every room needs a place on the plane; missing: kitchen"
+    ),
+    Case("search/overlap.yaml", 9, 14, r"search\.placement\.kitchen: room 'kitchen' overlaps room 'study'"),
+    Case("search/start_outside.yaml", 8, 38, r"search\.robot_start\.cell: cell \[5, 0\] is outside room 'kitchen'"),
+    Case("search/even_view.yaml", 9, 18, r"search\.sensor\.view: .*must be odd, got 2"),
+    Case("search/rate_out_of_range.yaml", 10, 21, r"search\.sensor\.false_positive: should be less than 1, got 1\.5"),
+    Case("search/detector_backwards.yaml", 9, 27, r"search\.sensor\.true_positive: .*0\.2 <= false_positive 0\.3"),
+    Case("search/unknown_key.yaml", 9, 3, r"search\.sensr: unknown key 'sensr'; expected one of: costs, existence"),
 ]
 
 
 def test_every_file_has_a_case() -> None:
-    assert sorted(c.file for c in CASES) == sorted(p.name for p in INVALID.glob("*.yaml"))
+    assert sorted(c.file for c in CASES) == sorted(str(p.relative_to(INVALID)) for p in INVALID.rglob("*.yaml"))
 
 
 @pytest.mark.parametrize("case", CASES, ids=str)

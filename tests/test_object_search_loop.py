@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import json
-import re
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -13,7 +11,7 @@ import pytest
 from typer.testing import CliRunner
 
 from beliefloc.cli.app import app
-from beliefloc.errors import EXIT_BAD_INPUT, EXIT_NEGATIVE, DomainError, UsageError
+from beliefloc.errors import EXIT_BAD_INPUT, EXIT_NEGATIVE, UsageError
 from beliefloc.knowledge import domain_from_data, domain_prior, load_domain
 from beliefloc.object_search.existence import ExistenceStrategy
 from beliefloc.object_search.loop import SearchRecord, Verdict, accuracy, seeded_search
@@ -24,7 +22,7 @@ from .conftest import DATA, ROOT
 
 HOME = ROOT / "domains" / "home.yaml"
 PRINTER = ROOT / "domains" / "printer-example.yaml"
-INVALID = DATA / "invalid_domains" / "search"
+INVALID = DATA / "invalid_domains" / "search"  # their messages are checked in test_knowledge_invalid_domains.py
 
 
 @pytest.fixture(scope="module")
@@ -226,48 +224,6 @@ def test_accuracy_is_a_gaussian_of_the_distance_in_cells(home: tuple[SearchSpace
     assert accuracy(space, a, a) == 1.0
     assert accuracy(space, a, b) == pytest.approx(np.exp(-4 / 8))  # d = 2 cells, σ = 2
     assert accuracy(space, None, None) == 1.0 and accuracy(space, None, a) == 0.0 and accuracy(space, a, None) == 0.0
-
-
-# -- broken search sections ----------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class Case:
-    file: str
-    line: int
-    column: int
-    message: str
-
-    def __str__(self) -> str:
-        return self.file.removesuffix(".yaml")
-
-
-CASES = [
-    Case(
-        "unknown_room.yaml", 7, 38, r"search\.placement\.garage: unknown room 'garage'; expected one of: kitchen, study"
-    ),
-    Case("missing_room.yaml", 7, 14, r"search\.placement: every room needs a place on the plane; missing: kitchen"),
-    Case("overlap.yaml", 9, 14, r"search\.placement\.kitchen: room 'kitchen' overlaps room 'study'"),
-    Case("start_outside.yaml", 8, 38, r"search\.robot_start\.cell: cell \[5, 0\] is outside room 'kitchen'"),
-    Case("even_view.yaml", 9, 18, r"search\.sensor\.view: .*must be odd, got 2"),
-    Case("rate_out_of_range.yaml", 10, 21, r"search\.sensor\.false_positive: should be less than 1, got 1\.5"),
-    Case("detector_backwards.yaml", 9, 27, r"search\.sensor\.true_positive: .*0\.2 <= false_positive 0\.3"),
-    Case("unknown_key.yaml", 9, 3, r"search\.sensr: unknown key 'sensr'; expected one of: costs, existence"),
-]
-
-
-def test_every_broken_search_file_has_a_case() -> None:
-    assert sorted(c.file for c in CASES) == sorted(p.name for p in INVALID.glob("*.yaml"))
-
-
-@pytest.mark.parametrize("case", CASES, ids=str)
-def test_broken_search_sections_name_the_line(case: Case) -> None:
-    path = INVALID / case.file
-    with pytest.raises(DomainError) as info:
-        load_domain(path)
-    prefix = f"{path}:{case.line}:{case.column}: "
-    assert str(info.value).startswith(prefix), str(info.value)
-    assert re.search(case.message, str(info.value)[len(prefix) :]), str(info.value)
 
 
 # -- the command ---------------------------------------------------------------------------------------
