@@ -306,7 +306,7 @@ def _field_names(models: list[type[BaseModel]]) -> list[str]:
     """The keys a mapping may have, when exactly one model sits there."""
     if len(models) != 1:
         return []
-    return sorted(f.alias or n for n, f in models[0].model_fields.items())
+    return sorted({f.alias or n for n, f in models[0].model_fields.items()})  # two fields may share an alias
 
 
 def _tags(models: list[type[BaseModel]], key: str) -> list[str]:

@@ -48,7 +48,7 @@ CASES = [
         1,
         "sensor",
         r"unknown key 'sensor'; expected one of: actions, annotations, description, grid, landmarks, layout, name, "
-        r"sensors$",
+        r"rooms, sensors$",
     ),
     Case("unknown_sensor_key.yaml", 10, 5, "sensors.look.rnage", r"unknown key 'rnage'"),
     Case("missing_grid.yaml", 2, 1, None, r"required key 'grid' is missing"),
@@ -136,6 +136,72 @@ CASES = [
     ),
     Case(
         "annotation_heading_out_of_range.yaml", 9, 13, "annotations[0].state", r"state '1,1,4': heading must be 0\.\.3"
+    ),
+    # rooms (issue 7): a letter layout with a legend, or rectangles
+    Case(
+        "rooms_unknown_letter.yaml",
+        9,
+        6,
+        "rooms.layout",
+        r"row 1 has 'X', which the legend does not name \(K: kitchen, S: study\); '\.' is a free cell in no room",
+    ),
+    Case(
+        "rooms_letter_on_blocked.yaml",
+        11,
+        7,
+        "rooms.layout",
+        r"row 0 has 'K' on a blocked cell of the layout; write '#'",
+    ),
+    Case(
+        "rooms_wall_on_free_cell.yaml",
+        11,
+        7,
+        "rooms.layout",
+        r"row 0 has '#' on a free cell of the layout; write '\.' for a free cell in no room",
+    ),
+    Case(
+        "rooms_unused_letter.yaml",
+        10,
+        27,
+        "rooms.legend.S",
+        r"no cell of rooms\.layout has 'S': room 'study' would be empty",
+    ),
+    Case(
+        "rooms_unknown_key.yaml",
+        9,
+        10,
+        "rooms.legnd",
+        r"unknown key 'legnd'; expected one of: layout, legend \(a letter per cell\) or rectangles",
+    ),
+    Case("rooms_capital_name.yaml", 9, 15, "rooms.legend.K", r"should match pattern .*got 'Kitchen'"),
+    Case(
+        "rooms_both_forms.yaml",
+        11,
+        5,
+        "rooms.rectangles",
+        r"give either layout with a legend or rectangles, not both",
+    ),
+    Case("rooms_rectangle_outside.yaml", 9, 31, "rooms.rectangles.study.to", r"cell \[3, 2\] is outside the 3x3 grid"),
+    Case(
+        "rooms_rectangle_blocked.yaml",
+        12,
+        14,
+        "rooms.rectangles.kitchen",
+        r"cell \[1, 1\] of room 'kitchen' is blocked in the layout: room cells must be free",
+    ),
+    Case(
+        "rooms_empty_rectangle.yaml",
+        8,
+        33,
+        "rooms.rectangles.kitchen.to",
+        r"the rectangle from \[2, 0\] to \[0, 2\] is empty",
+    ),
+    Case(
+        "rooms_overlap.yaml",
+        11,
+        9,
+        "rooms.rectangles.study[1]",
+        r"room 'study' overlaps room 'kitchen' at cell \[2, 1\]",
     ),
 ]
 

@@ -3,15 +3,29 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from beliefloc.belief import entropy, most_likely
-from beliefloc.cli.common import belief_dict, boundary, initial_belief, open_model, print_json, warn
-from beliefloc.model import GridLayout
+from beliefloc.cli.common import (
+    MAP_SUFFIXES,
+    PRIOR_PREFIX,
+    belief_dict,
+    boundary,
+    initial_belief,
+    open_model,
+    print_json,
+    source_map,
+    warn,
+)
+from beliefloc.errors import BeliefLocError
+from beliefloc.model import GridLayout, Model
 from beliefloc.render import stdout_console
-from beliefloc.render.grid import belief_view, grid_width, resolve_compact, uses_color
+from beliefloc.render.grid import belief_view, grid_width, resolve_compact, room_legend, room_plan, uses_color
+
+if TYPE_CHECKING:
+    from beliefloc.semantic_map import SemanticMap
 
 SourceArgument = Annotated[
     Path, typer.Argument(metavar="MAP|MODEL", help="A map, model (.npz) or .pomdp file.", show_default=False)
@@ -20,9 +34,9 @@ BeliefOption = Annotated[
     str,
     typer.Option(
         "--belief",
-        metavar="uniform|FILE",
-        help="The belief to start from: 'uniform' or a YAML/JSON file {state: probability} "
-        "(the output of 'track --json' works too).",
+        metavar="uniform|FILE|prior:DOMAIN",
+        help="The belief to start from: 'uniform', a YAML/JSON file {state: probability} (the output of "
+        "'track --json' works too), or prior:DOMAIN: where the domain's knowledge base says the robot is.",
     ),
 ]
 CompactOption = Annotated[
@@ -46,32 +60,73 @@ def show(
     top: TopOption = 5,
     json_output: JsonOption = False,
 ) -> None:
-    """Draw a belief on the map: a shade per cell and heading, landmarks, the most likely state.
+    """Draw a belief on the map: a shade per cell and heading, landmarks, the most likely state;
+    and the map's rooms (their borders and names) when it has some.
 
     Heading 0 is north, clockwise. A model without a grid (an imported .pomdp) is shown as a table
     of its most probable states.
 
     Example: beliefloc show maps/window-2x2.yaml --compact
+    Example: beliefloc show maps/apartment.yaml --belief prior:domains/apartment.yaml
     """
-    model = open_model(source)
-    belief = initial_belief(model, belief_spec)
+    model, smap = _open(source)
+    belief = initial_belief(model, belief_spec, smap)
+    rooms = smap.rooms if smap is not None else {}
     if json_output:
         state, p = most_likely(belief)
-        print_json(
-            {
-                "belief": belief_dict(model, belief),
-                "most_likely": {"state": model.states.name(state), "probability": p},
-                "entropy": entropy(belief),
-            }
-        )
+        data: dict[str, object] = {
+            "belief": belief_dict(model, belief),
+            "most_likely": {"state": model.states.name(state), "probability": p},
+            "entropy": entropy(belief),
+        }
+        if rooms and model.grid is not None:
+            from beliefloc.semantic_map import room_states
+
+            states = room_states(rooms, model.grid)
+            data["rooms"] = {name: float(belief[indices].sum()) for name, indices in states.items()}
+        print_json(data)
         return
     console = stdout_console()
     color = uses_color(console)
     warn_if_too_wide(model.grid, compact, console.width, color)
-    where = "uniform belief" if belief_spec == "uniform" else f"belief from {belief_spec}"
+    if belief_spec == "uniform":
+        where = "uniform belief"
+    elif belief_spec.startswith(PRIOR_PREFIX):
+        where = f"the robot's prior from {belief_spec.removeprefix(PRIOR_PREFIX)}"
+    else:
+        where = f"belief from {belief_spec}"
     title = f"{model.name}: {where} over {model.n_states} states"
+    if rooms and model.grid is not None:
+        letters = _room_letters(smap) if smap is not None else None
+        console.print(f"{model.name}: {len(rooms)} rooms", style="bold")
+        console.print(room_plan(model.grid, rooms, letters=letters, width=console.width, color=color), crop=False)
+        console.print(room_legend(model.grid, rooms, letters=letters, width=console.width), crop=False)
     view = belief_view(model, belief, compact=compact, width=console.width, color=color, top=top, title=title)
     console.print(view, crop=False)
+
+
+def _open(source: Path) -> tuple[Model, SemanticMap | None]:
+    """The model, and the map it comes from when there is one (to draw its rooms)."""
+    if source.suffix.lower() in MAP_SUFFIXES:
+        from beliefloc.semantic_map import compile_model, load_map
+
+        smap = load_map(source)
+        return compile_model(smap), smap
+    model = open_model(source)
+    if model.grid is None or model.source is None:
+        return model, None
+    try:
+        return model, source_map(model)
+    except BeliefLocError:  # the map moved or changed: draw the belief without rooms
+        return model, None
+
+
+def _room_letters(smap: SemanticMap) -> dict[str, str] | None:
+    """The letters of a room layout's legend, so that the plan uses the map's own letters."""
+    spec = smap.room_spec
+    if spec is None or spec.legend is None:
+        return None
+    return {name: letter for letter, name in spec.legend.items()}
 
 
 def warn_if_too_wide(grid: GridLayout | None, compact: bool | None, width: int, color: bool) -> None:

@@ -7,6 +7,7 @@ entries per row, and observations are stored factored (see :mod:`beliefloc.model
 from __future__ import annotations
 
 import itertools
+from collections.abc import Mapping
 
 import numpy as np
 
@@ -37,6 +38,29 @@ def layout_of(smap: SemanticMap) -> GridLayout:
     g = smap.grid
     landmarks = tuple((lm.class_, lm.cell[0], lm.cell[1]) for lm in smap.landmarks)
     return GridLayout(g.rows, g.cols, g.headings, g.cell_size, smap.free.copy(), landmarks)
+
+
+def room_states(rooms: Mapping[str, np.ndarray], layout: GridLayout) -> dict[str, np.ndarray]:
+    """Room name -> the sorted indices of its states (every heading of every cell of the room).
+
+    ``rooms`` is :attr:`SemanticMap.rooms` (a cell mask per room); ``layout`` the grid of the model
+    the states belong to (``model.grid``). Raises ValueError when a mask does not fit the grid or
+    covers a cell that is not a state there (a model compiled from another map).
+    """
+    index = geometry.cell_index_map(layout)
+    out = {}
+    for name, mask in rooms.items():
+        if mask.shape != (layout.rows, layout.cols):
+            raise ValueError(
+                f"room {name!r} is drawn on a {mask.shape[0]}x{mask.shape[1]} grid, not {layout.rows}x{layout.cols}"
+            )
+        cells = index[mask]
+        if (cells < 0).any():
+            r, c = (int(x) for x in np.argwhere(mask & ~layout.free)[0])
+            raise ValueError(f"cell [{r}, {c}] of room {name!r} is not a free cell of the model's grid")
+        states = (np.sort(cells)[:, None] * layout.headings + np.arange(layout.headings)[None, :]).ravel()
+        out[name] = states.astype(np.int64, copy=False)
+    return out
 
 
 def compile_model(smap: SemanticMap, source: SourceInfo | None = None) -> Model:

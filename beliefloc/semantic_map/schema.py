@@ -32,6 +32,8 @@ MOVES_BY_HEADINGS: dict[int, tuple[str, ...]] = {
     8: ("forward", "backward", "rotate_cw", "rotate_ccw"),
 }
 _NAME_CHAR = re.compile(r"^[A-Za-z0-9_\-]$")
+NO_ROOM = FREE
+"""In a room layout, a free cell in no room (blocked cells stay ``#``)."""
 _STATE_RE = re.compile(r"^\s*(-?\d+)\s*,\s*(-?\d+)\s*(?:,\s*(-?\d+)\s*)?$")
 
 
@@ -173,6 +175,42 @@ class HereSensor(_SensorBase):
 
 Sensor = Annotated[LookSensor | ScanSensor | HereSensor, Field(discriminator="type")]
 
+RoomName = Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*$", max_length=64)]
+"""A lowercase letter, then lowercase letters, digits and ``_``: the room names of a domain's
+knowledge base (clingo constants), so that a domain can reference the map's rooms."""
+
+
+class RoomRectangle(_Strict):
+    """``{from: [r0, c0], to: [r1, c1]}``: the cells from ``[r0, c0]`` to ``[r1, c1]``, both corners included."""
+
+    from_: tuple[int, int] = Field(alias="from")
+    to: tuple[int, int]
+
+
+class Rooms(_Strict):
+    """Named rooms: a letter per cell (``layout`` with a ``legend``) or ``rectangles`` of cells.
+
+    Every room has at least one cell, its cells are free, and rooms do not overlap; free cells in
+    no room are allowed (a doorway, say).
+    """
+
+    model_config = ConfigDict(extra="allow", frozen=True, populate_by_name=True)
+    layout: str | None = None
+    """Like the map's ``layout``: a legend letter per cell of a room, '.' for a free cell in no
+    room, '#' for a blocked cell."""
+    legend: dict[str, RoomName] | None = None
+    """Letter -> room name: ``{K: kitchen}``."""
+    rectangles: dict[RoomName, RoomRectangle | list[RoomRectangle]] | None = None
+    """Room name -> a rectangle, or a list of them (an L-shaped room)."""
+
+    @field_validator("legend", mode="before")
+    @classmethod
+    def _digit_letters(cls, value: Any) -> Any:
+        # YAML reads ``1: bedroom`` with an integer key; the room layout has the character '1'
+        if isinstance(value, dict):
+            return {str(k) if isinstance(k, int) and not isinstance(k, bool) else k: v for k, v in value.items()}
+        return value
+
 
 class Annotation(BaseModel):
     """``{state: "1,1,0", look: [potted_plant]}``: the expected observation of a state, by hand.
@@ -206,12 +244,23 @@ class SemanticMap(_Strict):
     actions: dict[str, ActionSpec]
     sensors: dict[Name, Sensor] = Field(default_factory=dict)
     annotations: list[Annotation] = Field(default_factory=list)
+    room_spec: Rooms | None = Field(default=None, alias="rooms")
+    """The ``rooms:`` section as written; :attr:`rooms` gives each room's cells."""
     _source: SourceInfo | None = PrivateAttr(default=None)
 
     @property
     def source(self) -> SourceInfo | None:
         """The file this map was read from (set by ``load_map``), for stale-model detection."""
         return self._source
+
+    @model_validator(mode="before")
+    @classmethod
+    def _no_internal_names(cls, data: Any) -> Any:
+        # populate_by_name would let the field's own name in: only ``rooms:`` is written in files
+        if isinstance(data, dict) and "room_spec" in data:
+            keys = sorted({f.alias or name for name, f in cls.model_fields.items()})
+            raise FieldError(("room_spec",), f"unknown key 'room_spec'; expected one of: {', '.join(keys)}")
+        return data
 
     # --- derived geometry -----------------------------------------------------------------------
     @cached_property
@@ -221,6 +270,27 @@ class SemanticMap(_Strict):
             return np.ones((self.grid.rows, self.grid.cols), dtype=bool)
         lines = _grid_lines(self.layout)
         return np.array([[ch == FREE for ch in line] for line in lines], dtype=bool)
+
+    @cached_property
+    def rooms(self) -> dict[str, np.ndarray]:
+        """Room name -> ``mask[r, c]``, True on the room's cells; in the order written. Empty
+        when the map has no ``rooms:``. The masks are disjoint and cover only free cells."""
+        spec = self.room_spec
+        shape = (self.grid.rows, self.grid.cols)
+        if spec is None:
+            return {}
+        if spec.rectangles is not None:
+            masks = {}
+            for name, rectangles in spec.rectangles.items():
+                mask = np.zeros(shape, dtype=bool)
+                for rect in rectangles if isinstance(rectangles, list) else [rectangles]:
+                    (r0, c0), (r1, c1) = rect.from_, rect.to
+                    mask[r0 : r1 + 1, c0 : c1 + 1] = True
+                masks[name] = mask
+            return masks
+        assert spec.layout is not None and spec.legend is not None  # checked at validation
+        letters = np.array([list(line) for line in _grid_lines(spec.layout)])
+        return {name: letters == letter for letter, name in spec.legend.items()}
 
     @property
     def classes(self) -> list[str]:
@@ -260,6 +330,7 @@ class SemanticMap(_Strict):
         self._check_actions()
         self._check_sensors()
         self._check_annotations()
+        self._check_rooms()
         return self
 
     def _check_layout(self) -> None:
@@ -382,6 +453,118 @@ class SemanticMap(_Strict):
                     known = ", ".join(self.sensors) or "none"
                     raise FieldError(path, f"unknown sensor {key!r}; the map's sensors are: {known}")
                 _check_reading(sensor, value, path, self)
+
+    def _check_rooms(self) -> None:
+        spec = self.room_spec
+        if spec is None:
+            return
+        if spec.model_extra:
+            key = next(iter(spec.model_extra))
+            raise FieldError(
+                ("rooms", key),
+                f"unknown key {key!r}; expected one of: layout, legend (a letter per cell) or rectangles",
+            )
+        letters = spec.layout is not None or spec.legend is not None
+        if letters and spec.rectangles is not None:
+            raise FieldError(("rooms", "rectangles"), "give either layout with a legend or rectangles, not both")
+        if spec.rectangles is not None:
+            self._check_room_rectangles(spec.rectangles)
+        elif not letters:
+            raise FieldError(("rooms",), "give layout with a legend (a letter per cell) or rectangles")
+        elif spec.layout is None or spec.legend is None:
+            missing = "legend" if spec.legend is None else "layout"
+            example = "{K: kitchen}" if missing == "legend" else "a letter per cell, like the map's layout"
+            raise FieldError(("rooms",), f"a room layout needs a {missing} ({example}); or give rectangles")
+        else:
+            self._check_room_layout(spec.layout, spec.legend)
+
+    def _check_room_rectangles(self, rooms: dict[str, RoomRectangle | list[RoomRectangle]]) -> None:
+        g = self.grid
+        owner = np.full((g.rows, g.cols), "", dtype=object)
+        if not rooms:
+            raise FieldError(("rooms", "rectangles"), "no rooms; e.g. kitchen: {from: [1, 1], to: [3, 4]}")
+        for name, rectangles in rooms.items():
+            listed = isinstance(rectangles, list)
+            items = rectangles if isinstance(rectangles, list) else [rectangles]
+            if not items:
+                raise FieldError(("rooms", "rectangles", name), "no rectangle: a room needs at least one cell")
+            for k, rect in enumerate(items):
+                path: tuple[str | int, ...] = ("rooms", "rectangles", name, *((k,) if listed else ()))
+                for corner, (r, c) in (("from", rect.from_), ("to", rect.to)):
+                    if not (0 <= r < g.rows and 0 <= c < g.cols):
+                        raise FieldError((*path, corner), f"cell [{r}, {c}] is outside the {g.rows}x{g.cols} grid")
+                (r0, c0), (r1, c1) = rect.from_, rect.to
+                if r0 > r1 or c0 > c1:
+                    raise FieldError(
+                        (*path, "to"),
+                        f"the rectangle from [{r0}, {c0}] to [{r1}, {c1}] is empty: 'to' is the bottom-right "
+                        "corner, at or below and right of 'from'",
+                    )
+                blocked = np.argwhere(~self.free[r0 : r1 + 1, c0 : c1 + 1])
+                if len(blocked):
+                    r, c = int(blocked[0][0]) + r0, int(blocked[0][1]) + c0
+                    raise FieldError(
+                        path, f"cell [{r}, {c}] of room {name!r} is blocked in the layout: room cells must be free"
+                    )
+                taken = np.argwhere((owner[r0 : r1 + 1, c0 : c1 + 1] != "") & (owner[r0 : r1 + 1, c0 : c1 + 1] != name))
+                if len(taken):
+                    r, c = int(taken[0][0]) + r0, int(taken[0][1]) + c0
+                    raise FieldError(path, f"room {name!r} overlaps room {owner[r, c]!r} at cell [{r}, {c}]")
+                owner[r0 : r1 + 1, c0 : c1 + 1] = name
+
+    def _check_room_layout(self, layout: str, legend: dict[str, str]) -> None:
+        g = self.grid
+        for letter in legend:
+            if len(letter) != 1 or letter in (FREE, BLOCKED) or letter.isspace():
+                raise FieldError(
+                    ("rooms", "legend", letter),
+                    f"{letter!r} should be one character other than '{FREE}' and '{BLOCKED}', e.g. K: kitchen",
+                )
+        named: dict[str, str] = {}
+        for letter, name in legend.items():
+            if name in named:
+                raise FieldError(("rooms", "legend", letter), f"room {name!r} already has the letter {named[name]!r}")
+            named[name] = letter
+        lines = _grid_lines(layout)
+        path = ("rooms", "layout")
+        if len(lines) != g.rows:
+            raise FieldError(path, f"has {len(lines)} rows, but grid.rows is {g.rows}")
+        used: set[str] = set()
+        for r, line in enumerate(lines):
+            if len(line) != g.cols:
+                raise FieldError(path, f"row {r} has {len(line)} cells, but grid.cols is {g.cols}", row=r)
+            for c, ch in enumerate(line):
+                free = bool(self.free[r, c])
+                if ch == BLOCKED:
+                    if free:
+                        raise FieldError(
+                            path,
+                            f"row {r} has '{BLOCKED}' on a free cell of the layout; write '{NO_ROOM}' for a free "
+                            "cell in no room, or a room's letter",
+                            row=r,
+                            column=c,
+                        )
+                elif not free:
+                    raise FieldError(
+                        path, f"row {r} has {ch!r} on a blocked cell of the layout; write '{BLOCKED}'", row=r, column=c
+                    )
+                elif ch != NO_ROOM:
+                    if ch not in legend:
+                        letters = ", ".join(f"{k}: {v}" for k, v in legend.items())
+                        raise FieldError(
+                            path,
+                            f"row {r} has {ch!r}, which the legend does not name ({letters}); "
+                            f"'{NO_ROOM}' is a free cell in no room",
+                            row=r,
+                            column=c,
+                        )
+                    used.add(ch)
+        for letter, name in legend.items():
+            if letter not in used:
+                raise FieldError(
+                    ("rooms", "legend", letter),
+                    f"no cell of rooms.layout has {letter!r}: room {name!r} would be empty",
+                )
 
 
 def _check_reading(
