@@ -62,6 +62,50 @@ CASES = [
     Case("search/rate_out_of_range.yaml", 10, 21, r"search\.sensor\.false_positive: should be less than 1, got 1\.5"),
     Case("search/detector_backwards.yaml", 9, 27, r"search\.sensor\.true_positive: .*0\.2 <= false_positive 0\.3"),
     Case("search/unknown_key.yaml", 9, 3, r"search\.sensr: unknown key 'sensr'; expected one of: costs, existence"),
+    # the robot's room (issue 7)
+    Case("robot_unknown_room.yaml", 7, 9, r"robot\.dock: unknown room 'garage'; expected one of: kitchen, study"),
+    Case("robot_reserved.yaml", 7, 10, r"objects\.robot: 'robot' is the robot itself"),
+    Case("robot_weight.yaml", 6, 32, r"robot\.weight: should be less than or equal to 1, got 1\.5"),
+    # domains that reference a map (issue 7)
+    Case(
+        "map/extra_room.yaml",
+        6,
+        10,
+        r"rooms\.garage: the rooms must be those of \S*two-rooms\.yaml \(kitchen, study\); "
+        r"not rooms of the map: garage$",
+    ),
+    Case(
+        "map/missing_room.yaml",
+        5,
+        3,
+        r"rooms: the rooms must be those of \S*two-rooms\.yaml \(kitchen, study\); "
+        r"rooms of the map missing here: study$",
+    ),
+    Case("map/map_without_rooms.yaml", 3, 6, r"map: \S*maps/kitchen\.yaml has no rooms: give it a rooms: section"),
+    Case(
+        "map/map_not_found.yaml", 3, 6, r"map: cannot use the map: \S*invalid_domains/map/two-rooms\.yaml: no such file"
+    ),
+    Case(
+        "map/map_broken.yaml",
+        3,
+        6,
+        r"map: cannot use the map: \S*rooms_overlap\.yaml:11:9: rooms\.rectangles\.study\[1\]: room 'study' overlaps",
+    ),
+    Case(
+        "map/search_placement.yaml",
+        9,
+        14,
+        r"search\.placement: a domain with map: takes every room's cells from the map; drop placement",
+    ),
+    Case(
+        "map/search_start_blocked.yaml", 8, 16, r"search\.robot_start: cell \[0, 2\] is blocked on \S*two-rooms\.yaml"
+    ),
+    Case(
+        "map/search_start_room.yaml",
+        8,
+        16,
+        r"search\.robot_start: with map:, the robot starts on a free cell of the map: write \[row, col\]",
+    ),
 ]
 
 

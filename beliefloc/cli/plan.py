@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import boundary, initial_belief, open_model, print_json
+from beliefloc.cli.common import BELIEF_HELP, boundary, initial_belief, open_model, print_json
 from beliefloc.errors import EXIT_NEGATIVE, UsageError
 from beliefloc.planning.best_first import (
     DEFAULT_MAX_EXPANSIONS,
@@ -43,7 +43,7 @@ MaxExpansions = Annotated[
     int, typer.Option("--max-expansions", min=1, help="Give up after expanding this many beliefs.")
 ]
 TimeLimit = Annotated[float, typer.Option("--time-limit", min=0.0, help="Give up after this many seconds of search.")]
-BeliefOption = Annotated[str, typer.Option("--belief", help="'uniform' or a YAML/JSON file {state: probability}.")]
+BeliefOption = Annotated[str, typer.Option("--belief", metavar="uniform|FILE|prior:DOMAIN", help=BELIEF_HELP)]
 
 
 def resolve_heuristic(search: Search, heuristic: Heuristic | None) -> Heuristic:
@@ -75,6 +75,7 @@ def plan_command(
     Exit code 1 when there is no plan (every reachable belief was searched) or the search gave up.
 
     Example: beliefloc plan maps/kitchen.yaml --threshold 0.95
+    Example: beliefloc plan maps/apartment.yaml --belief prior:domains/apartment.yaml
     """
     model = open_model(source)
     start = initial_belief(model, belief)

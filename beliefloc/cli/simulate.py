@@ -31,7 +31,13 @@ def simulate(
     episodes: Annotated[int, typer.Option("--episodes", "-n", min=1, help="How many episodes.")] = 1,
     seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the starts and of the world's noise.")] = 0,
     start: Annotated[
-        str, typer.Option("--start", help="The robot's true start state, or 'random' (per episode).")
+        str,
+        typer.Option(
+            "--start",
+            metavar="STATE|random|prior",
+            help="The robot's true start state; 'random': uniform per episode; 'prior': drawn per episode from "
+            "the start belief (--belief), e.g. the knowledge base's prior.",
+        ),
     ] = "random",
     strategy: Annotated[
         list[str] | None,
@@ -80,6 +86,7 @@ def simulate(
     Example: beliefloc simulate maps/kitchen.yaml --show
     Example: beliefloc simulate maps/kitchen.yaml -n 50 -s bestfirst -s uniform -s random
     Example: beliefloc simulate maps/corridors.yaml -n 20 -s ec2-macros -s ec2 --max-actions 500
+    Example: beliefloc simulate maps/apartment.yaml -n 20 --belief prior:domains/apartment.yaml --start prior
     """
     model = open_model(map_file)
     names = strategy or ["bestfirst"]
@@ -87,7 +94,7 @@ def simulate(
         if name not in STRATEGIES:
             raise UsageError(f"unknown strategy {name!r}; expected one of: {', '.join(STRATEGIES)}")
     start_belief = initial_belief(model, belief)
-    start_state = None if start == "random" else model.states.index(start)
+    start_state = None if start in ("random", "prior") else model.states.index(start)
     world_model = _world(world, model) if world is not None else None
     table = None
     if macros is not None:
@@ -136,6 +143,7 @@ def simulate(
             seed=seed,
             start=start_state,
             start_belief=start_belief,
+            start_distribution=start_belief if start == "prior" else None,
             world=world_model,
             settings=settings,
             max_steps=max_steps,

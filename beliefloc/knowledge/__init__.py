@@ -3,7 +3,8 @@
 Staged: :func:`load_domain` (YAML -> validated :class:`Domain`) -> :class:`KnowledgeBase` (ground and
 solve with clingo; revise with observations) -> :class:`AnswerSet` -> :func:`room_prior` (Eq. 2-5,
 pure). :func:`domain_prior` composes them: a validated domain (+ observed facts) -> a
-:class:`RoomPrior` with its explanation (:attr:`RoomPrior.terms`).
+:class:`RoomPrior` with its explanation (:attr:`RoomPrior.terms`). Where the robot itself is:
+:func:`robot_rooms` -> :func:`robot_room_prior` -> :func:`spread_over_states` (pure, ``robot.py``).
 """
 
 from beliefloc.knowledge.answer import AnswerSet, Literal, Timings
@@ -12,16 +13,30 @@ from beliefloc.knowledge.prior import DEFAULT_FLOOR, XI, PsiTerm, RoomPrior, roo
 from beliefloc.knowledge.program import (
     AXIOMS,
     KB_DIR,
+    ROBOT_AXIOMS,
     KnowledgeBase,
     Observation,
     domain_prior,
     prior_from_answer,
 )
+from beliefloc.knowledge.robot import (
+    DEFAULT_WEIGHT,
+    OUTSIDE,
+    ROBOT,
+    RobotPrior,
+    robot_room_prior,
+    robot_rooms,
+    spread_over_states,
+)
 
 __all__ = [
     "AXIOMS",
     "DEFAULT_FLOOR",
+    "DEFAULT_WEIGHT",
     "KB_DIR",
+    "OUTSIDE",
+    "ROBOT",
+    "ROBOT_AXIOMS",
     "XI",
     "AnswerSet",
     "Domain",
@@ -29,11 +44,15 @@ __all__ = [
     "Literal",
     "Observation",
     "PsiTerm",
+    "RobotPrior",
     "RoomPrior",
     "Timings",
     "domain_from_data",
     "domain_prior",
     "load_domain",
     "prior_from_answer",
+    "robot_room_prior",
+    "robot_rooms",
     "room_prior",
+    "spread_over_states",
 ]

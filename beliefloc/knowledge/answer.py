@@ -63,8 +63,14 @@ class AnswerSet:
         return dict(sorted(groups.items(), key=lambda kv: (kv[0].startswith("-"), kv[0])))
 
     def located(self, step: int | None = None) -> dict[str, str]:
-        """Object -> room for every ``holds(in(O, R), step)``."""
-        return {lit.args[0]: lit.args[1] for lit in self.at(step) if lit.positive and lit.fluent == "in"}
+        """Object -> room for every ``holds(in(O, R), step)`` of an object (``is(O, C)``); the robot's
+        own room (``kb/robot.lp``) is not an object's: see :func:`beliefloc.knowledge.robot.robot_rooms`."""
+        objects = {obj for obj, _ in self.members}
+        return {
+            lit.args[0]: lit.args[1]
+            for lit in self.at(step)
+            if lit.positive and lit.fluent == "in" and lit.args[0] in objects
+        }
 
     def counts(self, step: int | None = None) -> dict[str, dict[str, int]]:
         """Room -> primary class -> number of objects of that class in the room (the paper's a_{k,n})."""

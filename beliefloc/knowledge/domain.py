@@ -2,20 +2,39 @@
 
 A domain says what the robot knows about a home or an office (Zhang, Sridharan & Wyatt 2015,
 Sec. III-A): its rooms, the object class hierarchy (a tree), known object instances and the rooms
-they are in, defaults with their exceptions, and the target class. Every field is documented in
-``docs/domain-format.md``. Validation happens here, once; cross-reference checks raise
-:class:`~beliefloc.errors.FieldError` with the path of the culprit so the loader names its line.
+they are in, defaults with their exceptions, the target class, and what is known about where the
+robot itself is (``robot:``). Every field is documented in ``docs/domain-format.md``. Validation
+happens here, once; cross-reference checks raise :class:`~beliefloc.errors.FieldError` with the
+path of the culprit so the loader names its line.
+
+A domain may reference a semantic map (``map: ../maps/apartment.yaml``, relative to the domain
+file): :func:`load_domain` then loads the map and checks that the domain's rooms are the map's
+rooms, and the ``search:`` section takes its geometry from the map (:class:`MapSearch`).
 """
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    ValidationInfo,
+    ValidatorFunctionWrapHandler,
+    field_validator,
+    model_validator,
+)
 
-from beliefloc.errors import DomainError, FieldError
-from beliefloc.source import read_source, validate_source
+from beliefloc.errors import DomainError, FieldError, MapError
+from beliefloc.knowledge.robot import DEFAULT_WEIGHT, ROBOT
+from beliefloc.source import Source, read_source, validate_source
+
+if TYPE_CHECKING:
+    from beliefloc.semantic_map import SemanticMap
 
 AspName = Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*$", max_length=64)]
 """Rooms, classes, objects and defaults become clingo constants: a lowercase letter, then
@@ -91,15 +110,9 @@ class Existence(_Strict):
     beta: Annotated[float, Field(gt=0)] = 2.0
 
 
-class SearchSpace(_Strict):
-    """Rooms as grids of cells placed on a plane, where the robot starts, and its sensor."""
+class SearchSettings(_Strict):
+    """What every ``search:`` section has: the sensor, the costs, the limits of a search."""
 
-    room_size: Size = (5, 5)
-    """``[rows, cols]`` of every room not listed in ``room_sizes``."""
-    room_sizes: dict[AspName, Size] = Field(default_factory=dict)
-    placement: dict[AspName, Pair]
-    """Every room's top-left cell on the plane; travel cost grows with the distance on this plane."""
-    robot_start: RobotStart
     sensor: Sensor = Field(default_factory=Sensor)
     costs: Costs = Field(default_factory=Costs)
     time_limit: Annotated[float, Field(gt=0)] = 100.0
@@ -109,8 +122,60 @@ class SearchSpace(_Strict):
     tau_absent: Annotated[float, Field(gt=0, lt=1)] = 0.7
     """tau-: stop with NotFound when p(not E) exceeds it."""
 
+
+class SearchSpace(SearchSettings):
+    """Rooms as grids of cells placed on a plane, where the robot starts, and its sensor."""
+
+    room_size: Size = (5, 5)
+    """``[rows, cols]`` of every room not listed in ``room_sizes``."""
+    room_sizes: dict[AspName, Size] = Field(default_factory=dict)
+    placement: dict[AspName, Pair]
+    """Every room's top-left cell on the plane; travel cost grows with the distance on this plane."""
+    robot_start: RobotStart
+
+    @field_validator("robot_start", mode="before")
+    @classmethod
+    def _start_in_a_room(cls, value: Any) -> Any:
+        if isinstance(value, list):
+            raise ValueError("write {room: R, cell: [row, col]}; a cell [row, col] of a map needs map: in the domain")
+        return value
+
     def size_of(self, room: str) -> tuple[int, int]:
         return self.room_sizes.get(room, self.room_size)
+
+
+PLANE_ONLY = ("room_size", "room_sizes", "placement")
+"""Keys of a plane ``search:`` that a domain with ``map:`` must not have: the map gives the cells."""
+
+
+class MapSearch(SearchSettings):
+    """The ``search:`` section of a domain that references a map: the rooms' cells, the walls and
+    the distances come from the map, so there is no placement or room size; the robot starts on a
+    free cell of the map."""
+
+    model_config = ConfigDict(extra="allow", frozen=True, populate_by_name=True)
+    robot_start: Pair
+    """``[row, col]``: a free cell of the map."""
+
+    @field_validator("robot_start", mode="before")
+    @classmethod
+    def _start_on_the_map(cls, value: Any) -> Any:
+        if isinstance(value, dict):
+            raise ValueError("with map:, the robot starts on a free cell of the map: write [row, col]")
+        return value
+
+
+class RobotKnowledge(_Strict):
+    """What the knowledge base is told about where the robot is (``kb/robot.lp``)."""
+
+    dock: AspName | None = None
+    """The room of the robot's dock: the default "the robot is usually at its dock" (step 1)."""
+    last_seen: AspName | None = None
+    """Where the robot was last seen: ``holds(in(robot, R), 1)``, which beats the default."""
+    carried: bool = False
+    """The robot was carried off its dock: a weak exception, the dock default says nothing."""
+    weight: Annotated[float, Field(gt=0.0, le=1.0)] = DEFAULT_WEIGHT
+    """w: the share of the start belief on the rooms the knowledge base puts the robot in."""
 
 
 class Domain(_Strict):
@@ -129,10 +194,39 @@ class Domain(_Strict):
     """Time steps 1..steps: step 1 is the initial knowledge; observations go to the last step."""
     kb: list[str] = Field(default_factory=list)
     """Extra ``.lp`` files of this domain, relative to the domain file."""
+    map: str | None = None
+    """A semantic map (``maps/*.yaml``), relative to the domain file, whose rooms are the domain's."""
+    robot: RobotKnowledge | None = None
+    """Where the robot probably is, for ``--belief prior:DOMAIN`` and ``prior --robot``."""
     search: SearchSpace | None = None
-    """The geometry for object search (``beliefloc search``); knowledge-only domains leave it out."""
+    """The geometry for object search (``beliefloc search``) on a plane of rooms; knowledge-only
+    domains leave it out. Always None when the domain references a map: see :attr:`map_search`."""
+    map_search: MapSearch | None = Field(default=None, alias="search")
+    """The ``search:`` section of a domain with ``map:``: the geometry comes from the map."""
 
     _path: Path | None = PrivateAttr(default=None)
+    _map: SemanticMap | None = PrivateAttr(default=None)
+
+    # ``search:`` is read as one of two models, chosen by whether the domain has ``map:`` (declared
+    # above, so validated first); both fields are named ``search`` in the file and in messages.
+    @field_validator("search", mode="wrap")
+    @classmethod
+    def _plane_search(cls, value: Any, handler: ValidatorFunctionWrapHandler, info: ValidationInfo) -> Any:
+        return None if info.data.get("map") is not None else handler(value)
+
+    @field_validator("map_search", mode="wrap")
+    @classmethod
+    def _map_search(cls, value: Any, handler: ValidatorFunctionWrapHandler, info: ValidationInfo) -> Any:
+        return handler(value) if info.data.get("map") is not None else None
+
+    @model_validator(mode="before")
+    @classmethod
+    def _no_internal_names(cls, data: Any) -> Any:
+        # populate_by_name would let the field's own name in: only ``search:`` is written in files
+        if isinstance(data, dict) and "map_search" in data:
+            keys = sorted({f.alias or name for name, f in cls.model_fields.items()})
+            raise FieldError(("map_search",), f"unknown key 'map_search'; expected one of: {', '.join(keys)}")
+        return data
 
     @field_validator("rooms", mode="before")
     @classmethod
@@ -148,6 +242,7 @@ class Domain(_Strict):
     def _check_references(self) -> Domain:
         if not self.rooms:
             raise FieldError(("rooms",), "a domain needs at least one room")
+        self._check_reserved()
         if not self.classes:
             raise FieldError(("classes",), "a domain needs a class hierarchy (class: parent)")
         clash = sorted(set(self.rooms) & set(self.classes))
@@ -197,7 +292,33 @@ class Domain(_Strict):
             raise FieldError(("target",), f"unknown target class {self.target!r}{_hint(self.target, self.classes)}")
         if self.search is not None:
             self._check_search(self.search)
+        if self.map_search is not None:
+            self._check_map_search(self.map_search)
+        if self.robot is not None:
+            for key in ("dock", "last_seen"):
+                room = getattr(self.robot, key)
+                if room is not None and room not in self.rooms:
+                    raise FieldError(("robot", key), f"unknown room {room!r}{_hint(room, self.rooms)}")
         return self
+
+    def _check_reserved(self) -> None:
+        for key in ("rooms", "classes", "objects"):
+            if ROBOT in getattr(self, key):
+                raise FieldError(
+                    (key, ROBOT),
+                    f"{ROBOT!r} is the robot itself (kb/robot.lp, the domain's robot: section); give this another name",
+                )
+
+    def _check_map_search(self, search: MapSearch) -> None:
+        for key in search.model_extra or {}:
+            if key in PLANE_ONLY:
+                raise FieldError(
+                    ("search", key),
+                    f"a domain with map: takes every room's cells from the map; drop {key}",
+                )
+            expected = ", ".join(sorted(MapSearch.model_fields))
+            raise FieldError(("search", key), f"unknown key {key!r}; expected one of: {expected}")
+        _check_sensor(search.sensor)
 
     def _check_search(self, search: SearchSpace) -> None:
         for key in ("placement", "room_sizes"):
@@ -217,18 +338,7 @@ class Domain(_Strict):
                 r2, c2, h2, w2 = boxes[second]
                 if r1 < r2 + h2 and r2 < r1 + h1 and c1 < c2 + w2 and c2 < c1 + w1:
                     raise FieldError(("search", "placement", first), f"room {first!r} overlaps room {second!r}")
-        sensor = search.sensor
-        if sensor.view % 2 == 0:
-            raise FieldError(
-                ("search", "sensor", "view"),
-                f"a view is a square centred on the robot: its side must be odd, got {sensor.view}",
-            )
-        if sensor.true_positive <= sensor.false_positive:
-            raise FieldError(
-                ("search", "sensor", "true_positive"),
-                f"a detection must be likelier with the target in view: true_positive {sensor.true_positive} "
-                f"<= false_positive {sensor.false_positive}",
-            )
+        _check_sensor(search.sensor)
         start = search.robot_start
         if start.room not in self.rooms:
             raise FieldError(
@@ -257,10 +367,74 @@ class Domain(_Strict):
         """The file the domain was read from (None when built in code)."""
         return self._path
 
+    @property
+    def map_file(self) -> Path | None:
+        """The referenced map, resolved relative to the domain file (None without ``map:``)."""
+        if self.map is None:
+            return None
+        base = self._path.parent if self._path is not None else Path.cwd()
+        return Path(os.path.normpath(base / self.map))
+
+    @property
+    def semantic_map(self) -> SemanticMap | None:
+        """The referenced map, loaded and checked against the domain by :func:`load_domain`."""
+        return self._map
+
     def kb_files(self) -> list[Path]:
         """The domain's own ``.lp`` files, resolved relative to the domain file."""
         base = self._path.parent if self._path is not None else Path.cwd()
         return [base / name for name in self.kb]
+
+
+def _check_sensor(sensor: Sensor) -> None:
+    if sensor.view % 2 == 0:
+        raise FieldError(
+            ("search", "sensor", "view"),
+            f"a view is a square centred on the robot: its side must be odd, got {sensor.view}",
+        )
+    if sensor.true_positive <= sensor.false_positive:
+        raise FieldError(
+            ("search", "sensor", "true_positive"),
+            f"a detection must be likelier with the target in view: true_positive {sensor.true_positive} "
+            f"<= false_positive {sensor.false_positive}",
+        )
+
+
+def room_mismatch(domain_rooms: Any, map_rooms: Any) -> tuple[list[str], list[str]]:
+    """(rooms of the domain that the map lacks, rooms of the map that the domain lacks), in order."""
+    extra = [room for room in domain_rooms if room not in map_rooms]
+    missing = [room for room in map_rooms if room not in domain_rooms]
+    return extra, missing
+
+
+def check_against_map(domain: Domain, smap: SemanticMap, label: str) -> None:
+    """The domain's rooms are the map's rooms; ``search.robot_start`` is a free cell of the map.
+
+    Raises :class:`FieldError` naming the rooms that differ; ``label`` names the map in messages.
+    """
+    if not smap.rooms:
+        raise FieldError(
+            ("map",), f"{label} has no rooms: give it a rooms: section (docs/map-format.md) for the domain to use"
+        )
+    extra, missing = room_mismatch(domain.rooms, smap.rooms)
+    if extra or missing:
+        parts = []
+        if extra:
+            parts.append(f"not rooms of the map: {', '.join(extra)}")
+        if missing:
+            parts.append(f"rooms of the map missing here: {', '.join(missing)}")
+        path: tuple[str, ...] = ("rooms", extra[0]) if extra else ("rooms",)
+        raise FieldError(path, f"the rooms must be those of {label} ({', '.join(smap.rooms)}); " + "; ".join(parts))
+    search = domain.map_search
+    if search is not None:
+        r, c = search.robot_start
+        g = smap.grid
+        if not (r < g.rows and c < g.cols):
+            raise FieldError(
+                ("search", "robot_start"), f"cell [{r}, {c}] is outside the {g.rows}x{g.cols} grid of {label}"
+            )
+        if not smap.free[r, c]:
+            raise FieldError(("search", "robot_start"), f"cell [{r}, {c}] is blocked on {label}")
 
 
 def _hint(name: str, known: Any) -> str:
@@ -276,11 +450,14 @@ def load_domain(path: str | Path) -> Domain:
         raise DomainError(f"{source.path}:1:1: a domain file is a YAML mapping (name:, rooms:, classes:, ...)")
     domain = validate_source(source, Domain, DomainError)
     domain._path = Path(path)
+    _attach_map(domain, source)
     return domain
 
 
 def domain_from_data(data: dict[str, Any], path: Path | None = None) -> Domain:
-    """A domain from plain data (tests, generated domains); errors without line numbers."""
+    """A domain from plain data (tests, generated domains); errors without line numbers.
+
+    ``path`` is where the domain would live: a ``map:`` is resolved relative to it."""
     try:
         domain = Domain.model_validate(data)
     except FieldError as exc:
@@ -288,4 +465,28 @@ def domain_from_data(data: dict[str, Any], path: Path | None = None) -> Domain:
     except ValueError as exc:
         raise DomainError(str(exc)) from None
     domain._path = path
+    _attach_map(domain, None)
     return domain
+
+
+def _attach_map(domain: Domain, source: Source | None) -> None:
+    """Load the referenced map (if any) and check the domain against it."""
+    map_file = domain.map_file
+    if map_file is None:
+        return
+    from beliefloc.semantic_map import load_map
+
+    def fail(path: tuple[str | int, ...], message: str) -> DomainError:
+        if source is None:
+            return DomainError(f"{'.'.join(str(p) for p in path)}: {message}")
+        return DomainError(source.format(path, message))
+
+    try:
+        smap = load_map(map_file)
+    except MapError as exc:
+        raise fail(("map",), f"cannot use the map: {exc}") from None
+    try:
+        check_against_map(domain, smap, str(map_file))
+    except FieldError as exc:
+        raise fail(exc.path, exc.message) from None
+    domain._map = smap

@@ -30,6 +30,8 @@ from beliefloc.knowledge.prior import DEFAULT_FLOOR, RoomPrior, room_prior
 KB_DIR = Path(__file__).resolve().parent.parent.parent / "kb"
 """The repository's ``kb/`` folder (the package is installed editable from the repository)."""
 AXIOMS = KB_DIR / "axioms.lp"
+ROBOT_AXIOMS = KB_DIR / "robot.lp"
+"""Where the robot itself is (its dock, sightings, being carried); loaded with the axioms."""
 
 _PARTS = """
 #program room_fact(r). room(r).
@@ -45,6 +47,9 @@ _PARTS = """
 #program weak_fact(d, c). weak_exception(d, c).
 #program possible_fact(d, c). possible_exception(d, c).
 #program strong_fact(d, c). strong_exception(d, c).
+#program robot_dock_fact(r). robot_dock(r).
+#program robot_seen_fact(r). holds(in(robot, r), 1).
+#program robot_carried_fact. robot_carried.
 #program base.
 % observations made by the robot, switched on through the API (multi-shot revision)
 #external observed(O, R, I) : object(O), room(R), step(I).
@@ -92,7 +97,7 @@ class KnowledgeBase:
         self.domain = domain
         self.use_defaults = use_defaults
         """False: leave out the domain file's ``defaults:`` (defaults written in .lp files stay)."""
-        files = [AXIOMS, *domain.kb_files(), *kb_files]
+        files = [AXIOMS, ROBOT_AXIOMS, *domain.kb_files(), *kb_files]
         seen: set[Path] = set()
         self.files: list[Path] = []
         for path in files:
@@ -177,6 +182,14 @@ class KnowledgeBase:
                 ("strong_fact", default.strong_exceptions),
             ):
                 parts += [(kind, [_const(name), _const(cls)]) for cls in classes]
+        robot = d.robot
+        if robot is not None:
+            if robot.dock is not None:
+                parts.append(("robot_dock_fact", [_const(robot.dock)]))
+            if robot.last_seen is not None:
+                parts.append(("robot_seen_fact", [_const(robot.last_seen)]))
+            if robot.carried:
+                parts.append(("robot_carried_fact", []))
         return parts
 
     # -- solving ------------------------------------------------------------------------------

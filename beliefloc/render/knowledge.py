@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from rich.table import Table
 
-from beliefloc.knowledge import AnswerSet, RoomPrior
+from beliefloc.knowledge import AnswerSet, RobotPrior, RoomPrior
 
 
 def prior_table(prior: RoomPrior, title: str) -> Table:
@@ -23,6 +23,31 @@ def prior_table(prior: RoomPrior, title: str) -> Table:
         else:
             note = ", ".join(f"{t.count} {t.primary}" for t in terms)
         table.add_row(room, f"{prior.alpha[room]:.3f}", f"{prior.prior[room]:.3f}", note)
+    return table
+
+
+def robot_prior_table(prior: RobotPrior, title: str, cells: dict[str, int] | None = None) -> Table:
+    """Rooms with the robot's prior, why each has it, and (on a map) its number of cells."""
+    table = Table(title=title, title_justify="left")
+    table.add_column("room")
+    table.add_column("prior", justify="right")
+    if cells is not None:
+        table.add_column("cells", justify="right")
+    table.add_column("knowledge base")
+    others = len(prior.rooms) - len(prior.believed)
+    for room in prior.rooms:
+        if prior.uniform:
+            note = "nothing known (uniform)"
+        elif room in prior.believed:
+            note = f"the robot is here: w = {prior.weight:g}" + (
+                f" / {len(prior.believed)}" if len(prior.believed) > 1 else ""
+            )
+        else:
+            note = f"elsewhere: (1 - w) / {others}" if others > 1 else "elsewhere: 1 - w"
+        row = [room, f"{prior.prior[room]:.3f}"]
+        if cells is not None:
+            row.append(str(cells.get(room, 0)))
+        table.add_row(*row, note)
     return table
 
 

@@ -142,6 +142,7 @@ def run_experiment(
     seed: int,
     start: int | None = None,
     start_belief: np.ndarray | None = None,
+    start_distribution: np.ndarray | None = None,
     world: Model | None = None,
     settings: PlannerSettings | None = None,
     max_steps: int = DEFAULT_MAX_STEPS,
@@ -149,13 +150,19 @@ def run_experiment(
     on_episode: Callable[[EpisodeRecord], None] | None = None,
 ) -> list[EpisodeRecord]:
     """Paired trials: in episode e every strategy starts from the same true state and meets the
-    same seeded noise stream. ``start=None`` draws the true start uniformly per episode."""
+    same seeded noise stream. ``start=None`` draws the true start per episode, from
+    ``start_distribution`` (a probability per state) when given, else uniformly."""
     evaluator = SuccessorEvaluator(model)
     belief = start_belief if start_belief is not None else np.full(model.n_states, 1.0 / model.n_states)
     records = []
     for e in range(episodes):
         start_rng, _, _ = episode_rngs(seed, e)
-        state = start if start is not None else int(start_rng.integers(model.n_states))
+        if start is not None:
+            state = start
+        elif start_distribution is not None:
+            state = int(start_rng.choice(model.n_states, p=start_distribution))
+        else:
+            state = int(start_rng.integers(model.n_states))
         for name in strategies:
             record = run_episode(
                 model,

@@ -1,0 +1,359 @@
+"""Where the robot probably is (issue 7): the knowledge base's facts and defaults about the robot's
+room, the rule that turns them into a start belief, ``prior --robot`` and ``--belief prior:DOMAIN``.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from beliefloc import compile_model, load_map
+from beliefloc.belief import update
+from beliefloc.cli.app import app
+from beliefloc.cli.common import robot_prior_belief
+from beliefloc.errors import EXIT_BAD_INPUT, DomainError, UsageError
+from beliefloc.knowledge import (
+    OUTSIDE,
+    KnowledgeBase,
+    domain_from_data,
+    load_domain,
+    robot_room_prior,
+    robot_rooms,
+    spread_over_states,
+)
+from beliefloc.knowledge.robot import prior_from_answer
+from beliefloc.planning.best_first import plan
+from beliefloc.semantic_map import room_states
+
+from .conftest import DATA, MAPS, ROOT
+
+APARTMENT_MAP = MAPS / "apartment.yaml"
+APARTMENT = ROOT / "domains" / "apartment.yaml"
+TWO_ROOMS = DATA / "rooms" / "two-rooms.yaml"
+TWO_ROOMS_DOMAIN = DATA / "rooms" / "two-rooms-domain.yaml"
+ROOMS = ("bedroom", "study", "corridor", "living_room", "kitchen")
+
+
+def _domain(robot: dict[str, Any] | None, **extra: Any) -> dict[str, Any]:
+    data: dict[str, Any] = {"name": "flat", "rooms": list(ROOMS), "classes": {"object": None, "cup": "object"}}
+    if robot is not None:
+        data["robot"] = robot
+    data.update(extra)
+    return data
+
+
+def _believed(robot: dict[str, Any] | None, **extra: Any) -> tuple[str, ...]:
+    return robot_rooms(KnowledgeBase(domain_from_data(_domain(robot, **extra))).answer())
+
+
+# --- the knowledge base: facts, the dock default and its exception ---------------------------------
+
+
+def test_the_robot_is_usually_at_its_dock() -> None:
+    assert _believed({"dock": "kitchen"}) == ("kitchen",)
+
+
+def test_a_sighting_beats_the_dock_default() -> None:
+    assert _believed({"dock": "kitchen", "last_seen": "study"}) == ("study",)
+
+
+def test_a_carried_robot_is_an_exception_to_the_dock_default() -> None:
+    kb = KnowledgeBase(domain_from_data(_domain({"dock": "kitchen", "carried": True})))
+    answer = kb.answer()
+    assert robot_rooms(answer) == ()
+    assert "ab(d_dock(robot))" in answer.abnormal
+
+
+def test_a_carried_robot_is_where_it_was_last_seen() -> None:
+    assert _believed({"dock": "kitchen", "carried": True, "last_seen": "bedroom"}) == ("bedroom",)
+
+
+def test_nothing_known_about_the_robot() -> None:
+    assert _believed(None) == ()
+    assert _believed({}) == ()
+
+
+def test_robot_facts_can_be_written_in_a_kb_file(tmp_path: Path) -> None:
+    (tmp_path / "robot.lp").write_text("robot_dock(study).\n", encoding="utf-8")
+    domain = domain_from_data(_domain(None, kb=["robot.lp"]), path=tmp_path / "flat.yaml")
+    assert robot_rooms(KnowledgeBase(domain).answer()) == ("study",)
+
+
+def test_the_robot_is_not_an_object() -> None:
+    answer = KnowledgeBase(domain_from_data(_domain({"dock": "kitchen"}))).answer()
+    assert "robot" not in answer.located()
+    assert all("robot" not in counts for counts in answer.counts().values())
+
+
+def test_the_sighting_holds_at_the_last_step_by_inertia() -> None:
+    answer = KnowledgeBase(domain_from_data(_domain({"last_seen": "study"}, steps=4))).answer()
+    assert [robot_rooms(answer, step) for step in (1, 2, 3, 4)] == [("study",)] * 4
+
+
+# --- the rule --------------------------------------------------------------------------------------
+
+
+def test_believed_rooms_share_w_and_the_others_share_the_rest() -> None:
+    prior = robot_room_prior(ROOMS, ["kitchen"])
+    assert prior.prior == pytest.approx(
+        {"bedroom": 0.025, "study": 0.025, "corridor": 0.025, "living_room": 0.025, "kitchen": 0.9}
+    )
+    assert not prior.uniform and prior.message is None
+    two = robot_room_prior(ROOMS, ["kitchen", "study"], weight=0.6)
+    assert two.prior == pytest.approx(
+        {"bedroom": 0.4 / 3, "study": 0.3, "corridor": 0.4 / 3, "living_room": 0.4 / 3, "kitchen": 0.3}
+    )
+
+
+def test_nothing_known_is_uniform_over_rooms_with_a_note() -> None:
+    prior = robot_room_prior(ROOMS, [])
+    assert prior.uniform and set(prior.prior.values()) == {0.2}
+    assert prior.message is not None and "does not say where the robot is" in prior.message
+
+
+def test_every_room_believed_shares_everything() -> None:
+    assert robot_room_prior(["a", "b"], ["a", "b"], weight=0.7).prior == {"a": 0.5, "b": 0.5}
+
+
+def test_cells_in_no_room_are_one_more_of_the_other_rooms() -> None:
+    prior = robot_room_prior(["kitchen", "study"], ["kitchen"], outside=True)
+    assert prior.rooms == ("kitchen", "study", OUTSIDE)
+    assert prior.prior == pytest.approx({"kitchen": 0.9, "study": 0.05, OUTSIDE: 0.05})
+
+
+@pytest.mark.parametrize(
+    ("rooms", "believed", "weight", "message"),
+    [
+        ([], [], 0.9, "needs at least one"),
+        (["a"], [], 0.0, r"must be in \(0, 1\]"),
+        (["a"], [], 1.5, r"must be in \(0, 1\]"),
+        (["a", "b"], ["garage"], 0.9, "puts the robot in garage, which is not a room of: a, b"),
+    ],
+)
+def test_rule_refuses_bad_input(rooms: list[str], believed: list[str], weight: float, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        robot_room_prior(rooms, believed, weight=weight)
+
+
+def test_spread_puts_exactly_w_on_the_kitchen_states() -> None:
+    """The issue's acceptance test: the KB says the robot is in the kitchen -> 0.9 over its states."""
+    smap = load_map(APARTMENT_MAP)
+    model = compile_model(smap)
+    assert model.grid is not None
+    states = room_states(smap.rooms, model.grid)
+    answer = KnowledgeBase(load_domain(APARTMENT)).answer()
+    belief = spread_over_states(prior_from_answer(answer), states, model.n_states)
+    assert belief[states["kitchen"]].sum() == pytest.approx(0.9, abs=1e-12)
+    assert belief.sum() == pytest.approx(1.0, abs=1e-12)
+    for room, indices in states.items():
+        expected = 0.9 if room == "kitchen" else 0.025
+        assert belief[indices].sum() == pytest.approx(expected, abs=1e-12)
+        assert np.ptp(belief[indices]) == 0.0, "uniform over the room's cells and headings"
+
+
+def test_spread_covers_the_cells_in_no_room() -> None:
+    smap = load_map(TWO_ROOMS)
+    model = compile_model(smap)
+    assert model.grid is not None
+    states = room_states(smap.rooms, model.grid)
+    belief = spread_over_states(
+        robot_room_prior(["kitchen", "study"], ["kitchen"], outside=True), states, model.n_states
+    )
+    doorway = [model.states.index(f"1,2,{h}") for h in range(4)]
+    assert belief[doorway].sum() == pytest.approx(0.05)
+    assert belief[states["kitchen"]].sum() == pytest.approx(0.9)
+
+
+def test_spread_refuses_a_room_without_cells() -> None:
+    prior = robot_room_prior(["kitchen", "garage"], ["kitchen"])
+    with pytest.raises(ValueError, match="no cells for room 'garage'"):
+        spread_over_states(prior, {"kitchen": np.arange(4)}, 4)
+
+
+def test_spread_refuses_states_in_no_room_without_a_share() -> None:
+    prior = robot_room_prior(["kitchen"], ["kitchen"])
+    with pytest.raises(ValueError, match="2 states are in no room"):
+        spread_over_states(prior, {"kitchen": np.arange(4)}, 6)
+
+
+# --- domains that reference a map ------------------------------------------------------------------
+
+
+def test_a_domain_loads_its_map_relative_to_itself() -> None:
+    domain = load_domain(APARTMENT)
+    assert domain.map_file is not None and domain.map_file.resolve() == APARTMENT_MAP.resolve()
+    assert domain.semantic_map is not None and list(domain.semantic_map.rooms) == list(domain.rooms)
+    assert domain.search is None and domain.map_search is not None
+    assert domain.map_search.robot_start == (5, 6)
+
+
+def test_domain_from_data_checks_the_rooms_against_the_map(tmp_path: Path) -> None:
+    data = yaml.safe_load(TWO_ROOMS_DOMAIN.read_text(encoding="utf-8"))
+    assert domain_from_data(data, path=TWO_ROOMS_DOMAIN).semantic_map is not None
+    data["rooms"] = ["kitchen", "pantry"]
+    with pytest.raises(DomainError, match=r"not rooms of the map: pantry; rooms of the map missing here: study"):
+        domain_from_data(data, path=TWO_ROOMS_DOMAIN)
+
+
+def test_a_plane_domain_keeps_its_search_space() -> None:
+    domain = load_domain(ROOT / "domains" / "home.yaml")
+    assert domain.search is not None and domain.map_search is None and domain.semantic_map is None
+
+
+# --- the command line: prior --robot ----------------------------------------------------------------
+
+
+def test_prior_robot_prints_the_room_prior(runner: CliRunner) -> None:
+    out = runner.invoke(app, ["prior", str(APARTMENT), "--robot"])
+    assert out.exit_code == 0, out.output
+    assert "where is the robot? (apartment, step 2)" in out.stdout
+    rows = {line.split("│")[1].strip(): line for line in out.stdout.splitlines() if line.startswith("│")}
+    assert "0.900" in rows["kitchen"] and "the robot is here: w = 0.9" in rows["kitchen"]
+    assert "0.025" in rows["study"] and "elsewhere: (1 - w) / 4" in rows["study"]
+    assert "12" in rows["kitchen"], "the kitchen's cells on the map"
+
+
+def test_prior_robot_json(runner: CliRunner) -> None:
+    out = runner.invoke(app, ["prior", str(APARTMENT), "--robot", "--json", "--weight", "0.6"])
+    assert out.exit_code == 0, out.output
+    data = json.loads(out.stdout)
+    assert data["rooms"] == list(ROOMS) and data["robot_in"] == ["kitchen"] and data["weight"] == 0.6
+    assert data["prior"] == pytest.approx(
+        {"bedroom": 0.1, "study": 0.1, "corridor": 0.1, "living_room": 0.1, "kitchen": 0.6}
+    )
+    assert data["cells"]["study"] == 18 and data["uniform"] is False and data["answer_sets"] == 1
+
+
+def test_prior_robot_with_cells_in_no_room(runner: CliRunner) -> None:
+    out = runner.invoke(app, ["prior", str(TWO_ROOMS_DOMAIN), "--robot", "--json"])
+    data = json.loads(out.stdout)
+    assert data["rooms"] == ["kitchen", "study", OUTSIDE] and data["cells"][OUTSIDE] == 1
+    assert data["prior"] == pytest.approx({"kitchen": 0.9, "study": 0.05, OUTSIDE: 0.05})
+
+
+def test_prior_robot_says_when_nothing_is_known(runner: CliRunner) -> None:
+    out = runner.invoke(app, ["prior", str(ROOT / "domains" / "home.yaml"), "--robot", "--json"])
+    assert out.exit_code == 0
+    assert json.loads(out.stdout)["uniform"] is True
+    assert "does not say where the robot is" in " ".join(out.stderr.split())
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [(["--target", "cup"], "drop --target"), (["--explain"], "drop --target and --explain")],
+)
+def test_prior_robot_refuses_object_options(extra: list[str], message: str, runner: CliRunner) -> None:
+    out = runner.invoke(app, ["prior", str(APARTMENT), "--robot", *extra])
+    assert out.exit_code == EXIT_BAD_INPUT and message in out.stderr
+
+
+def test_weight_needs_robot(runner: CliRunner) -> None:
+    out = runner.invoke(app, ["prior", str(APARTMENT), "--weight", "0.5"])
+    assert out.exit_code == EXIT_BAD_INPUT and "use it with --robot" in out.stderr
+
+
+# --- the command line: --belief prior:DOMAIN ---------------------------------------------------------
+
+
+def _prior_belief() -> np.ndarray:
+    model = compile_model(load_map(APARTMENT_MAP))
+    return robot_prior_belief(model, APARTMENT)
+
+
+def test_plan_from_the_knowledge_base_prior(runner: CliRunner) -> None:
+    out = runner.invoke(app, ["plan", str(APARTMENT_MAP), "--belief", f"prior:{APARTMENT}", "--json"])
+    assert out.exit_code == 0, out.output
+    data = json.loads(out.stdout)
+    expected = plan(compile_model(load_map(APARTMENT_MAP)), _prior_belief())
+    assert data["found"] and data["cost"] == expected.cost
+    assert [s["action"] for s in data["steps"]] == [s.action for s in expected.steps]
+
+
+def test_track_from_the_knowledge_base_prior(runner: CliRunner) -> None:
+    out = runner.invoke(app, ["track", str(APARTMENT_MAP), "--belief", f"prior:{APARTMENT}", "look=fridge", "--json"])
+    assert out.exit_code == 0, out.output
+    model = compile_model(load_map(APARTMENT_MAP))
+    expected, _ = update(model, _prior_belief(), "look", "fridge")
+    got = np.array(list(json.loads(out.stdout)["belief"].values()))
+    np.testing.assert_allclose(got, expected, atol=1e-15)
+
+
+def test_show_json_of_the_prior_holds_w_on_the_kitchen(runner: CliRunner) -> None:
+    out = runner.invoke(app, ["show", str(APARTMENT_MAP), "--belief", f"prior:{APARTMENT}", "--json"])
+    assert json.loads(out.stdout)["rooms"]["kitchen"] == pytest.approx(0.9, abs=1e-12)
+
+
+def test_a_built_model_finds_its_map_for_the_prior(runner: CliRunner, tmp_path: Path) -> None:
+    model_file = tmp_path / "apartment.npz"
+    assert runner.invoke(app, ["build", str(APARTMENT_MAP), "-o", str(model_file)]).exit_code == 0
+    out = runner.invoke(app, ["plan", str(model_file), "--belief", f"prior:{APARTMENT}", "--json"])
+    assert out.exit_code == 0, out.output
+
+
+@pytest.mark.parametrize(
+    ("source", "domain", "message"),
+    [
+        (MAPS / "kitchen.yaml", APARTMENT, r"kitchen\.yaml has no rooms"),
+        (APARTMENT_MAP, ROOT / "domains" / "home.yaml", "rooms of the map the domain lacks: corridor"),
+        (APARTMENT_MAP, TWO_ROOMS_DOMAIN, "rooms of the map the domain lacks: bedroom, corridor, living_room$"),
+        (DATA / "pomdp" / "tiger.pomdp", APARTMENT, "was not compiled from a map"),
+    ],
+    ids=["no-rooms", "missing-room", "other-rooms", "pomdp"],
+)
+def test_prior_belief_needs_matching_rooms(source: Path, domain: Path, message: str, runner: CliRunner) -> None:
+    out = runner.invoke(app, ["plan", str(source), "--belief", f"prior:{domain}"])
+    assert out.exit_code == EXIT_BAD_INPUT, out.output
+    text = " ".join(out.stderr.split())
+    assert text.startswith(f"error: --belief prior:{domain}: ") or "was not compiled" in text, text
+    assert "Traceback" not in out.output
+    assert re.search(message, text), text
+
+
+def test_a_room_only_the_kb_file_knows_has_no_cells(tmp_path: Path) -> None:
+    data = yaml.safe_load(APARTMENT.read_text(encoding="utf-8"))
+    data["map"] = str(APARTMENT_MAP)
+    data["kb"] = ["garage.lp"]
+    (tmp_path / "garage.lp").write_text("room(garage).\n", encoding="utf-8")
+    (tmp_path / "flat.yaml").write_text(yaml.safe_dump(data), encoding="utf-8")
+    model = compile_model(load_map(APARTMENT_MAP))
+    with pytest.raises(UsageError, match="no cells for room 'garage'"):
+        robot_prior_belief(model, tmp_path / "flat.yaml")
+
+
+# --- simulate --start prior ---------------------------------------------------------------------------
+
+
+def test_simulate_draws_true_starts_from_the_start_belief(runner: CliRunner, tmp_path: Path) -> None:
+    belief = tmp_path / "belief.yaml"
+    belief.write_text('"7,8": 0.5\n"9,11": 0.5\n', encoding="utf-8")
+    args = ["simulate", str(APARTMENT_MAP), "-n", "6", "--belief", str(belief), "--start", "prior", "--json"]
+    out = runner.invoke(app, [*args, "--no-timings"])
+    assert out.exit_code in (0, 1), out.output
+    starts = [episode["start"] for episode in json.loads(out.stdout)["episodes"]]
+    assert {start.rsplit(",", 1)[0] for start in starts} <= {"7,8", "9,11"}
+    assert len(set(starts)) > 1
+    again = runner.invoke(app, [*args, "--no-timings"])
+    assert again.stdout == out.stdout
+
+
+def test_simulate_from_the_prior_starts_mostly_in_the_kitchen(runner: CliRunner) -> None:
+    args = ["simulate", str(APARTMENT_MAP), "-n", "20", "--belief", f"prior:{APARTMENT}", "--start", "prior"]
+    out = runner.invoke(app, [*args, "--json", "--no-timings", "--max-steps", "1"])
+    starts = [episode["start"] for episode in json.loads(out.stdout)["episodes"]]
+    kitchen = sum(7 <= int(s.split(",")[0]) <= 9 and 8 <= int(s.split(",")[1]) <= 11 for s in starts)
+    assert kitchen >= 15, starts
+
+
+def test_the_field_name_behind_a_map_search_is_not_a_key_of_the_file() -> None:
+    data = _domain(None, map_search={"robot_start": [0, 0]})
+    with pytest.raises(
+        DomainError, match=r"map_search: unknown key 'map_search'; expected one of: .*robot, rooms, search"
+    ):
+        domain_from_data(data)
