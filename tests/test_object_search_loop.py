@@ -51,11 +51,17 @@ def search(
 def test_shipped_domains_have_a_search_space(path: Path) -> None:
     space = search_space(load_domain(path))
     assert space.n_cells == 25 * len(space.rooms)
-    assert space.views.shape == (space.n_cells, space.n_cells)
-    assert space.views[np.arange(space.n_cells), np.arange(space.n_cells)].all()  # a view covers its own cell
+    views = space.views.toarray().astype(bool)
+    assert views.shape == (space.n_cells, space.n_cells)
+    assert views[np.arange(space.n_cells), np.arange(space.n_cells)].all()  # a view covers its own cell
     same_room = space.room_of_cell[:, None] == space.room_of_cell[None, :]
-    assert not (space.views & ~same_room).any()  # no view through walls
-    assert space.views.sum(axis=1).max() == 9 and space.views.sum(axis=1).min() == 4  # 3x3, 2x2 in corners
+    assert not (views & ~same_room).any()  # no view through walls
+    assert views.sum(axis=1).max() == 9 and views.sum(axis=1).min() == 4  # 3x3, 2x2 in corners
+    # the same square, cell by cell (an oracle for the offset-by-offset construction)
+    for view in range(space.n_cells):
+        near = np.abs(space.local - space.local[view]).max(axis=1) <= 1
+        np.testing.assert_array_equal(views[view], near & same_room[view])
+        np.testing.assert_array_equal(space.view_cells(view), np.flatnonzero(views[view]))
 
 
 def test_home_is_the_papers_100_cells_and_travel_grows_with_distance(home: tuple[SearchSpace, np.ndarray]) -> None:
@@ -89,8 +95,8 @@ def test_simulated_target_answers_at_the_detector_rates(home: tuple[SearchSpace,
     space, _ = home
     cell = space.parse_cell("study:2,2")
     target = SimulatedTarget(cell, space.detector, np.random.default_rng(0))
-    hits = np.mean([target.detect(space.views[cell]) for _ in range(4000)])
-    false = np.mean([target.detect(space.views[space.parse_cell("kitchen:2,2")]) for _ in range(4000)])
+    hits = np.mean([target.detect(space.view_cells(cell)) for _ in range(4000)])
+    false = np.mean([target.detect(space.in_view(space.parse_cell("kitchen:2,2"))) for _ in range(4000)])
     assert hits == pytest.approx(0.9, abs=0.02) and false == pytest.approx(0.1, abs=0.02)
 
 
@@ -110,7 +116,7 @@ def test_expected_entropy_matches_a_plain_loop(home: tuple[SearchSpace, np.ndarr
         for present in (True, False):
             like = np.array(
                 [
-                    (tp if present else 1 - tp) if space.views[view, i] else (fp if present else 1 - fp)
+                    (tp if present else 1 - tp) if space.views[view, i] > 0 else (fp if present else 1 - fp)
                     for i in range(100)
                 ]
             )

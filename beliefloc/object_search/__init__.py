@@ -1,2 +1,14 @@
 """Object search (Zhang, Sridharan & Wyatt 2015): a belief over the target's cell from a knowledge-base
-prior and kept observation likelihoods, and metareasoning about whether the target exists at all."""
+prior and kept observation likelihoods, and metareasoning about whether the target exists at all.
+
+One algorithm or role per module:
+
+* ``world``: the search space (cells, rooms, sparse views) and the simulated world (target, objects);
+* ``posterior``: Eq. 6-7, the cell belief, its revision (re-use, discard, trust factors);
+* ``existence``: Eq. 8-14, the Beta metareasoning and its three approximations;
+* ``policy``: which view to analyse next (``pomdp``, ``greedy``, ``pomdp-only``);
+* ``dynamic``: Algorithm 1 lines 7-10, objects seen during the search committed to the knowledge base;
+* ``loop``: Algorithm 1 itself (``run_search``, ``seeded_search``);
+* ``trials``: simulated ground truths and the robot's partial knowledge (pure, seeded);
+* ``experiment``: paired trials over arms and their summary (``run_trials``, ``summarize``).
+"""

@@ -79,6 +79,7 @@ class ExistenceBelief:
     log_like_e: float = 0.0
     log_like_not_e: float = 0.0
     samples: np.ndarray = field(default_factory=lambda: np.empty(0))
+    _quantile: tuple[tuple[float, float, float], float] | None = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
         if not (self.alpha > 0 and self.beta > 0):
@@ -92,9 +93,12 @@ class ExistenceBelief:
     def theta(self) -> float:
         """The single prior P(E) of the expectation and upper-bound strategies."""
         if self.strategy is ExistenceStrategy.UPPER_BOUND:
-            from scipy.stats import beta  # lazy: scipy.stats is slow to import
+            key = (self.alpha, self.beta, self.value_ub)
+            if self._quantile is None or self._quantile[0] != key:  # the quantile costs ~0.1 ms: once per search
+                from scipy.stats import beta  # lazy: scipy.stats is slow to import
 
-            return float(beta.ppf(self.value_ub, self.alpha, self.beta))
+                self._quantile = (key, float(beta.ppf(self.value_ub, self.alpha, self.beta)))
+            return self._quantile[1]
         return self.alpha / (self.alpha + self.beta)
 
     def observe(self, like_e: float, like_not_e: float) -> None:

@@ -1,11 +1,15 @@
-"""The control loop of Zhang, Sridharan & Wyatt 2015, Algorithm 1: select, execute, update, decide.
+"""The control loop of Zhang, Sridharan & Wyatt 2015, Algorithm 1: select, execute, update, revise, decide.
 
 Each iteration (line numbers of Algorithm 1)::
 
     4   v_t  = policy(b_{t-1}, robot)                          choose a view
     5   o_t  = world.detect(view v_t)                          travel + analysis time units
     11  p(o_t | E), p(o_t | ¬E)   from b_{t-1}                 Eq. 9 (the predictive likelihood)
-    6   b_t ∝ b_ob · b_kb, b_ob *= O(·, v_t, o_t)              Eq. 6-7 (CellBelief.observe)
+    6   b_t ∝ b_ob · b_kb, b_ob *= O(·, v_t, o_t)              Eq. 6-7 (CellBelief.observe_view)
+    7   the other objects' detections in v_t; an object whose  dynamic KB only (dynamic.py)
+        room belief passes the commit threshold is committed
+    8-9 KB changed: b_kb = new room prior (Eq. 5) spread,      CellBelief.revise: reuse, discard
+        b_t recomputed from it (Eq. 7)                         or trust-factor
     12  p(E | o_1:t)                                           Eq. 10-12 (ExistenceBelief)
     14  p(¬E | o_1:t) > τ-        -> NOT_FOUND
     16  max(b_t) > τ+             -> FOUND (the most likely cell)
@@ -14,8 +18,10 @@ Each iteration (line numbers of Algorithm 1)::
 Eq. 9 is evaluated on the belief *before* ``o_t`` is folded in, so the product over steps is the
 likelihood of the whole sequence, ``p(o_1:t | E)``, as Eq. 12 keeps it.
 
-Not in this version: lines 7-10, revising the knowledge base when another object is seen and
-committed (``--dynamic-kb``); :meth:`CellBelief.revise` is ready for it.
+Rooms the robot cannot enter (``accessible: false``): the knowledge base's prior still gives them
+their share (Eq. 2-5 do not read the ``accessible`` fluent), but the robot can never look there,
+so a belief kept on them could never reach τ+ nor let p(¬E) grow. The search therefore conditions
+on the rooms it can enter: :func:`cell_prior` gives the other rooms nothing and renormalises.
 
 Accuracy (Sec. IV: "falls off as a Gaussian function of the distance between the reported location
 and the ground truth"): ``exp(-d² / (2 σ²))`` with ``d`` the Euclidean distance on the plane in
@@ -28,13 +34,15 @@ from __future__ import annotations
 
 import enum
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
+from beliefloc.object_search.dynamic import DynamicKnowledge
 from beliefloc.object_search.existence import ExistenceBelief, ExistenceStrategy, detection_likelihoods
 from beliefloc.object_search.policy import Policy
-from beliefloc.object_search.posterior import CellBelief, spread_room_prior
+from beliefloc.object_search.posterior import CellBelief, Revision, TrustFactor, spread_room_prior
 from beliefloc.object_search.world import SearchSpace, SimulatedTarget
 
 ACCURACY_SIGMA = 2.0
@@ -67,6 +75,8 @@ class Step:
     best_belief: float
     belief: np.ndarray | None = None
     """The cell belief after the step (only with ``keep_beliefs``)."""
+    commits: tuple[tuple[str, str], ...] = ()
+    """``(object, room)`` facts committed to the knowledge base at this step (dynamic KB)."""
 
 
 @dataclass(frozen=True)
@@ -86,6 +96,15 @@ class SearchRecord:
     """Distance between the reported and the true cell, when both exist."""
     accuracy: float
     initial_belief: np.ndarray
+    revision: str = Revision.REUSE.value
+    dynamic_kb: bool = False
+    rejected: tuple[tuple[str, str], ...] = ()
+    """Commits the knowledge base refused (it would have had no answer set)."""
+
+    @property
+    def commits(self) -> tuple[tuple[str, str], ...]:
+        """Every fact committed to the knowledge base, in order."""
+        return tuple(fact for step in self.steps for fact in step.commits)
 
 
 def accuracy(space: SearchSpace, reported: int | None, true: int | None, sigma: float = ACCURACY_SIGMA) -> float:
@@ -98,11 +117,24 @@ def accuracy(space: SearchSpace, reported: int | None, true: int | None, sigma: 
     return math.exp(-(distance**2) / (2 * sigma**2))
 
 
+def cell_prior(space: SearchSpace, room_prior: np.ndarray) -> np.ndarray:
+    """``b_kb``: the room prior (axis: ``space.rooms``) restricted to the rooms the robot can enter,
+    renormalised, and spread evenly over each room's cells (see the module docstring)."""
+    reachable = np.where(space.accessible, np.asarray(room_prior, dtype=float), 0.0)
+    total = reachable.sum()
+    if not total > 0:
+        raise ValueError("the room prior gives nothing to the rooms the robot can enter")
+    return spread_room_prior(reachable / total, space.room_of_cell)
+
+
 def initial_prior(space: SearchSpace, room_prior: np.ndarray, policy: Policy) -> np.ndarray:
-    """``b_kb``: the room prior (axis: ``space.rooms``) spread over cells, or uniform for a policy without KB."""
+    """``b_kb`` for a policy: :func:`cell_prior`, or uniform over the cells the robot can search for a
+    policy without knowledge base."""
     if not policy.kb_prior:
-        return np.full(space.n_cells, 1.0 / space.n_cells)
-    return spread_room_prior(np.asarray(room_prior, dtype=float), space.room_of_cell)
+        reachable = space.reachable.astype(float)
+        uniform: np.ndarray = reachable / reachable.sum()
+        return uniform
+    return cell_prior(space, room_prior)
 
 
 def run_search(
@@ -116,26 +148,53 @@ def run_search(
     time_limit: float = TIME_LIMIT,
     sigma: float = ACCURACY_SIGMA,
     keep_beliefs: bool = False,
+    revision: Revision = Revision.REUSE,
+    trust: TrustFactor | None = None,
+    dynamic: DynamicKnowledge | None = None,
 ) -> SearchRecord:
     """Algorithm 1 until a verdict. ``existence`` is updated in place (it holds the MC samples);
-    ``existence.tau_minus`` is τ-. Deterministic given the target's and existence's generators."""
+    ``existence.tau_minus`` is τ-.
+
+    ``revision`` says how a new room prior is combined with the kept likelihood (Eq. 7 with re-use
+    or discard, or the trust-factor pool, which also applies from the start with ``trust`` or the
+    default :class:`TrustFactor`). ``dynamic``: the other objects, the robot's tracker of them and
+    the knowledge base to commit to (lines 7-10); None is a static KB. A policy without knowledge
+    base (``pomdp-only``) ignores both. Deterministic given the generators of ``target``,
+    ``existence`` and ``dynamic.objects``; ``dynamic`` is updated in place.
+    """
     if not 0 < tau_found < 1 or time_limit <= 0:
         raise ValueError("tau_found must be in (0, 1) and time_limit positive")
-    cells = CellBelief.start(initial_prior(space, room_prior, policy))
+    uses_kb = policy.kb_prior
+    pooled = revision is Revision.TRUST and uses_kb
+    cells = CellBelief.start(initial_prior(space, room_prior, policy), (trust or TrustFactor()) if pooled else None)
     start_belief = cells.posterior
     belief = start_belief
     robot, time = space.start, 0.0
     steps: list[Step] = []
+    rejected: list[tuple[str, str]] = []
     detector = space.detector
     while True:
         view = policy.select(space, belief, robot)
-        cost = float(space.action_costs(robot)[view])
-        in_view = space.views[view]
-        present = target.detect(in_view)
+        cost = float(space.travel_cost * space.distances_from(robot)[view] + space.analysis_cost)
+        view_cells = space.view_cells(view)
+        present = target.detect(view_cells)
         like_e, like_not_e = detection_likelihoods(
-            belief, in_view, present, detector.true_positive, detector.false_positive
+            belief, view_cells, present, detector.true_positive, detector.false_positive
         )
-        cells = cells.observe(detector.likelihood(in_view, present))
+        cells = cells.observe_view(view_cells, present, detector)
+        commits: list[tuple[str, str]] = []
+        if dynamic is not None and uses_kb:
+            new_prior = None
+            for name, room in dynamic.tracker.observe(view_cells, dynamic.objects.detect(view_cells)):
+                fact = (name, space.rooms[room])
+                revised = dynamic.link.commit(*fact)
+                if revised is None:
+                    rejected.append(fact)
+                else:
+                    commits.append(fact)
+                    new_prior = revised
+            if new_prior is not None:
+                cells = cells.revise(cell_prior(space, new_prior), revision)
         belief = cells.posterior
         existence.observe(like_e, like_not_e)
         p_exists = existence.probability_exists()
@@ -152,6 +211,7 @@ def run_search(
                 best,
                 float(belief[best]),
                 belief if keep_beliefs else None,
+                tuple(commits),
             )
         )
         if 1.0 - p_exists > existence.tau_minus:
@@ -166,6 +226,8 @@ def run_search(
     error = None
     if reported is not None and target.cell is not None:
         error = float(space.distances_from(target.cell)[reported])
+    if dynamic is not None:
+        dynamic.rejected.extend(rejected)
     return SearchRecord(
         policy=policy.name,
         strategy=existence.strategy.value,
@@ -177,7 +239,21 @@ def run_search(
         error_cells=error,
         accuracy=accuracy(space, reported, target.cell, sigma),
         initial_belief=start_belief,
+        revision=revision.value,
+        dynamic_kb=dynamic is not None and uses_kb,
+        rejected=tuple(rejected),
     )
+
+
+DynamicFactory = Callable[[np.random.Generator, np.random.Generator], DynamicKnowledge]
+"""Builds the dynamic-KB parts of one search from two generators: one to place the other objects,
+one for their detections."""
+
+
+def search_streams(seed: int) -> tuple[np.random.Generator, ...]:
+    """The independent generators of one seeded search: the target's place, its detections, the Beta
+    samples, the other objects' places and their detections (in that order)."""
+    return tuple(np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(5))
 
 
 def seeded_search(
@@ -195,11 +271,13 @@ def seeded_search(
     tau_absent: float = TAU_ABSENT,
     time_limit: float = TIME_LIMIT,
     keep_beliefs: bool = False,
+    revision: Revision = Revision.REUSE,
+    trust: TrustFactor | None = None,
+    dynamic: DynamicFactory | None = None,
 ) -> SearchRecord:
-    """One search from one seed: independent streams (spawned from the seed) place the target,
-    draw the detections and draw the Beta samples, so two policies run on the same seed face the
-    same target (paired trials)."""
-    place_rng, detect_rng, beta_rng = (np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(3))
+    """One search from one seed (:func:`search_streams`), so two policies run on the same seed face
+    the same target and the same noise (paired trials). ``dynamic`` builds the dynamic-KB parts."""
+    place_rng, detect_rng, beta_rng, objects_rng, objects_detect_rng = search_streams(seed)
     if absent:
         target = SimulatedTarget(None, space.detector, detect_rng)
     elif target_cell is not None:
@@ -216,4 +294,7 @@ def seeded_search(
         tau_found=tau_found,
         time_limit=time_limit,
         keep_beliefs=keep_beliefs,
+        revision=revision,
+        trust=trust,
+        dynamic=None if dynamic is None else dynamic(objects_rng, objects_detect_rng),
     )

@@ -13,8 +13,8 @@ exists (axis: cell) and ``robot`` the cell the robot stands on. Pure numpy, no r
   (ties: the nearer view, then the lower index). One step because the belief never moves (T = I)
   and a view's answer is binary: ``H(b'_{v,o})`` has a closed form in two sums per view,
   ``Σ_{i∈v} b_i`` and ``Σ_{i∈v} b_i log b_i``, so every view is scored with two matrix-vector
-  products. The paper's VS-POMDP plans further with a learned convolutional policy kernel [34];
-  this is a documented simplification.
+  products (``views`` is sparse: O(cells x view²) per step). The paper's VS-POMDP plans further
+  with a learned convolutional policy kernel [34]; this is a documented simplification.
 * ``greedy`` — the baseline heuristic: stand on the currently most likely cell (ties: another cell
   than the robot's, then the nearest).
 * ``pomdp-only`` — the ``pomdp`` selection with a uniform prior instead of the knowledge base's
@@ -34,9 +34,11 @@ Select = Callable[[SearchSpace, np.ndarray, int], int]
 
 
 def _xlogx(x: np.ndarray | float) -> np.ndarray:
+    """``x log x`` elementwise, 0 where ``x`` is 0."""
     x = np.asarray(x, dtype=float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        result: np.ndarray = np.where(x > 0, x * np.log(np.where(x > 0, x, 1.0)), 0.0)
+    result = np.zeros_like(x)
+    np.log(x, out=result, where=x > 0)
+    result *= x
     return result
 
 
@@ -47,10 +49,13 @@ def expected_entropy(space: SearchSpace, belief: np.ndarray) -> np.ndarray:
     ``s = Σ_{i∈v} b_i log b_i``, ``S = Σ_i b_i log b_i``:
     ``p(o) H(b'_o) = p(o) log p(o) - [L_in (s + p log L_in) + L_out (S - s + (1 - p) log L_out)]``.
     """
-    views = space.views.astype(float)
-    p_in = views @ belief
-    s_in = views @ _xlogx(belief)
-    s_all = float(_xlogx(belief).sum())
+    return _expected_entropy(space, belief, _xlogx(belief))
+
+
+def _expected_entropy(space: SearchSpace, belief: np.ndarray, xlogx: np.ndarray) -> np.ndarray:
+    p_in = space.views @ belief
+    s_in = space.views @ xlogx
+    s_all = float(xlogx.sum())
     tp, fp = space.detector.true_positive, space.detector.false_positive
     total = np.zeros(len(p_in))
     for l_in, l_out in ((tp, fp), (1.0 - tp, 1.0 - fp)):
@@ -71,9 +76,13 @@ def _best(scores: np.ndarray, distances: np.ndarray) -> int:
 
 
 def select_pomdp(space: SearchSpace, belief: np.ndarray, robot: int) -> int:
-    """Expected entropy reduction per time unit, one step ahead (see the module docstring)."""
-    gain = entropy(belief) - expected_entropy(space, belief)
-    return _best(gain / space.action_costs(robot), space.distances_from(robot))
+    """Expected entropy reduction per time unit, one step ahead (see the module docstring); only
+    view points in rooms the robot can enter."""
+    xlogx = _xlogx(belief)
+    gain = -float(xlogx.sum()) - _expected_entropy(space, belief, xlogx)
+    distances = space.distances_from(robot)
+    scores = gain / (space.travel_cost * distances + space.analysis_cost)
+    return _best(np.where(space.reachable, scores, -np.inf), distances)
 
 
 def select_greedy(space: SearchSpace, belief: np.ndarray, robot: int) -> int:
@@ -84,6 +93,7 @@ def select_greedy(space: SearchSpace, belief: np.ndarray, robot: int) -> int:
     then to the nearest, then to the lower index.
     """
     distances = space.distances_from(robot)
+    belief = np.where(space.reachable, belief, -1.0)
     top = np.flatnonzero(belief >= belief.max() - 1e-12)
     if len(top) > 1:
         top = top[top != robot]

@@ -1,24 +1,34 @@
-"""The search space of object search and a simulated target (Zhang, Sridharan & Wyatt 2015, Sec. III-B).
+"""The search space of object search and a simulated world (Zhang, Sridharan & Wyatt 2015, Sec. III-B).
 
-Pure numpy; randomness only through a passed Generator. Two roles kept apart (DESIGN.md):
+Pure numpy/scipy; randomness only through a passed Generator. Two roles kept apart (DESIGN.md):
 
 * :class:`SearchSpace` is the robot's *model*: cells (each room a grid placed on a plane), the room
-  of each cell, view points and the field of view of each, travel distances between view points.
-* :class:`SimulatedTarget` is the *world*: it knows where the target is (or that it is absent) and
-  answers a view with present/absent at the detector's rates.
+  of each cell, view points and the field of view of each, travel distances between view points,
+  which rooms the robot can enter.
+* :class:`SimulatedTarget` and :class:`SimulatedObjects` are the *world*: they know where the
+  target and the other objects are (or that the target is absent) and answer a view with
+  present/absent at the detector's rates.
 
 Cells are numbered room by room (in the domain's room order), row-major inside a room. There is
 one view point per cell: the robot stands on the cell and analyses the square of ``view x view``
-cells centred on it, clipped to its room (a camera does not see through walls). So
-``views[v, i]`` is True when view ``v`` covers cell ``i`` (axes: view, cell), and view ``v`` stands
-on cell ``v``.
+cells centred on it, clipped to its room (a camera does not see through walls). ``views`` is a
+sparse CSR matrix, ``views[v, i] = 1`` when view ``v`` covers cell ``i`` (axes: view, cell), and
+view ``v`` stands on cell ``v``: at 10^4 cells a dense matrix would hold 10^8 entries for about
+9 x 10^4 that are set.
+
+A room marked ``accessible: false`` keeps its cells (the room prior and the drawings still have
+them) but the robot cannot stand there: its view points cover nothing and are never chosen
+(:attr:`SearchSpace.reachable`), and no view from another room sees into it.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Collection
+from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
+import scipy.sparse as sp
 
 from beliefloc.errors import UsageError
 from beliefloc.knowledge.domain import Domain
@@ -26,7 +36,7 @@ from beliefloc.knowledge.domain import SearchSpace as SearchSpec
 from beliefloc.object_search.posterior import Detector
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class SearchSpace:
     """Cells, rooms, views and distances of a domain's ``search:`` section."""
 
@@ -37,8 +47,8 @@ class SearchSpace:
     """``local[i] = (row, col)`` of cell i inside its room (int, shape (cells, 2))."""
     plane: np.ndarray
     """``plane[i] = (row, col)`` of cell i on the plane (float, shape (cells, 2))."""
-    views: np.ndarray
-    """``views[v, i]``: view v covers cell i (bool, shape (views, cells))."""
+    views: sp.csr_matrix
+    """``views[v, i] = 1.0``: view v covers cell i (sparse CSR float, shape (views, cells))."""
     start: int
     """The cell (= view point) the robot starts on."""
     detector: Detector
@@ -46,21 +56,53 @@ class SearchSpace:
     """Time units per cell of straight-line distance."""
     analysis_cost: float
     """Time units per analysed view."""
+    accessible: np.ndarray = field(default_factory=lambda: np.ones(0, dtype=bool))
+    """``accessible[k]``: the robot can enter room k (bool, shape (rooms,)); empty means all."""
+
+    def __post_init__(self) -> None:
+        if len(self.accessible) == 0:
+            object.__setattr__(self, "accessible", np.ones(len(self.rooms), dtype=bool))
 
     @property
     def n_cells(self) -> int:
         return len(self.room_of_cell)
 
+    @cached_property
+    def reachable(self) -> np.ndarray:
+        """``reachable[v]``: view point v is in a room the robot can enter (bool, shape (views,))."""
+        result: np.ndarray = self.accessible[self.room_of_cell]
+        return result
+
+    def view_cells(self, view: int) -> np.ndarray:
+        """The cells view ``view`` covers (sorted int indices)."""
+        start, end = self.views.indptr[view], self.views.indptr[view + 1]
+        result: np.ndarray = self.views.indices[start:end]
+        return result
+
+    def in_view(self, view: int) -> np.ndarray:
+        """The cells view ``view`` covers, as a boolean mask over cells."""
+        mask = np.zeros(self.n_cells, dtype=bool)
+        mask[self.view_cells(view)] = True
+        return mask
+
+    @cached_property
+    def _plane_axes(self) -> tuple[np.ndarray, np.ndarray]:
+        return np.ascontiguousarray(self.plane[:, 0]), np.ascontiguousarray(self.plane[:, 1])
+
     def distances_from(self, cell: int) -> np.ndarray:
         """Euclidean distance on the plane (in cells) from ``cell`` to every view point."""
-        delta = self.plane - self.plane[cell]
-        result: np.ndarray = np.hypot(delta[:, 0], delta[:, 1])
+        rows, cols = self._plane_axes
+        result: np.ndarray = np.hypot(rows - rows[cell], cols - cols[cell])
         return result
 
     def action_costs(self, cell: int) -> np.ndarray:
         """Time of going from ``cell`` to each view point and analysing the view there."""
         result: np.ndarray = self.travel_cost * self.distances_from(cell) + self.analysis_cost
         return result
+
+    def cells_of(self, room: int) -> np.ndarray:
+        """The cells of room ``room`` (index into ``rooms``)."""
+        return np.flatnonzero(self.room_of_cell == room)
 
     def cell_name(self, cell: int) -> str:
         """``room:row,col``, the form ``--target-cell`` takes."""
@@ -80,8 +122,7 @@ class SearchSpace:
             (self.room_of_cell == index) & (self.local[:, 0] == int(row_text)) & (self.local[:, 1] == int(col_text))
         )
         if len(matches) == 0:
-            rows = int(self.local[self.room_of_cell == index, 0].max()) + 1
-            cols = int(self.local[self.room_of_cell == index, 1].max()) + 1
+            rows, cols = self.room_shape(index)
             raise UsageError(f"{spec!r}: outside room {room!r} ({rows} x {cols} cells, rows and columns from 0)")
         return int(matches[0])
 
@@ -91,15 +132,27 @@ class SearchSpace:
 
 
 def search_space(domain: Domain) -> SearchSpace:
-    """Build the search space of a validated domain; :class:`UsageError` if it has no ``search:``."""
+    """Build the search space of a validated domain; :class:`UsageError` if it has no ``search:``
+    or the robot starts in a room it cannot enter."""
     if domain.search is None:
         raise UsageError(f"domain {domain.name!r} has no 'search:' section (rooms as cells, sensor, robot start)")
-    return build_space(list(domain.rooms), domain.search)
+    closed = [name for name, room in domain.rooms.items() if not room.accessible]
+    start_room = domain.search.robot_start.room
+    if start_room in closed:
+        raise UsageError(
+            f"domain {domain.name!r}: the robot starts in {start_room!r}, a room marked 'accessible: false'; "
+            "start it in a room it can search"
+        )
+    return build_space(list(domain.rooms), domain.search, inaccessible=closed)
 
 
-def build_space(rooms: list[str], spec: SearchSpec) -> SearchSpace:
-    """Cells room by room, row-major; one view point per cell (see the module docstring)."""
-    room_of_cell, local, plane = [], [], []
+def build_space(rooms: list[str], spec: SearchSpec, *, inaccessible: Collection[str] = ()) -> SearchSpace:
+    """Cells room by room, row-major; one view point per cell (see the module docstring).
+
+    The views are built offset by offset of the ``view x view`` window, room by room: O(cells x view²)."""
+    half = spec.sensor.view // 2
+    room_of_cell, local, plane, viewers, covered = [], [], [], [], []
+    base = 0
     for index, room in enumerate(rooms):
         rows, cols = spec.size_of(room)
         top, left = spec.placement[room]
@@ -107,11 +160,21 @@ def build_space(rooms: list[str], spec: SearchSpec) -> SearchSpace:
         room_of_cell.append(np.full(rows * cols, index))
         local.append(np.stack([r, c], axis=1))
         plane.append(np.stack([r + top, c + left], axis=1).astype(float))
+        if room not in inaccessible:
+            ids = base + np.arange(rows * cols)
+            for dr in range(-half, half + 1):
+                for dc in range(-half, half + 1):
+                    inside = (r + dr >= 0) & (r + dr < rows) & (c + dc >= 0) & (c + dc < cols)
+                    viewers.append(ids[inside])
+                    covered.append(base + (r[inside] + dr) * cols + c[inside] + dc)
+        base += rows * cols
     room_arr = np.concatenate(room_of_cell)
     local_arr = np.concatenate(local)
-    half = spec.sensor.view // 2
-    same_room = room_arr[:, None] == room_arr[None, :]
-    near = np.abs(local_arr[:, None, :] - local_arr[None, :, :]).max(axis=2) <= half
+    n = len(room_arr)
+    view_rows = np.concatenate(viewers) if viewers else np.zeros(0, dtype=int)
+    view_cols = np.concatenate(covered) if covered else np.zeros(0, dtype=int)
+    views = sp.csr_matrix((np.ones(len(view_rows)), (view_rows, view_cols)), shape=(n, n))
+    views.sort_indices()
     start_room = rooms.index(spec.robot_start.room)
     start = int(
         np.flatnonzero(
@@ -125,11 +188,12 @@ def build_space(rooms: list[str], spec: SearchSpec) -> SearchSpace:
         room_of_cell=room_arr,
         local=local_arr,
         plane=np.concatenate(plane),
-        views=same_room & near,
+        views=views,
         start=start,
         detector=Detector(spec.sensor.true_positive, spec.sensor.false_positive),
         travel_cost=spec.costs.travel,
         analysis_cost=spec.costs.analysis,
+        accessible=np.array([room not in inaccessible for room in rooms], dtype=bool),
     )
 
 
@@ -145,11 +209,40 @@ class SimulatedTarget:
     def at_random(
         cls, space: SearchSpace, rng: np.random.Generator, detector_rng: np.random.Generator
     ) -> SimulatedTarget:
-        """The target in a cell drawn uniformly over all cells."""
-        return cls(int(rng.integers(space.n_cells)), space.detector, detector_rng)
+        """The target in a cell drawn uniformly over the cells of the rooms the robot can enter."""
+        candidates = np.flatnonzero(space.reachable)
+        return cls(int(candidates[rng.integers(len(candidates))]), space.detector, detector_rng)
 
-    def detect(self, in_view: np.ndarray) -> bool:
-        """Analyse a view (a boolean mask over cells): True for ``present``."""
-        seen = self.cell is not None and bool(in_view[self.cell])
+    def detect(self, cells: np.ndarray) -> bool:
+        """Analyse a view (the cells it covers, as indices or a boolean mask): True for ``present``."""
+        seen = self.cell is not None and _covers(cells, self.cell)
         rate = self.detector.true_positive if seen else self.detector.false_positive
         return bool(self.rng.random() < rate)
+
+
+def _covers(cells: np.ndarray, cell: int) -> bool:
+    if cells.dtype == bool:
+        return bool(cells[cell])
+    return bool(np.any(cells == cell))
+
+
+@dataclass
+class SimulatedObjects:
+    """The world's side for the other objects (Algorithm 1, lines 7-10): where each one stands and a
+    seeded detector that looks for every one of them in each analysed view (the target's rates)."""
+
+    names: tuple[str, ...]
+    cells: np.ndarray
+    """``cells[j]``: the cell object ``names[j]`` stands on (int, shape (objects,))."""
+    detector: Detector
+    rng: np.random.Generator
+
+    def detect(self, cells: np.ndarray) -> np.ndarray:
+        """One detection per object for the view covering ``cells`` (indices): True for ``present``.
+
+        Draws one number per object every time, so the stream does not depend on what the robot
+        does with the answers."""
+        seen = np.isin(self.cells, cells)
+        rate = np.where(seen, self.detector.true_positive, self.detector.false_positive)
+        result: np.ndarray = self.rng.random(len(self.names)) < rate
+        return result

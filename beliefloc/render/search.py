@@ -11,7 +11,10 @@ Functions here only observe a search record; they return rich renderables and ne
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
+from rich import box
 from rich.console import JustifyMethod
 from rich.table import Table
 from rich.text import Text
@@ -30,6 +33,8 @@ def step_line(space: SearchSpace, step: Step) -> Text:
     text.append(f" +{step.cost:5.1f} = {step.time:6.1f}  ")
     text.append("present" if step.present else "absent ", style="green" if step.present else "dim")
     text.append(f"  p(E) {step.p_exists:.3f}  max b {step.best_belief:.3f} at {space.cell_name(step.best_cell)}")
+    if step.commits:
+        text.append("  KB += " + ", ".join(f"{obj} in {room}" for obj, room in step.commits), style="cyan")
     return text
 
 
@@ -87,7 +92,10 @@ def steps_table(space: SearchSpace, record: SearchRecord) -> Table:
     )
     for name, justify in columns:
         table.add_column(name, justify=justify)
+    if record.dynamic_kb:
+        table.add_column("committed to the KB", justify="left")
     for step in record.steps:
+        extra = [", ".join(f"{obj} in {room}" for obj, room in step.commits)] if record.dynamic_kb else []
         table.add_row(
             str(step.index),
             space.cell_name(step.view),
@@ -97,6 +105,7 @@ def steps_table(space: SearchSpace, record: SearchRecord) -> Table:
             f"{step.p_exists:.3f}",
             f"{step.best_belief:.3f}",
             space.cell_name(step.best_cell),
+            *extra,
         )
     return table
 
@@ -114,3 +123,55 @@ def verdict_text(space: SearchSpace, record: SearchRecord) -> Text:
     true = "absent" if record.true_cell is None else space.cell_name(record.true_cell)
     text.append(f" (true cell: {true}; accuracy {record.accuracy:.3f})", style="dim")
     return text
+
+
+def trials_table(summary: dict[str, dict[str, Any]], title: str) -> Table:
+    """Per arm of paired trials: verdicts (found / not found / time limit), localisation time (mean ±
+    standard deviation), accuracy,
+    reported cells within 4 cells of the truth, steps and knowledge-base commits.
+
+    An arm is named ``policy/strategy/kb/revision``; the table shows the parts that differ between
+    arms (all of them when there is one arm) -- the title says the rest."""
+    parts = [arm.split("/") for arm in summary]
+    varying = [i for i in range(4) if len({p[i] for p in parts}) > 1] or [0, 1, 2, 3]
+    common = [f"{what} {parts[0][i]}" for i, what in enumerate(("policy", "metareasoning", "KB", "revision"))]
+    shared = [common[i] for i in range(4) if i not in varying]
+    if shared:
+        title += "; every arm: " + ", ".join(shared)
+    dynamic = any(p[2] == "dynamic" for p in parts)
+    headers = ["n", "verdicts", "time", "accuracy", "≤ 4", "steps"]
+    if dynamic:
+        headers.append("KB+")
+    rows = []
+    for s, part in zip(summary.values(), parts, strict=True):
+        row = [
+            " ".join(part[i] for i in varying),
+            str(s["trials"]),
+            f"{s['found']}/{s['not_found']}/{s['time_limit']}",
+            _pm(s["mean_time"], s["stdev_time"]),
+            "-" if s["mean_accuracy"] is None else f"{s['mean_accuracy']:.3f}",
+            str(s["within_4_cells"]),
+            "-" if s["mean_steps"] is None else f"{s['mean_steps']:.1f}",
+        ]
+        if dynamic:
+            row.append("-" if part[2] == "static" or s["mean_commits"] is None else f"{s['mean_commits']:.1f}")
+        rows.append(row)
+    table = Table(title=title, title_justify="left", box=box.SIMPLE_HEAD, show_edge=False, pad_edge=False)
+    table.add_column("arm", no_wrap=True)
+    for name in headers:  # short headers: 1,000 trials of four arms fit 80 columns
+        table.add_column(name, justify="right", no_wrap=True)
+    for row in rows:
+        table.add_row(*row)
+    table.caption = (
+        "n: trials; verdicts: found / not found / time limit; time: simulation units, mean±sd; accuracy: a Gaussian of "
+        "the error, σ = 2 cells; ≤ 4: searches that reported a cell within 4 cells of the target"
+        + ("; KB+: facts committed to the knowledge base per search" if dynamic else "")
+    )
+    table.caption_justify = "left"
+    return table
+
+
+def _pm(mean: float | None, spread: float | None) -> str:
+    if mean is None:
+        return "-"
+    return f"{mean:.1f}" + ("" if spread is None else f"±{spread:.1f}")

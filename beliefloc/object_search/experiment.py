@@ -1,0 +1,355 @@
+"""Paired object-search trials (Zhang, Sridharan & Wyatt 2015, Sec. IV-A): every arm -- a policy, a
+metareasoning strategy, a static or dynamic knowledge base, a revision -- on the same seeded worlds,
+targets, knowledge and noise. Records are plain data; :func:`summarize` computes the statistics.
+
+One trial ``t`` of a run seeded ``s`` (streams: :func:`~beliefloc.object_search.trials.trial_rng`):
+
+1. the ground truth and the target (:func:`~beliefloc.object_search.trials.sample_world`); absent
+   with probability ``absent_fraction``;
+2. the robot's knowledge: a fraction ``knowledge`` of the other objects' true rooms; its knowledge
+   base (clingo) and the target class's room prior (Eq. 2-5), with or without the domain's defaults;
+3. each arm runs Algorithm 1 (:func:`~beliefloc.object_search.loop.run_search`) with fresh
+   generators of the same streams: the target's detections, the Beta samples, the other objects'
+   detections. A dynamic arm commits what it sees to its own copy of the knowledge base (arms that
+   commit the same facts share the solved priors, :data:`~beliefloc.object_search.dynamic.PriorCache`).
+
+This module builds knowledge bases, so it reads ``kb/*.lp`` through clingo; it prints nothing.
+The API for benchmarks::
+
+    from beliefloc.knowledge import load_domain
+    from beliefloc.object_search.existence import ExistenceStrategy
+    from beliefloc.object_search.experiment import Arm, TrialSettings, run_trials, summarize
+    from beliefloc.object_search.posterior import Revision
+    arms = [Arm("pomdp", ExistenceStrategy.NONE),                        # static KB (H2)
+            Arm("pomdp", ExistenceStrategy.NONE, dynamic_kb=True),       # dynamic KB
+            Arm("pomdp", ExistenceStrategy.NONE, Revision.TRUST)]        # trust factors
+    records = run_trials(load_domain("domains/home.yaml"), arms, trials=100, seed=0,
+                         settings=TrialSettings(knowledge=0.2, defaults=False))
+    summarize(records)["pomdp/none/dynamic/reuse"]["mean_accuracy"]
+    [o.error_cells for r in records for o in r.outcomes if o.arm == arms[1].name]   # for a CDF
+
+``TrialRecord.outcomes`` are in the order of ``arms``; cells are indices into the search space
+(``search_space(domain).cell_name(i)`` names them).
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from beliefloc.knowledge.domain import Domain
+from beliefloc.object_search.dynamic import (
+    COMMIT_THRESHOLD,
+    DynamicKnowledge,
+    KbLink,
+    KnowledgeLink,
+    ObjectTracker,
+    PriorCache,
+)
+from beliefloc.object_search.existence import ExistenceBelief, ExistenceStrategy
+from beliefloc.object_search.loop import run_search
+from beliefloc.object_search.policy import POLICIES
+from beliefloc.object_search.posterior import Revision, TrustFactor
+from beliefloc.object_search.trials import (
+    P_TYPICAL,
+    Stream,
+    robot_domain,
+    sample_known,
+    sample_world,
+    trial_rng,
+    unknown_objects,
+)
+from beliefloc.object_search.world import SearchSpace, SimulatedObjects, SimulatedTarget, search_space
+
+
+@dataclass(frozen=True)
+class Arm:
+    """One way of searching, compared with the others on the same trials."""
+
+    policy: str
+    strategy: ExistenceStrategy = ExistenceStrategy.EXPECTATION
+    revision: Revision = Revision.REUSE
+    dynamic_kb: bool = False
+
+    def __post_init__(self) -> None:
+        if self.policy not in POLICIES:
+            raise ValueError(f"unknown policy {self.policy!r}; expected one of: {', '.join(POLICIES)}")
+
+    @property
+    def name(self) -> str:
+        """``policy/strategy/static|dynamic/revision``, e.g. ``pomdp/expectation/static/reuse``."""
+        return f"{self.policy}/{self.strategy.value}/{'dynamic' if self.dynamic_kb else 'static'}/{self.revision.value}"
+
+
+@dataclass(frozen=True)
+class TrialSettings:
+    """What every trial of a run shares. ``None`` for the search parameters: the domain's ``search:``."""
+
+    knowledge: float = 0.4
+    """Fraction of the other objects whose true room the robot knows (the paper's % of domain knowledge)."""
+    defaults: bool = True
+    """The robot's knowledge base uses the domain file's defaults."""
+    absent_fraction: float = 0.0
+    """Probability that a trial's target is absent (H3: 0.5)."""
+    target: str | None = None
+    """The target class; None: any object of the domain, drawn per trial."""
+    p_typical: float = P_TYPICAL
+    commit_threshold: float = COMMIT_THRESHOLD
+    trust: TrustFactor = field(default_factory=TrustFactor)
+    """The trust factors of the ``trust-factor`` revision."""
+    time_limit: float | None = None
+    tau_found: float | None = None
+    tau_absent: float | None = None
+    alpha: float | None = None
+    beta: float | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("knowledge", "absent_fraction", "p_typical"):
+            value = getattr(self, name)
+            if not 0.0 <= value <= 1.0:
+                raise ValueError(f"{name} must be in [0, 1], got {value}")
+
+
+@dataclass(frozen=True)
+class ArmOutcome:
+    """One arm's search in one trial."""
+
+    arm: str
+    verdict: str
+    """``found``, ``not-found`` or ``time-limit``."""
+    time: float
+    """Localisation time in simulation units (travel + analysis)."""
+    steps: int
+    reported_cell: int | None
+    error_cells: float | None
+    """Distance between the reported and the true cell (None when either is missing)."""
+    accuracy: float
+    commits: tuple[tuple[str, str], ...]
+    """``(object, room)`` facts committed to the knowledge base (dynamic arms)."""
+    seconds: float
+    """Wall-clock time of the search."""
+
+
+@dataclass(frozen=True)
+class TrialRecord:
+    """One paired trial: its ground truth, what the robot knew, and every arm's outcome."""
+
+    index: int
+    target: str
+    target_class: str
+    present: bool
+    true_room: str | None
+    true_cell: int | None
+    known: int
+    """How many objects' rooms the robot knew."""
+    room_prior: tuple[float, ...]
+    """The knowledge base's room prior for the target class (axis: the space's rooms)."""
+    outcomes: tuple[ArmOutcome, ...]
+    seconds: float
+    """Wall-clock time of the whole trial (world, knowledge base, every arm)."""
+
+
+def typical_rooms(domain: Domain) -> dict[str, str]:
+    """Where the domain's defaults put each object (and where the file puts the others): the
+    ``in(O, R)`` the knowledge base holds at step 1, with the defaults. Solves clingo once."""
+    from beliefloc.knowledge import KnowledgeBase
+
+    return KnowledgeBase(domain, use_defaults=True).answer().located(step=1)
+
+
+def search_parameters(domain: Domain, settings: TrialSettings) -> dict[str, float]:
+    """τ+, τ-, the time limit and the Beta's (α', β'): the settings', else the domain's ``search:``."""
+    spec = domain.search
+    assert spec is not None  # search_space checked it
+    return {
+        "time_limit": spec.time_limit if settings.time_limit is None else settings.time_limit,
+        "tau_found": spec.tau_found if settings.tau_found is None else settings.tau_found,
+        "tau_absent": spec.tau_absent if settings.tau_absent is None else settings.tau_absent,
+        "alpha": spec.existence.alpha if settings.alpha is None else settings.alpha,
+        "beta": spec.existence.beta if settings.beta is None else settings.beta,
+    }
+
+
+def run_trial(
+    domain: Domain,
+    space: SearchSpace,
+    typical: dict[str, str],
+    arms: Sequence[Arm],
+    *,
+    index: int,
+    seed: int,
+    settings: TrialSettings,
+) -> TrialRecord:
+    """Trial ``index`` of a run seeded ``seed``: one world, one knowledge, every arm (see the module docstring)."""
+    from beliefloc.knowledge import KnowledgeBase
+
+    started = time.perf_counter()
+    world_rng = trial_rng(seed, index, Stream.WORLD)
+    absent = bool(world_rng.random() < settings.absent_fraction)
+    world = sample_world(
+        domain, space, typical, world_rng, target_class=settings.target, absent=absent, p_typical=settings.p_typical
+    )
+    known = sample_known(domain, world, settings.knowledge, trial_rng(seed, index, Stream.KNOWLEDGE))
+    robot = robot_domain(domain, world, known)
+
+    def make_kb() -> KnowledgeBase:
+        return KnowledgeBase(robot, use_defaults=settings.defaults)
+
+    first = make_kb()
+    prior = first.prior(world.target_class).prior
+    room_prior = np.array([prior[room] for room in space.rooms])
+    spare = [first]  # the first dynamic arm to commit continues from this one
+    cache: PriorCache = {}
+    names = unknown_objects(domain, world, known)
+    params = search_parameters(domain, settings)
+    outcomes = []
+    for arm in arms:
+        arm_started = time.perf_counter()
+        dynamic = None
+        if arm.dynamic_kb:
+
+            def next_kb() -> KnowledgeBase:
+                return spare.pop() if spare else make_kb()
+
+            dynamic = objects_dynamic(
+                space,
+                world.cells,
+                names,
+                KbLink(next_kb, world.target_class, space.rooms, cache=cache),
+                trial_rng(seed, index, Stream.OBJECT_DETECTIONS),
+                threshold=settings.commit_threshold,
+            )
+        record = run_search(
+            space,
+            room_prior,
+            SimulatedTarget(world.target_cell, space.detector, trial_rng(seed, index, Stream.TARGET_DETECTIONS)),
+            POLICIES[arm.policy],
+            ExistenceBelief(
+                params["alpha"],
+                params["beta"],
+                arm.strategy,
+                tau_minus=params["tau_absent"],
+                rng=trial_rng(seed, index, Stream.BETA_SAMPLES),
+            ),
+            tau_found=params["tau_found"],
+            time_limit=params["time_limit"],
+            revision=arm.revision,
+            trust=settings.trust,
+            dynamic=dynamic,
+        )
+        outcomes.append(
+            ArmOutcome(
+                arm=arm.name,
+                verdict=record.verdict.value,
+                time=record.time,
+                steps=len(record.steps),
+                reported_cell=record.reported_cell,
+                error_cells=record.error_cells,
+                accuracy=record.accuracy,
+                commits=record.commits,
+                seconds=time.perf_counter() - arm_started,
+            )
+        )
+    return TrialRecord(
+        index=index,
+        target=world.target,
+        target_class=world.target_class,
+        present=world.present,
+        true_room=world.target_room,
+        true_cell=world.target_cell,
+        known=len(known),
+        room_prior=tuple(float(p) for p in room_prior),
+        outcomes=tuple(outcomes),
+        seconds=time.perf_counter() - started,
+    )
+
+
+def run_trials(
+    domain: Domain,
+    arms: Sequence[Arm],
+    *,
+    trials: int,
+    seed: int = 0,
+    settings: TrialSettings | None = None,
+    on_trial: Callable[[TrialRecord], None] | None = None,
+    first: int = 0,
+) -> list[TrialRecord]:
+    """Trials ``first .. first + trials - 1`` (a trial depends only on ``seed`` and its index, so a run
+    can be split and its parts joined), every arm on each. ``on_trial`` is called after each trial."""
+    if trials < 1 or not arms:
+        raise ValueError("need at least one trial and one arm")
+    names = [arm.name for arm in arms]
+    if len(set(names)) != len(names):
+        raise ValueError(f"the same arm twice: {', '.join(sorted(n for n in set(names) if names.count(n) > 1))}")
+    settings = settings or TrialSettings()
+    space = search_space(domain)
+    typical = typical_rooms(domain)
+    records = []
+    for index in range(first, first + trials):
+        record = run_trial(domain, space, typical, arms, index=index, seed=seed, settings=settings)
+        records.append(record)
+        if on_trial is not None:
+            on_trial(record)
+    return records
+
+
+def summarize(records: Sequence[TrialRecord]) -> dict[str, dict[str, Any]]:
+    """Per arm: trials, verdict counts, localisation time (mean, standard deviation, median),
+    accuracy (mean, standard deviation), the error in cells of the reported cells, steps, commits,
+    and wall-clock seconds per search."""
+    out: dict[str, dict[str, Any]] = {}
+    arms = list(dict.fromkeys(o.arm for r in records for o in r.outcomes))
+    for arm in arms:
+        mine = [o for r in records for o in r.outcomes if o.arm == arm]
+        times = [o.time for o in mine]
+        accuracies = [o.accuracy for o in mine]
+        errors = [o.error_cells for o in mine if o.error_cells is not None]
+        out[arm] = {
+            "trials": len(mine),
+            "found": sum(o.verdict == "found" for o in mine),
+            "not_found": sum(o.verdict == "not-found" for o in mine),
+            "time_limit": sum(o.verdict == "time-limit" for o in mine),
+            "mean_time": _mean(times),
+            "stdev_time": _stdev(times),
+            "median_time": statistics.median(times) if times else None,
+            "mean_accuracy": _mean(accuracies),
+            "stdev_accuracy": _stdev(accuracies),
+            "mean_error_cells": _mean(errors),
+            "within_4_cells": sum(e <= 4.0 for e in errors),
+            "mean_steps": _mean([o.steps for o in mine]),
+            "mean_commits": _mean([len(o.commits) for o in mine]),
+            "mean_seconds": _mean([o.seconds for o in mine]),
+        }
+    return out
+
+
+def _mean(values: Sequence[float]) -> float | None:
+    return statistics.fmean(values) if values else None
+
+
+def _stdev(values: Sequence[float]) -> float | None:
+    return statistics.stdev(values) if len(values) > 1 else None
+
+
+def objects_dynamic(
+    space: SearchSpace,
+    cells: Mapping[str, int],
+    names: Sequence[str],
+    link: KnowledgeLink,
+    detect_rng: np.random.Generator,
+    *,
+    threshold: float = COMMIT_THRESHOLD,
+) -> DynamicKnowledge:
+    """The dynamic-KB parts of one search: the robot tracks ``names``, which stand on ``cells`` (object ->
+    cell) in the world and are detected with ``detect_rng``; commits go through ``link``."""
+    where = np.array([cells[name] for name in names], dtype=int)
+    return DynamicKnowledge(
+        ObjectTracker.for_space(space, names, threshold),
+        SimulatedObjects(tuple(names), where, space.detector, detect_rng),
+        link,
+    )
