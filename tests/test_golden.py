@@ -13,40 +13,65 @@ from typing import Any
 import pytest
 
 from beliefloc.cli.app import app
+from beliefloc.errors import EXIT_NEGATIVE
 
-from .conftest import MAPS
+from .conftest import DATA, MAPS, ROOT
 
 GOLDEN = Path(__file__).resolve().parent / "golden"
 
-CASES = {
-    "simulate-kitchen-seed0": [
-        "simulate",
-        str(MAPS / "kitchen.yaml"),
-        "-n",
-        "3",
-        "--seed",
-        "0",
-        "--json",
-        "--no-timings",
-        "-s",
-        "bestfirst",
-        "-s",
-        "random",
-    ],
-    "plan-kitchen": ["plan", str(MAPS / "kitchen.yaml"), "--json"],
-    "plan-hallway-uniform": ["plan", str(MAPS / "hallway.yaml"), "--json", "--search", "uniform"],
-    "track-kitchen-story": [
-        "track",
-        str(MAPS / "kitchen.yaml"),
-        "--json",
-        "look=nothing",
-        "scan=no_wall",
-        "rotate_ccw",
-        "look=potted_plant",
-        "forward",
-        "scan=wall_0.2-0.8",
-    ],
+CASES: dict[str, tuple[list[str], int]] = {
+    name: (args, 0)
+    for name, args in {
+        "simulate-kitchen-seed0": [
+            "simulate",
+            str(MAPS / "kitchen.yaml"),
+            "-n",
+            "3",
+            "--seed",
+            "0",
+            "--json",
+            "--no-timings",
+            "-s",
+            "bestfirst",
+            "-s",
+            "random",
+        ],
+        "plan-kitchen": ["plan", str(MAPS / "kitchen.yaml"), "--json"],
+        "plan-hallway-uniform": ["plan", str(MAPS / "hallway.yaml"), "--json", "--search", "uniform"],
+        "track-kitchen-story": [
+            "track",
+            str(MAPS / "kitchen.yaml"),
+            "--json",
+            "look=nothing",
+            "scan=no_wall",
+            "rotate_ccw",
+            "look=potted_plant",
+            "forward",
+            "scan=wall_0.2-0.8",
+        ],
+    }.items()
 }
+HOME = str(ROOT / "domains" / "home.yaml")
+APARTMENT = str(ROOT / "domains" / "apartment.yaml")
+SEARCH_CASES: dict[str, tuple[list[str], int]] = {
+    "search-run-home-seed0": (["search", "run", HOME, "--seed", "0"], 0),
+    "search-run-home-absent-sampling": (
+        ["search", "run", HOME, "--seed", "3", "--absent", "--strategy", "sampling"],
+        EXIT_NEGATIVE,
+    ),
+    "search-run-home-dynamic-seed1": (["search", "run", HOME, "--seed", "1", "--dynamic-kb"], 0),
+    "search-run-locked-trust": (
+        ["search", "run", str(DATA / "search-locked.yaml"), "--seed", "2", "--revision", "trust-factor"],
+        0,
+    ),
+    "search-simulate-home-seed0": (
+        ["search", "simulate", HOME, "-n", "4", "-s", "none,upper-bound", "--absent-fraction", "0.5", "--dynamic-kb"],
+        0,
+    ),
+    "search-run-apartment-seed0": (["search", "run", APARTMENT, "--seed", "0"], 0),
+}
+"""Object searches: run with ``--json --no-timings`` (their JSON has no clocks then)."""
+CASES.update({name: ([*args, "--json", "--no-timings"], code) for name, (args, code) in SEARCH_CASES.items()})
 
 
 def _without_clocks(data: Any) -> Any:
@@ -61,8 +86,9 @@ def _without_clocks(data: Any) -> Any:
 
 @pytest.mark.parametrize("name", list(CASES))
 def test_golden(runner, update_golden: bool, name: str):
-    result = runner.invoke(app, CASES[name])
-    assert result.exit_code == 0, result.output
+    args, exit_code = CASES[name]
+    result = runner.invoke(app, args)
+    assert result.exit_code == exit_code, result.output
     actual = _without_clocks(json.loads(result.stdout))
     path = GOLDEN / f"{name}.json"
     if update_golden or not path.exists():

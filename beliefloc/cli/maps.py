@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import time
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
+import numpy as np
 import typer
 from rich.markup import escape
 
@@ -16,6 +17,9 @@ from beliefloc.model_file import save_model
 from beliefloc.render import stdout_console
 from beliefloc.render.tables import model_table
 
+if TYPE_CHECKING:
+    from beliefloc.semantic_map import SemanticMap
+
 JsonOption = Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")]
 
 
@@ -23,7 +27,8 @@ def validate(
     maps: Annotated[list[Path], typer.Argument(help="Map files to check.", show_default=False)],
     json_output: JsonOption = False,
 ) -> None:
-    """Check map files and print a one-line summary of each valid one.
+    """Check map files and print a one-line summary of each valid one (its grid, states, actions,
+    sensors and rooms).
 
     Example: beliefloc validate maps/*.yaml
     """
@@ -32,7 +37,8 @@ def validate(
     results = []
     for path in maps:
         try:
-            model = compile_model(load_map(path))
+            smap = load_map(path)
+            model = compile_model(smap)
         except BeliefLocError as exc:
             results.append({"file": str(path), "valid": False, "error": str(exc)})
             if not json_output:
@@ -46,6 +52,7 @@ def validate(
             "name": model.name,
             "states": model.n_states,
             "actions": [a.name for a in model.actions],
+            "rooms": {name: int(mask.sum()) for name, mask in smap.rooms.items()},
         }
         results.append(result)
         if not json_output:
@@ -54,13 +61,28 @@ def validate(
             observed = ", ".join(f"{a.name}: {a.observation.n_observations} observations" for a in sensors)
             stdout_console().print(
                 f"[green]ok[/] {escape(str(path))}: {escape(model.name)}, {where}{model.n_states} states, "
-                f"{len(model.actuation_actions)} actuation actions" + (f", {escape(observed)}" if observed else ""),
+                f"{len(model.actuation_actions)} actuation actions"
+                + (f", {escape(observed)}" if observed else "")
+                + escape(_rooms_summary(smap)),
                 soft_wrap=True,
             )
     if json_output:
         print_json(results)
     if not all(r["valid"] for r in results):
         raise typer.Exit(EXIT_BAD_INPUT)
+
+
+def _rooms_summary(smap: SemanticMap) -> str:
+    """``, 5 rooms (bedroom, study, ...)`` and how many free cells are in none; empty without rooms."""
+    rooms = smap.rooms
+    if not rooms:
+        return ""
+    in_rooms = np.logical_or.reduce(list(rooms.values()))
+    outside = int((smap.free & ~in_rooms).sum())
+    text = f", {len(rooms)} room{'s' if len(rooms) != 1 else ''} ({', '.join(rooms)})"
+    if outside:
+        text += f" and {outside} free cell{'s' if outside != 1 else ''} in no room"
+    return text
 
 
 @boundary

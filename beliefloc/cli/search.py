@@ -140,7 +140,10 @@ def run(
     target_cell: Annotated[
         str | None,
         typer.Option(
-            "--target-cell", help="Put the target at ROOM:ROW,COL (default: a random cell).", show_default=False
+            "--target-cell",
+            help="Put the target at ROOM:ROW,COL: inside the room on a plane of rooms, the map's row and column "
+            "for a domain with map: (default: a random cell).",
+            show_default=False,
         ),
     ] = None,
     absent: Annotated[bool, typer.Option("--absent", help="The target is nowhere in the domain.")] = False,
@@ -155,7 +158,10 @@ def run(
     trust_r: TrustROption = 0.0,
     time_limit: TimeLimitOption = None,
     show: Annotated[
-        bool, typer.Option("--show", help="Draw the belief over the rooms' cells after every step.")
+        bool,
+        typer.Option(
+            "--show", help="Draw the belief over the rooms' cells after every step (on the map's grid with map:)."
+        ),
     ] = False,
     timings: TimingsOption = True,
     json_output: Annotated[bool, typer.Option("--json", help="Print the steps and verdict as JSON on stdout.")] = False,
@@ -170,6 +176,8 @@ def run(
     Example: beliefloc search run domains/home.yaml --target printer --seed 3 --show
 
     Example: beliefloc search run domains/home.yaml --dynamic-kb --revision discard
+
+    Example: beliefloc search run domains/apartment.yaml --target-cell kitchen:7,9 --show
     """
     import numpy as np
 
@@ -195,7 +203,7 @@ def run(
     domain, chosen = _domain_and_target(domain_file, target)
     assert chosen is not None
     space = search_space(domain)
-    spec = domain.search
+    spec = domain.search_settings
     assert spec is not None  # search_space raised otherwise
     cell = space.parse_cell(target_cell) if target_cell is not None else None
     if cell is not None and not space.reachable[cell]:
@@ -237,8 +245,9 @@ def run(
     else:
         console = stdout_console()
         kb_text = f", dynamic KB ({revision})" if dynamic_kb else f", {revision}" if revision != "reuse" else ""
+        on_map = f" on {escape(str(domain.map_file))}" if domain.map_file is not None else ""
         console.print(
-            f"searching {escape(domain.name)} for a {escape(chosen)}: {policy} policy, {strategy} metareasoning"
+            f"searching {escape(domain.name)}{on_map} for a {escape(chosen)}: {policy} policy, {strategy} metareasoning"
             f"{kb_text}, seed {seed}; room prior "
             + ", ".join(f"{escape(r)} {p:.3f}" for r, p in zip(space.rooms, room_prior.tolist(), strict=True)),
             soft_wrap=True,

@@ -92,13 +92,15 @@ class Sensor(_Strict):
     false_positive: Annotated[float, Field(ge=0, lt=1)] = 0.1
     """p(FP); the true-negative rate p(TN) is 1 - p(FP)."""
     view: Annotated[int, Field(ge=1, le=99)] = 3
-    """The side of the square of cells a view covers, centred on the robot's cell (odd), clipped to
-    the robot's room: a camera does not see through walls."""
+    """The side of the square of cells a view covers, centred on the robot's cell (odd): a camera does
+    not see through walls -- on a plane of rooms the square is clipped to the robot's room, on a map
+    a cell behind a blocked cell is not seen."""
 
 
 class Costs(_Strict):
     travel: Annotated[float, Field(ge=0)] = 0.5
-    """Time units per cell of straight-line distance between view points."""
+    """Time units per cell of distance between view points: straight-line on a plane of rooms, the
+    shortest path through free cells on a map (a diagonal step counts sqrt 2)."""
     analysis: Annotated[float, Field(gt=0)] = 1.0
     """Time units to analyse one view."""
 
@@ -155,7 +157,7 @@ class MapSearch(SearchSettings):
 
     model_config = ConfigDict(extra="allow", frozen=True, populate_by_name=True)
     robot_start: Pair
-    """``[row, col]``: a free cell of the map."""
+    """``[row, col]``: a free cell of one of the map's rooms."""
 
     @field_validator("robot_start", mode="before")
     @classmethod
@@ -376,6 +378,11 @@ class Domain(_Strict):
         return Path(os.path.normpath(base / self.map))
 
     @property
+    def search_settings(self) -> SearchSettings | None:
+        """The sensor, costs and limits of the ``search:`` section, of either kind (None without one)."""
+        return self.search if self.search is not None else self.map_search
+
+    @property
     def semantic_map(self) -> SemanticMap | None:
         """The referenced map, loaded and checked against the domain by :func:`load_domain`."""
         return self._map
@@ -435,6 +442,12 @@ def check_against_map(domain: Domain, smap: SemanticMap, label: str) -> None:
             )
         if not smap.free[r, c]:
             raise FieldError(("search", "robot_start"), f"cell [{r}, {c}] is blocked on {label}")
+        if not any(mask[r, c] for mask in smap.rooms.values()):
+            raise FieldError(
+                ("search", "robot_start"),
+                f"cell [{r}, {c}] is in no room of {label}: the robot starts on a cell of a room, where it can "
+                "analyse a view (cells in no room are only travelled through)",
+            )
 
 
 def _hint(name: str, known: Any) -> str:

@@ -164,7 +164,7 @@ def typical_rooms(domain: Domain) -> dict[str, str]:
 
 def search_parameters(domain: Domain, settings: TrialSettings) -> dict[str, float]:
     """τ+, τ-, the time limit and the Beta's (α', β'): the settings', else the domain's ``search:``."""
-    spec = domain.search
+    spec = domain.search_settings
     assert spec is not None  # search_space checked it
     return {
         "time_limit": spec.time_limit if settings.time_limit is None else settings.time_limit,

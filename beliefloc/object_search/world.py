@@ -16,6 +16,10 @@ sparse CSR matrix, ``views[v, i] = 1`` when view ``v`` covers cell ``i`` (axes: 
 view ``v`` stands on cell ``v``: at 10^4 cells a dense matrix would hold 10^8 entries for about
 9 x 10^4 that are set.
 
+A domain that references a map (``map:``) gets a :class:`~beliefloc.object_search.map_space.MapSearchSpace`
+instead: the cells of the map's rooms, shortest paths round walls, views that walls cut short
+(:mod:`beliefloc.object_search.map_space`); everything downstream sees a :class:`SearchSpace`.
+
 A room marked ``accessible: false`` keeps its cells (the room prior and the drawings still have
 them) but the robot cannot stand there: its view points cover nothing and are never chosen
 (:attr:`SearchSpace.reachable`), and no view from another room sees into it.
@@ -132,10 +136,20 @@ class SearchSpace:
 
 
 def search_space(domain: Domain) -> SearchSpace:
-    """Build the search space of a validated domain; :class:`UsageError` if it has no ``search:``
-    or the robot starts in a room it cannot enter."""
+    """Build the search space of a validated domain: on its map when it has ``map:``
+    (:func:`~beliefloc.object_search.map_space.map_search_space`), else on its plane of rooms.
+    :class:`UsageError` if it has no ``search:`` or the robot starts in a room it cannot enter."""
+    if domain.map is not None:
+        from beliefloc.object_search.map_space import map_search_space
+
+        return map_search_space(domain)
     if domain.search is None:
-        raise UsageError(f"domain {domain.name!r} has no 'search:' section (rooms as cells, sensor, robot start)")
+        raise UsageError(
+            f"domain {domain.name!r} has no 'search:' section, which object search needs: either a 'search:' "
+            "section that places the rooms on a plane (placement, robot_start: {room: R, cell: [row, col]}), or "
+            "'map:' (a semantic map with rooms) and a 'search:' section with robot_start: [row, col] "
+            "(docs/domain-format.md, 'Object search')"
+        )
     closed = [name for name, room in domain.rooms.items() if not room.accessible]
     start_room = domain.search.robot_start.room
     if start_room in closed:

@@ -1,10 +1,16 @@
-"""Object search traces: one line per step, the cell belief drawn on the plane, the verdict.
+"""Object search traces: one line per step, the cell belief drawn on the plane or the map, the verdict.
 
 The plane shows every room at its placement, two characters per cell, blank between rooms. A
 cell's shade is its probability relative to the largest one drawn (viridis, as in
 :mod:`beliefloc.render.grid`); ``R`` marks the robot, ``*`` the most likely cell (red), ``T`` the
 simulated target's true cell (the simulator knows it; the robot does not). Without colour a cell
 is a shade character and its mark.
+
+A search on a map (:class:`~beliefloc.object_search.map_space.MapSearchSpace`) is drawn on the
+map's grid, with its row and column numbers (the numbers ``--target-cell`` takes): walls grey
+(``##`` without colour), a free cell in no room ``·``, a cell of a room the robot cannot enter
+``×``, and a room's cells shaded and lettered with the room's letter (listed below the grid)
+where no mark stands.
 
 Functions here only observe a search record; they return rich renderables and never print.
 """
@@ -20,8 +26,9 @@ from rich.table import Table
 from rich.text import Text
 
 from beliefloc.object_search.loop import SearchRecord, Step, Verdict
+from beliefloc.object_search.map_space import MapSearchSpace
 from beliefloc.object_search.world import SearchSpace
-from beliefloc.render.grid import HIGHLIGHT, LEVELS, PALETTE, PLAIN_SHADES
+from beliefloc.render.grid import BLOCKED, HIGHLIGHT, LEVELS, PALETTE, PLAIN_SHADES
 
 _VERDICT_STYLE = {Verdict.FOUND: "bold green", Verdict.NOT_FOUND: "bold yellow", Verdict.TIME_LIMIT: "bold red"}
 
@@ -46,7 +53,10 @@ def belief_plane(
     target: int | None = None,
     color: bool = True,
 ) -> Text:
-    """The belief over every room's cells, drawn where the rooms are on the plane."""
+    """The belief over every room's cells, drawn where the rooms are on the plane (or on the map's
+    grid, :func:`belief_map`)."""
+    if isinstance(space, MapSearchSpace):
+        return belief_map(space, belief, robot=robot, target=target, color=color)
     rows = space.plane[:, 0].astype(int)
     cols = space.plane[:, 1].astype(int)
     top = float(belief.max())
@@ -77,9 +87,82 @@ def belief_plane(
     return text
 
 
+def belief_map(
+    space: MapSearchSpace,
+    belief: np.ndarray,
+    *,
+    robot: int | None = None,
+    target: int | None = None,
+    color: bool = True,
+) -> Text:
+    """The belief over the cells of a map's rooms, drawn on the map's grid (see the module docstring)."""
+    rows, cols = space.shape
+    top = float(belief.max())
+    best = int(np.argmax(belief))
+    levels = np.where(belief > 0, np.clip(np.ceil(belief / top * LEVELS - 1e-9), 1, LEVELS), 0).astype(int)
+    letters = room_letters(space.rooms)
+    label = len(str(rows - 1))
+    text = Text(no_wrap=True, overflow="ignore")
+    indent = " " * (label + 1)
+    if cols > 10:  # the tens over the units, one digit per cell
+        text.append(
+            indent + "".join(f"{(c // 10) % 10 if c >= 10 else ' ':<2}" for c in range(cols)) + "\n", style="dim"
+        )
+    text.append(indent + "".join(f"{c % 10:<2}" for c in range(cols)) + "\n", style="dim")
+    for r in range(rows):
+        text.append(f"{r:>{label}} ", style="dim")
+        for c in range(cols):
+            cell = int(space.cell_at[r, c])
+            if cell < 0:
+                if not space.free[r, c]:
+                    text.append("  " if color else "##", style=f"on {BLOCKED}" if color else "")
+                else:
+                    text.append("· ", style="dim")
+                continue
+            room = int(space.room_of_cell[cell])
+            if not space.accessible[room]:
+                text.append("× ", style="dim")
+                continue
+            mark = "R" if cell == robot else "T" if cell == target else "*" if cell == best else ""
+            level = int(levels[cell])
+            if color:
+                background = HIGHLIGHT if cell == best else PALETTE[level - 1] if level else "grey23"
+                ink = "bold white" if background == HIGHLIGHT or background in PALETTE[:4] else "bold black"
+                text.append(f"{mark or letters[room]} ", style=f"{ink if mark else ink.split()[-1]} on {background}")
+            else:
+                shade = PLAIN_SHADES[level - 1] if level else "."
+                text.append(f"{shade}{mark or letters[room]}")
+        text.append(f" {r}\n", style="dim")
+    legend = ", ".join(
+        f"{letters[i]} {room} {float(belief[space.room_of_cell == i].sum()):.3f}" for i, room in enumerate(space.rooms)
+    )
+    text.append(f"rooms: {legend}; max b {top:.3f} at {space.cell_name(best)}", style="dim")
+    return text
+
+
+def room_letters(rooms: tuple[str, ...]) -> list[str]:
+    """A distinct lowercase letter per room: its initial when free, else another letter of its name,
+    else any (uppercase letters are the marks R, T)."""
+    used: set[str] = set()
+    out = []
+    for room in rooms:
+        candidates = [ch for ch in room if ch.isalpha() and ch.islower()] + [chr(c) for c in range(97, 123)]
+        letter = next((ch for ch in candidates if ch not in used), "?")
+        used.add(letter)
+        out.append(letter)
+    return out
+
+
 def steps_table(space: SearchSpace, record: SearchRecord) -> Table:
     """Every step of a search in one table."""
-    table = Table(title=f"{record.policy} search, {record.strategy} metareasoning", title_justify="left")
+    table = Table(
+        title=f"{record.policy} search, {record.strategy} metareasoning",
+        title_justify="left",
+        box=box.SIMPLE_HEAD,  # no side borders: a step with map cell names fits 80 columns
+        show_edge=False,
+        pad_edge=False,
+        collapse_padding=True,
+    )
     columns: tuple[tuple[str, JustifyMethod], ...] = (
         ("step", "right"),
         ("view", "left"),
@@ -90,8 +173,10 @@ def steps_table(space: SearchSpace, record: SearchRecord) -> Table:
         ("max b", "right"),
         ("at", "left"),
     )
+    widest = max(len(space.cell_name(i)) for i in range(space.n_cells))
     for name, justify in columns:
-        table.add_column(name, justify=justify)
+        # cell names stay whole (the numbers column shrink first)
+        table.add_column(name, justify=justify, min_width=widest if name in ("view", "at") else None)
     if record.dynamic_kb:
         table.add_column("committed to the KB", justify="left")
     for step in record.steps:
