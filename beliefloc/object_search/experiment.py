@@ -29,7 +29,11 @@ The API for benchmarks::
     [o.error_cells for r in records for o in r.outcomes if o.arm == arms[1].name]   # for a CDF
 
 ``TrialRecord.outcomes`` are in the order of ``arms``; cells are indices into the search space
-(``search_space(domain).cell_name(i)`` names them).
+(``search_space(domain).cell_name(i)`` names them). An arm may set its own time limit, τ+, τ-, Beta
+and trust factors (``Arm("pomdp", ExistenceStrategy.NONE, time_limit=60)``), so arms differing only
+in them share a trial's knowledge base; ``TrialSettings(world_detector=...)`` makes the world
+noisier than the robot's model; :func:`room_hit` and :func:`trial_world` serve the paper benchmark
+(``benchmarks/bench_search_paper.py``).
 """
 
 from __future__ import annotations
@@ -54,10 +58,11 @@ from beliefloc.object_search.dynamic import (
 from beliefloc.object_search.existence import ExistenceBelief, ExistenceStrategy
 from beliefloc.object_search.loop import run_search
 from beliefloc.object_search.policy import POLICIES
-from beliefloc.object_search.posterior import Revision, TrustFactor
+from beliefloc.object_search.posterior import Detector, Revision, TrustFactor
 from beliefloc.object_search.trials import (
     P_TYPICAL,
     Stream,
+    World,
     robot_domain,
     sample_known,
     sample_world,
@@ -75,15 +80,42 @@ class Arm:
     strategy: ExistenceStrategy = ExistenceStrategy.EXPECTATION
     revision: Revision = Revision.REUSE
     dynamic_kb: bool = False
+    time_limit: float | None = None
+    """This arm's own search parameters (None: the run's :class:`TrialSettings`, else the domain's), so
+    that arms differing only in them share a trial's world and knowledge base: the baseline of H3 at
+    several time limits, the Beta's (α', β') and τ- of Fig. 8."""
+    tau_found: float | None = None
+    tau_absent: float | None = None
+    alpha: float | None = None
+    beta: float | None = None
+    trust: TrustFactor | None = None
+    """The trust factors of this arm's ``trust-factor`` revision (None: the settings')."""
 
     def __post_init__(self) -> None:
         if self.policy not in POLICIES:
             raise ValueError(f"unknown policy {self.policy!r}; expected one of: {', '.join(POLICIES)}")
 
+    def overrides(self) -> dict[str, float]:
+        """The search parameters this arm sets itself (keys of :func:`search_parameters`)."""
+        own = {
+            "time_limit": self.time_limit,
+            "tau_found": self.tau_found,
+            "tau_absent": self.tau_absent,
+            "alpha": self.alpha,
+            "beta": self.beta,
+        }
+        return {key: value for key, value in own.items() if value is not None}
+
     @property
     def name(self) -> str:
-        """``policy/strategy/static|dynamic/revision``, e.g. ``pomdp/expectation/static/reuse``."""
-        return f"{self.policy}/{self.strategy.value}/{'dynamic' if self.dynamic_kb else 'static'}/{self.revision.value}"
+        """``policy/strategy/static|dynamic/revision``, e.g. ``pomdp/expectation/static/reuse``, then
+        ``@key=value`` for each parameter the arm sets itself, e.g. ``pomdp/none/static/reuse@time_limit=60``."""
+        name = f"{self.policy}/{self.strategy.value}/{'dynamic' if self.dynamic_kb else 'static'}/{self.revision.value}"
+        for key, value in self.overrides().items():
+            name += f"@{key}={value:g}"
+        if self.trust is not None:
+            name += f"@trust={self.trust.weight:g},{self.trust.r:g}"
+        return name
 
 
 @dataclass(frozen=True)
@@ -107,6 +139,10 @@ class TrialSettings:
     tau_absent: float | None = None
     alpha: float | None = None
     beta: float | None = None
+    world_detector: Detector | None = None
+    """The simulated world's detector when it is noisier than the robot's model (``space.detector``,
+    the domain's ``sensor:``), for the target and the other objects alike: Sec. IV-A's "some extra
+    noise was added to the observations received by the robot" (H2, Fig. 6). None: the model's."""
 
     def __post_init__(self) -> None:
         for name in ("knowledge", "absent_fraction", "p_typical"):
@@ -207,6 +243,7 @@ def run_trial(
     cache: PriorCache = {}
     names = unknown_objects(domain, world, known)
     params = search_parameters(domain, settings)
+    world_detector = settings.world_detector or space.detector
     outcomes = []
     for arm in arms:
         arm_started = time.perf_counter()
@@ -223,23 +260,25 @@ def run_trial(
                 KbLink(next_kb, world.target_class, space.rooms, cache=cache),
                 trial_rng(seed, index, Stream.OBJECT_DETECTIONS),
                 threshold=settings.commit_threshold,
+                world_detector=world_detector,
             )
+        own = {**params, **arm.overrides()}
         record = run_search(
             space,
             room_prior,
-            SimulatedTarget(world.target_cell, space.detector, trial_rng(seed, index, Stream.TARGET_DETECTIONS)),
+            SimulatedTarget(world.target_cell, world_detector, trial_rng(seed, index, Stream.TARGET_DETECTIONS)),
             POLICIES[arm.policy],
             ExistenceBelief(
-                params["alpha"],
-                params["beta"],
+                own["alpha"],
+                own["beta"],
                 arm.strategy,
-                tau_minus=params["tau_absent"],
+                tau_minus=own["tau_absent"],
                 rng=trial_rng(seed, index, Stream.BETA_SAMPLES),
             ),
-            tau_found=params["tau_found"],
-            time_limit=params["time_limit"],
+            tau_found=own["tau_found"],
+            time_limit=own["time_limit"],
             revision=arm.revision,
-            trust=settings.trust,
+            trust=arm.trust or settings.trust,
             dynamic=dynamic,
         )
         outcomes.append(
@@ -344,12 +383,43 @@ def objects_dynamic(
     detect_rng: np.random.Generator,
     *,
     threshold: float = COMMIT_THRESHOLD,
+    world_detector: Detector | None = None,
 ) -> DynamicKnowledge:
     """The dynamic-KB parts of one search: the robot tracks ``names``, which stand on ``cells`` (object ->
-    cell) in the world and are detected with ``detect_rng``; commits go through ``link``."""
+    cell) in the world and are detected with ``detect_rng`` (at ``world_detector``'s rates; None: the
+    robot's model's); commits go through ``link``."""
     where = np.array([cells[name] for name in names], dtype=int)
     return DynamicKnowledge(
         ObjectTracker.for_space(space, names, threshold),
-        SimulatedObjects(tuple(names), where, space.detector, detect_rng),
+        SimulatedObjects(tuple(names), where, world_detector or space.detector, detect_rng),
         link,
+    )
+
+
+def room_hit(room_prior: Sequence[float], true_room: int, k: int = 1) -> float:
+    """ASP alone (Zhang et al. Sec. IV-A, H1, Fig. 4): the chance that room ``true_room`` (an index into
+    ``room_prior``) is among the ``k`` rooms the prior ranks first, ties broken uniformly at random.
+
+    With ``g`` rooms strictly more likely than the true one and ``e`` rooms as likely (itself
+    included): ``clip((k - g) / e, 0, 1)``. A prior that says nothing (uniform over n rooms) scores
+    ``k / n``, not whatever the order of the rooms in the file would give an ``argmax``."""
+    prior = np.asarray(room_prior, dtype=float)
+    if not 0 <= true_room < len(prior) or k < 1:
+        raise ValueError(f"need a room index in [0, {len(prior)}) and k >= 1, got {true_room} and {k}")
+    level = prior[true_room]
+    above = int(np.sum(prior > level + 1e-12))
+    tied = int(np.sum(np.abs(prior - level) <= 1e-12))
+    return float(min(1.0, max(0.0, (k - above) / tied)))
+
+
+def trial_world(
+    domain: Domain, space: SearchSpace, typical: dict[str, str], *, index: int, seed: int, settings: TrialSettings
+) -> World:
+    """The ground truth of trial ``index`` of a run seeded ``seed``: the world :func:`run_trial` builds
+    (the same stream and draws), to check records against it -- e.g. whether a dynamic arm's commits
+    were right. ``typical``: :func:`typical_rooms`."""
+    world_rng = trial_rng(seed, index, Stream.WORLD)
+    absent = bool(world_rng.random() < settings.absent_fraction)
+    return sample_world(
+        domain, space, typical, world_rng, target_class=settings.target, absent=absent, p_typical=settings.p_typical
     )
