@@ -47,6 +47,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from machine import cpu_name  # benchmarks/machine.py (scripts run from benchmarks/ on sys.path)
 
 from beliefloc import compile_model, load_map
 from beliefloc.knowledge import Domain, KnowledgeBase, load_domain, spread_over_states
@@ -240,16 +241,6 @@ def object_search(trials: int, seed: int) -> list[str]:
     return lines
 
 
-def _cpu() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown cpu"
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="20 episodes and 20 trials per setting")
@@ -266,7 +257,7 @@ def main(argv: list[str] | None = None) -> int:
         "# The apartment: localization from the knowledge base's prior, object search on the map",
         "",
         f"`python benchmarks/bench_apartment.py {' '.join(sys.argv[1:] if argv is None else argv)}` on "
-        f"{platform.machine()} ({_cpu()}), {os.cpu_count()} cores, Python {platform.python_version()}, "
+        f"{platform.machine()} ({cpu_name()}), {os.cpu_count()} cores, Python {platform.python_version()}, "
         f"numpy {np.__version__}.",
         "",
     ]

@@ -40,6 +40,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
+from machine import cpu_name  # benchmarks/machine.py (scripts run from benchmarks/ on sys.path)
 
 from beliefloc.knowledge import Domain, domain_prior, load_domain
 from beliefloc.object_search.existence import ExistenceBelief, ExistenceStrategy, detection_likelihoods
@@ -199,16 +200,6 @@ def _num(value: float | None) -> str:
     return "-" if value is None else f"{value:.0f}"
 
 
-def _cpu() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown cpu"
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=(__doc__ or "").splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer repeats, 100 trials, no dense 10^4 build")
@@ -226,7 +217,7 @@ def main(argv: list[str] | None = None) -> int:
         "# Object search: speed",
         "",
         f"`python benchmarks/bench_search.py {' '.join(sys.argv[1:] if argv is None else argv)}` on "
-        f"{platform.machine()} ({_cpu()}), {os.cpu_count()} cores, Python "
+        f"{platform.machine()} ({cpu_name()}), {os.cpu_count()} cores, Python "
         f"{platform.python_version()}, numpy {np.__version__}; median of {repeats} steps after a warm-up.",
         "",
         "## Search spaces and one step",

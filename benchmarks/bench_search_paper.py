@@ -53,6 +53,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from machine import cpu_name  # benchmarks/machine.py (scripts run from benchmarks/ on sys.path)
 
 from beliefloc.knowledge import load_domain
 from beliefloc.knowledge.domain import Domain
@@ -810,16 +811,6 @@ def write_plots(report: Report, output: Path) -> list[Path] | None:
     return written
 
 
-def _cpu() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown cpu"
-
-
 def _versions() -> str:
     import clingo
     import scipy
@@ -897,7 +888,7 @@ def main(argv: list[str] | None = None) -> int:
         "",
         f"`python benchmarks/bench_search_paper.py {command}`".replace(" `", "`"),
         "",
-        f"Machine: {platform.machine()} ({_cpu()}), {os.cpu_count()} cores, {_versions()}; {args.jobs} worker "
+        f"Machine: {platform.machine()} ({cpu_name()}), {os.cpu_count()} cores, {_versions()}; {args.jobs} worker "
         f"process(es); seed {args.seed}. {total:.0f} s in all: "
         + ", ".join(f"{label} {seconds:.0f} s" for label, seconds in timings.items())
         + ".",
