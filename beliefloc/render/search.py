@@ -59,9 +59,7 @@ def belief_plane(
         return belief_map(space, belief, robot=robot, target=target, color=color)
     rows = space.plane[:, 0].astype(int)
     cols = space.plane[:, 1].astype(int)
-    top = float(belief.max())
-    best = int(np.argmax(belief))
-    levels = np.where(belief > 0, np.clip(np.ceil(belief / top * LEVELS - 1e-9), 1, LEVELS), 0).astype(int)
+    top, best, levels = _shading(belief)
     at = {(int(r), int(c)): i for i, (r, c) in enumerate(zip(rows, cols, strict=True))}
     text = Text()
     for r in range(int(rows.max()) + 1):
@@ -70,15 +68,8 @@ def belief_plane(
             if cell is None:
                 text.append("  ")
                 continue
-            mark = "R" if cell == robot else "T" if cell == target else "*" if cell == best else " "
-            level = int(levels[cell])
-            if color:
-                background = HIGHLIGHT if cell == best else PALETTE[level - 1] if level else "grey23"
-                ink = "bold white" if background == HIGHLIGHT or background in PALETTE[:4] else "bold black"
-                text.append(f"{mark} ", style=f"{ink} on {background}")
-            else:
-                shade = PLAIN_SHADES[level - 1] if level else "."
-                text.append(f"{shade}{mark if mark != ' ' else shade}")
+            mark = "R" if cell == robot else "T" if cell == target else "*" if cell == best else ""
+            _append_cell(text, mark, None, int(levels[cell]), cell == best, color)
         text.append("\n")
     legend = ", ".join(
         f"{room} {float(belief[space.room_of_cell == i].sum()):.3f}" for i, room in enumerate(space.rooms)
@@ -97,9 +88,7 @@ def belief_map(
 ) -> Text:
     """The belief over the cells of a map's rooms, drawn on the map's grid (see the module docstring)."""
     rows, cols = space.shape
-    top = float(belief.max())
-    best = int(np.argmax(belief))
-    levels = np.where(belief > 0, np.clip(np.ceil(belief / top * LEVELS - 1e-9), 1, LEVELS), 0).astype(int)
+    top, best, levels = _shading(belief)
     letters = room_letters(space.rooms)
     label = len(str(rows - 1))
     text = Text(no_wrap=True, overflow="ignore")
@@ -124,20 +113,32 @@ def belief_map(
                 text.append("× ", style="dim")
                 continue
             mark = "R" if cell == robot else "T" if cell == target else "*" if cell == best else ""
-            level = int(levels[cell])
-            if color:
-                background = HIGHLIGHT if cell == best else PALETTE[level - 1] if level else "grey23"
-                ink = "bold white" if background == HIGHLIGHT or background in PALETTE[:4] else "bold black"
-                text.append(f"{mark or letters[room]} ", style=f"{ink if mark else ink.split()[-1]} on {background}")
-            else:
-                shade = PLAIN_SHADES[level - 1] if level else "."
-                text.append(f"{shade}{mark or letters[room]}")
+            _append_cell(text, mark, letters[room], int(levels[cell]), cell == best, color)
         text.append(f" {r}\n", style="dim")
     legend = ", ".join(
         f"{letters[i]} {room} {float(belief[space.room_of_cell == i].sum()):.3f}" for i, room in enumerate(space.rooms)
     )
     text.append(f"rooms: {legend}; max b {top:.3f} at {space.cell_name(best)}", style="dim")
     return text
+
+
+def _shading(belief: np.ndarray) -> tuple[float, int, np.ndarray]:
+    """``max(b)``, its cell, and every cell's shade level (0: no belief, 1..LEVELS relative to the max)."""
+    top = float(belief.max())
+    levels = np.where(belief > 0, np.clip(np.ceil(belief / top * LEVELS - 1e-9), 1, LEVELS), 0).astype(int)
+    return top, int(np.argmax(belief)), levels
+
+
+def _append_cell(text: Text, mark: str, fill: str | None, level: int, best: bool, color: bool) -> None:
+    """One cell, two characters: the mark (R, T, *) or ``fill`` (a room letter; None: blank in colour,
+    the shade without it) on the belief's shade."""
+    if color:
+        background = HIGHLIGHT if best else PALETTE[level - 1] if level else "grey23"
+        ink = "white" if background == HIGHLIGHT or background in PALETTE[:4] else "black"
+        text.append(f"{mark or fill or ' '} ", style=f"{'bold ' if mark or fill is None else ''}{ink} on {background}")
+    else:
+        shade = PLAIN_SHADES[level - 1] if level else "."
+        text.append(f"{shade}{mark or fill or shade}")
 
 
 def room_letters(rooms: tuple[str, ...]) -> list[str]:
