@@ -13,7 +13,6 @@ from typer.testing import CliRunner
 from beliefloc.cli.app import app
 from beliefloc.errors import EXIT_BAD_INPUT, KnowledgeBaseError
 from beliefloc.knowledge import (
-    KB_DIR,
     KnowledgeBase,
     Observation,
     domain_from_data,
@@ -23,6 +22,8 @@ from beliefloc.knowledge import (
 )
 
 from .conftest import ROOT
+
+KB_DIR = ROOT / "kb"
 
 DOMAINS = ROOT / "domains"
 PRINTER = DOMAINS / "printer-example.yaml"
@@ -361,3 +362,15 @@ def test_help_has_an_example(command: list[str], runner: CliRunner) -> None:
 def test_seen_malformed(runner: CliRunner) -> None:
     out = runner.invoke(app, ["prior", str(PRINTER), "--seen", "book1"])
     assert out.exit_code == EXIT_BAD_INPUT and "OBJECT=ROOM" in out.stderr
+
+
+def test_the_package_ships_the_axioms_it_loads() -> None:
+    """``pip install .`` (not editable) must still find the axioms: they are package data whose
+    contents are the repository's hand-edited kb/ files."""
+    from importlib import resources
+
+    from beliefloc.knowledge.program import AXIOMS, ROBOT_AXIOMS
+
+    for path in (AXIOMS, ROBOT_AXIOMS):
+        shipped = resources.files("beliefloc.knowledge") / "lp" / path.name
+        assert shipped.read_text() == (KB_DIR / path.name).read_text() == path.read_text()

@@ -12,7 +12,6 @@ from beliefloc.knowledge.domain import Domain, domain_from_data, load_domain
 from beliefloc.knowledge.prior import DEFAULT_FLOOR, XI, PsiTerm, RoomPrior, room_prior
 from beliefloc.knowledge.program import (
     AXIOMS,
-    KB_DIR,
     ROBOT_AXIOMS,
     KnowledgeBase,
     Observation,
@@ -33,7 +32,6 @@ __all__ = [
     "AXIOMS",
     "DEFAULT_FLOOR",
     "DEFAULT_WEIGHT",
-    "KB_DIR",
     "OUTSIDE",
     "ROBOT",
     "ROBOT_AXIOMS",

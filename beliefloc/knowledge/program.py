@@ -27,10 +27,11 @@ from beliefloc.knowledge.answer import AnswerSet, Literal, Timings
 from beliefloc.knowledge.domain import Domain
 from beliefloc.knowledge.prior import DEFAULT_FLOOR, RoomPrior, room_prior
 
-KB_DIR = Path(__file__).resolve().parent.parent.parent / "kb"
-"""The repository's ``kb/`` folder (the package is installed editable from the repository)."""
-AXIOMS = KB_DIR / "axioms.lp"
-ROBOT_AXIOMS = KB_DIR / "robot.lp"
+_SHIPPED = Path(__file__).parent / "lp"
+"""The axioms ship inside the package as links to the repository's hand-edited ``kb/`` files; a
+wheel holds copies. Resolving the links names ``kb/...`` in messages when installed from a checkout."""
+AXIOMS = (_SHIPPED / "axioms.lp").resolve()
+ROBOT_AXIOMS = (_SHIPPED / "robot.lp").resolve()
 """Where the robot itself is (its dock, sightings, being carried); loaded with the axioms."""
 
 _PARTS = """
