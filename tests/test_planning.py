@@ -153,6 +153,38 @@ def test_plan_cli_uniform_rejects_a_heuristic(runner):
     assert "h = 0" in result.stderr
 
 
+def test_weight_must_be_positive():
+    model = compile_model(load_map(MAPS / "window-2x2-perfect.yaml"))
+    for bad in (0.0, -1.0, float("nan")):
+        with pytest.raises(ValueError, match="weight"):
+            plan(model, uniform(4), weight=bad)
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["plan", "--h-weight", "0"],
+        ["plan", "--h-weight", "-1"],
+        ["plan", "--search", "uniform", "--h-weight", "0.5"],
+        ["simulate", "--h-weight", "0"],
+    ],
+)
+def test_weight_cli_rejects_what_it_cannot_use(runner, args: list[str]):
+    result = runner.invoke(app, [args[0], str(MAPS / "kitchen.yaml"), *args[1:]])
+    assert result.exit_code == 2
+    assert "--h-weight" in result.stderr and "Traceback" not in result.output
+
+
+def test_weight_reaches_the_planner_of_every_episode(runner):
+    """--h-weight below 1 changes which plans simulate executes; the run stays reproducible."""
+    base = ["simulate", str(MAPS / "kitchen.yaml"), "-n", "4", "--json", "--no-timings"]
+    plain = runner.invoke(app, base)
+    weighted = [runner.invoke(app, [*base, "--h-weight", "1e-6"]) for _ in range(2)]
+    assert plain.exit_code == 0 and weighted[0].exit_code == 0
+    assert weighted[0].stdout == weighted[1].stdout
+    assert json.loads(plain.stdout)["episodes"] != json.loads(weighted[0].stdout)["episodes"]
+
+
 # --- property: uniform-cost plans are never costlier; both replay through `track` to the goal ------
 
 
@@ -203,3 +235,17 @@ def test_uniform_cost_is_never_costlier_and_both_plans_replay(runner, data: dict
             out = runner.invoke(app, ["track", str(path), "--json", *steps])
             assert out.exit_code == 0, out.output
             assert max(json.loads(out.stdout)["belief"].values()) >= 0.95
+
+
+@settings(max_examples=30, deadline=None)
+@given(data=small_maps())
+def test_a_tiny_weight_finds_the_least_cost_plan(data: dict[str, Any]):
+    """f = g + w·h with w -> 0 orders beliefs by g: the plan costs what uniform-cost search's costs
+    (costs are whole numbers here, and w·h stays far below 1)."""
+    model = model_of(data)
+    start = uniform(model.n_states)
+    cheapest = plan(model, start, heuristic=Heuristic.ZERO, max_expansions=3000)
+    weighted = plan(model, start, weight=1e-12, max_expansions=3000)
+    assume(cheapest.found and weighted.found)
+    assert weighted.cost == cheapest.cost
+    assert replay(model, start, weighted.steps).max() >= 0.95

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import enum
+import math
 from pathlib import Path
 from typing import Annotated
 
@@ -15,6 +16,7 @@ from beliefloc.planning.best_first import (
     DEFAULT_MAX_EXPANSIONS,
     DEFAULT_THRESHOLD,
     DEFAULT_TIME_LIMIT,
+    DEFAULT_WEIGHT,
     Heuristic,
     PlanStatus,
     plan,
@@ -39,6 +41,14 @@ HeuristicOption = Annotated[
         show_default=False,
     ),
 ]
+HWeightOption = Annotated[
+    float,
+    typer.Option(
+        "--h-weight",
+        help="Best-first ranks beliefs by g + W·h; 1 is the paper's. Below 1 the actions' costs count more: "
+        "cheaper plans from a longer search.",
+    ),
+]
 MaxExpansions = Annotated[
     int, typer.Option("--max-expansions", min=1, help="Give up after expanding this many beliefs.")
 ]
@@ -46,13 +56,21 @@ TimeLimit = Annotated[float, typer.Option("--time-limit", min=0.0, help="Give up
 BeliefOption = Annotated[str, typer.Option("--belief", metavar="uniform|FILE|prior:DOMAIN", help=BELIEF_HELP)]
 
 
-def resolve_heuristic(search: Search, heuristic: Heuristic | None) -> Heuristic:
-    """``--search uniform`` is h = 0; ``--heuristic`` only applies to best-first search."""
+def resolve_heuristic(search: Search, heuristic: Heuristic | None, weight: float = DEFAULT_WEIGHT) -> Heuristic:
+    """``--search uniform`` is h = 0; ``--heuristic`` and ``--h-weight`` only apply to best-first search."""
+    check_weight(weight)
     if search is Search.uniform:
         if heuristic not in (None, Heuristic.ZERO):
             raise UsageError("--search uniform is the search with h = 0; drop --heuristic or use --search bestfirst")
+        if weight != DEFAULT_WEIGHT:
+            raise UsageError("--search uniform is the search with h = 0, so --h-weight has nothing to scale; drop it")
         return Heuristic.ZERO
     return heuristic or Heuristic.ENTROPY_MAX_PROB
+
+
+def check_weight(weight: float) -> None:
+    if not (weight > 0.0 and math.isfinite(weight)):
+        raise UsageError(f"--h-weight must be a positive number, got {weight:g}; for h = 0 use --search uniform")
 
 
 @boundary
@@ -66,6 +84,7 @@ def plan_command(
         Search, typer.Option("--search", help="Best-first (with a heuristic) or uniform-cost search.")
     ] = Search.bestfirst,
     heuristic: HeuristicOption = None,
+    h_weight: HWeightOption = DEFAULT_WEIGHT,
     max_expansions: MaxExpansions = DEFAULT_MAX_EXPANSIONS,
     time_limit: TimeLimit = DEFAULT_TIME_LIMIT,
     json_output: Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")] = False,
@@ -77,11 +96,17 @@ def plan_command(
     Example: beliefloc plan maps/kitchen.yaml --threshold 0.95
     Example: beliefloc plan maps/apartment.yaml --belief prior:domains/apartment.yaml
     """
+    chosen = resolve_heuristic(search, heuristic, h_weight)
     model = open_model(source)
     start = initial_belief(model, belief)
-    chosen = resolve_heuristic(search, heuristic)
     result = plan(
-        model, start, threshold=threshold, heuristic=chosen, max_expansions=max_expansions, time_limit=time_limit
+        model,
+        start,
+        threshold=threshold,
+        heuristic=chosen,
+        max_expansions=max_expansions,
+        time_limit=time_limit,
+        weight=h_weight,
     )
     if json_output:
         print_json(

@@ -10,11 +10,25 @@ import typer
 from rich.markup import escape
 
 from beliefloc.cli.common import boundary, initial_belief, open_model, print_json
-from beliefloc.cli.plan import BeliefOption, HeuristicOption, MaxExpansions, Threshold, TimeLimit
+from beliefloc.cli.plan import (
+    BeliefOption,
+    HeuristicOption,
+    HWeightOption,
+    MaxExpansions,
+    Threshold,
+    TimeLimit,
+    check_weight,
+)
 from beliefloc.cli.show import CompactOption, warn_if_too_wide
 from beliefloc.errors import EXIT_NEGATIVE, UsageError
 from beliefloc.model import Model
-from beliefloc.planning.best_first import DEFAULT_MAX_EXPANSIONS, DEFAULT_THRESHOLD, DEFAULT_TIME_LIMIT, Heuristic
+from beliefloc.planning.best_first import (
+    DEFAULT_MAX_EXPANSIONS,
+    DEFAULT_THRESHOLD,
+    DEFAULT_TIME_LIMIT,
+    DEFAULT_WEIGHT,
+    Heuristic,
+)
 from beliefloc.render import stderr_console, stdout_console
 from beliefloc.render.grid import belief_view, uses_color
 from beliefloc.render.plan import plan_table, summary_table
@@ -46,6 +60,7 @@ def simulate(
     belief: BeliefOption = "uniform",
     threshold: Threshold = DEFAULT_THRESHOLD,
     heuristic: HeuristicOption = None,
+    h_weight: HWeightOption = DEFAULT_WEIGHT,
     max_expansions: MaxExpansions = DEFAULT_MAX_EXPANSIONS,
     time_limit: TimeLimit = DEFAULT_TIME_LIMIT,
     max_steps: Annotated[
@@ -88,6 +103,7 @@ def simulate(
     Example: beliefloc simulate maps/corridors.yaml -n 20 -s ec2-macros -s ec2 --max-actions 500
     Example: beliefloc simulate maps/apartment.yaml -n 20 --belief prior:domains/apartment.yaml --start prior
     """
+    check_weight(h_weight)
     model = open_model(map_file)
     names = strategy or ["bestfirst"]
     for name in names:
@@ -102,7 +118,13 @@ def simulate(
 
         table = load_macros(macros, model)
     settings = PlannerSettings(
-        threshold, heuristic or Heuristic.ENTROPY_MAX_PROB, max_expansions, time_limit, gamma=gamma, macros=table
+        threshold,
+        heuristic or Heuristic.ENTROPY_MAX_PROB,
+        max_expansions,
+        time_limit,
+        gamma=gamma,
+        macros=table,
+        weight=h_weight,
     )
 
     out = stdout_console()

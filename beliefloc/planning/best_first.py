@@ -10,6 +10,11 @@ with ``p(o | a, b) > 0`` (:mod:`beliefloc.planning.successors`). ``g`` adds the 
 ``p`` is the probability of the observation that led to the node (1 for an action that observes
 nothing). The goal is ``max(b) >= threshold``, tested when a node is popped (line 27).
 
+``f = g + w · h`` with ``w = 1`` as in the paper. ``h = H / (max(b) p)`` grows like ``|S| ln |S|``
+while ``g`` is a sum of action costs, so on large maps the search is greedy in ``h`` and ignores
+what actions cost; a weight below 1 (Pohl's weighted A*, read the other way) lets ``g`` count:
+cheaper plans for a longer search (``benchmarks/results/planning-weight.md`` measures the trade).
+
 Differences from the pseudocode, each for a stated reason:
 
 * **Duplicates** are detected on pop with :func:`belief_key`: beliefs equal to within about 1e-9
@@ -42,6 +47,7 @@ from beliefloc.planning.successors import SuccessorEvaluator, SuccessorStats
 DEFAULT_THRESHOLD = 0.95
 DEFAULT_MAX_EXPANSIONS = 200_000
 DEFAULT_TIME_LIMIT = 60.0
+DEFAULT_WEIGHT = 1.0
 KEY_RESOLUTION = 2**30
 """Beliefs are compared after rounding every entry to a multiple of 2^-30 (about 1e-9)."""
 _CACHE_BYTES = 256 * 2**20
@@ -132,8 +138,13 @@ def plan(
     time_limit: float = DEFAULT_TIME_LIMIT,
     memory: SearchMemory | None = None,
     evaluator: SuccessorEvaluator | None = None,
+    weight: float = DEFAULT_WEIGHT,
 ) -> PlanResult:
-    """Search for actions that take ``belief`` to one with ``max(b) >= threshold``."""
+    """Search for actions that take ``belief`` to one with ``max(b) >= threshold``.
+
+    Nodes are ranked by ``f = g + weight · h`` (``weight > 0``; 1 is the paper's search)."""
+    if not weight > 0.0:
+        raise ValueError(f"weight must be positive, got {weight}")
     start = time.perf_counter()
     evaluator = evaluator or SuccessorEvaluator(model)
     memory = memory if memory is not None else SearchMemory()
@@ -189,7 +200,7 @@ def plan(
             g = g_of[node] + model.actions[stats.action].cost
             g_of.append(g)
             stats_of.append(stats)
-            h = heuristic(stats.entropy, stats.max_belief, stats.probability)
+            h = weight * heuristic(stats.entropy, stats.max_belief, stats.probability)
             heapq.heappush(open_heap, (g + h, h, child, child))
     seconds = time.perf_counter() - start
     if status is not PlanStatus.FOUND:

@@ -17,7 +17,7 @@ from __future__ import annotations
 import time
 import weakref
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
@@ -27,6 +27,7 @@ from beliefloc.planning.best_first import (
     DEFAULT_MAX_EXPANSIONS,
     DEFAULT_THRESHOLD,
     DEFAULT_TIME_LIMIT,
+    DEFAULT_WEIGHT,
     Heuristic,
     PlanResult,
     SearchMemory,
@@ -67,6 +68,8 @@ class PlannerSettings:
     """``ec2-macros``: the macro table (built for the model when None)."""
     max_hypotheses: int = DEFAULT_MAX_HYPOTHESES
     """EC2: Sec. VII-B's reduction to the most likely states."""
+    weight: float = DEFAULT_WEIGHT
+    """Best-first search ranks nodes by ``g + weight · h`` (1: the paper's)."""
 
 
 @dataclass
@@ -97,6 +100,7 @@ class PlanningStrategy:
                 time_limit=s.time_limit,
                 memory=self.memory,
                 evaluator=self.evaluator,
+                weight=s.weight,
             )
             self.plans.append(result)
             self.plan_seconds.append(result.seconds)
@@ -240,11 +244,7 @@ def _planner(name: str, heuristic: Heuristic | None) -> StrategyFactory:
     def make(
         model: Model, settings: PlannerSettings, evaluator: SuccessorEvaluator, rng: np.random.Generator
     ) -> Strategy:
-        chosen = (
-            settings
-            if heuristic is None
-            else PlannerSettings(settings.threshold, heuristic, settings.max_expansions, settings.time_limit)
-        )
+        chosen = settings if heuristic is None else replace(settings, heuristic=heuristic)
         return PlanningStrategy(name, model, chosen, evaluator)
 
     return make
