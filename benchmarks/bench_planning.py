@@ -835,6 +835,13 @@ NOTES = [
     "10^4 (2 s / 5,000 expansions per plan): `H / p`, `H / max(b)`, `-ln max(b) / p` and `H` alone run "
     "out of budget in half or more of the episodes; the path probability instead of the last "
     "observation's costs 68.5 but plans 350x slower.",
+    "- **Weighting g against h** (`--h-weight`, [planning-weight.md](planning-weight.md)). On these 100 "
+    "episodes at 10^4, `f = g + w·h` costs 70.8 with w = 0.1 and 69.6 with w = 0.05 (74.2 at w = 1) for "
+    "6-14x the planning time. The authors' unweighted `p` (the first note) instead of the Bayes one, "
+    "tried on 30 worlds at 10^4, raised the mean cost from 73 to 107 (median 64 to 61).",
+    "- **Rotations.** In the authors' transition model (gridworld_triangles.cpp) a rotation succeeds with "
+    "probability 0.98 and has no other outcome, so after normalising it is deterministic; beliefloc's "
+    "rotations fail (stay) with 0.02, as the paper's text says of every actuation action.",
     "- **The authors' random numbers.** Their `generateRandomNumber` and `draw` (utils.cpp) seed a new "
     "`std::default_random_engine` from the system clock on every call, so consecutive draws in the loops "
     "that scatter the seen states (and the sensor noise) come from nearly evenly spaced seeds: their "
