@@ -297,3 +297,47 @@ def test_step_header() -> None:
         "step 2: look=window_seen   p(window_seen | look, b) = 0.45"
     )
     assert "prediction only" in step_header(1, "right", "right", None, None).plain
+
+
+def _printed(table: RenderableType, width: int = 80) -> list[str]:
+    console = Console(width=width, record=True, color_system=None)
+    console.print(table)
+    return console.export_text().splitlines()
+
+
+def test_summary_tables_fit_80_columns_without_cutting_a_header() -> None:
+    """The simulate and search simulate summaries at the width of a plain terminal: no '…'."""
+    from beliefloc.render.plan import summary_table
+    from beliefloc.render.search import trials_table
+
+    row = {
+        "episodes": 100,
+        "localized": 97,
+        "correct": 95,
+        "mean_plan_seconds": 0.1234,
+        "mean_replans": 12.5,
+        "mean_cost": 123.4,
+        "stdev_cost": 45.6,
+        "mean_steps": 23.4,
+        "failures": {"budget_exceeded": 2, "step_limit": 1},
+    }
+    plan_lines = _printed(summary_table({"ec2-macros": row, "bestfirst": {**row, "failures": {}}}, 0.95))
+    trial = {
+        "trials": 1000,
+        "found": 900,
+        "not_found": 90,
+        "time_limit": 10,
+        "mean_time": 123.4,
+        "stdev_time": 56.7,
+        "mean_accuracy": 0.912,
+        "within_4_cells": 950,
+        "mean_steps": 12.3,
+        "mean_commits": None,
+    }
+    search_lines = _printed(trials_table({"pomdp/expectation/static/reuse": trial}, "trials"))
+    for lines in (plan_lines, search_lines):
+        assert all(len(line) <= 80 and "…" not in line for line in lines)
+    assert any(line.startswith(" ec2-macros") and "123.4±45.6" in line for line in plan_lines)
+    assert "not localized: ec2-macros: 2 budget_exceeded, 1 step_limit" in " ".join(plan_lines)
+    assert any(line.startswith("pomdp ") for line in search_lines)  # one arm: the policy; the title has the rest
+    assert "revision reuse" in " ".join(search_lines)

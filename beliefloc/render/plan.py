@@ -47,10 +47,8 @@ def summary_table(summary: dict[str, dict[str, Any]], threshold: float) -> Table
         pad_edge=False,
         padding=(0, 1),
     )
-    for column in ("strategy", "localized", "correct", "plan s", "replans", "cost", "steps", "failures"):
-        table.add_column(
-            column, justify="left" if column in ("strategy", "failures") else "right", no_wrap=column != "failures"
-        )
+    for column in ("strategy", "localized", "correct", "plan s", "replans", "cost", "steps"):
+        table.add_column(column, justify="left" if column == "strategy" else "right", no_wrap=True)
     for name, s in summary.items():
         table.add_row(
             name,
@@ -60,8 +58,15 @@ def summary_table(summary: dict[str, dict[str, Any]], threshold: float) -> Table
             _num(s["mean_replans"], "{:.2f}"),
             _pm(s["mean_cost"], s["stdev_cost"], "{:.1f}"),  # mean ± sd
             _num(s["mean_steps"], "{:.1f}"),
-            ", ".join(f"{k}: {v}" for k, v in s["failures"].items()) or "-",
         )
+    # failures go under the table (rarely any, and long words): the columns then fit 80 characters
+    failures = [
+        f"{name}: " + ", ".join(f"{count} {status}" for status, count in s["failures"].items())
+        for name, s in summary.items()
+        if s["failures"]
+    ]
+    table.caption = "not localized: " + "; ".join(failures) if failures else "every episode localized"
+    table.caption_justify = "left"
     return table
 
 

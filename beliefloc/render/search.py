@@ -213,13 +213,13 @@ def verdict_text(space: SearchSpace, record: SearchRecord) -> Text:
 
 def trials_table(summary: dict[str, dict[str, Any]], title: str) -> Table:
     """Per arm of paired trials: verdicts (found / not found / time limit), localisation time (mean ±
-    standard deviation), accuracy,
-    reported cells within 4 cells of the truth, steps and knowledge-base commits.
+    standard deviation), accuracy, reported cells within 4 cells of the truth, steps and
+    knowledge-base commits.
 
     An arm is named ``policy/strategy/kb/revision``; the table shows the parts that differ between
-    arms (all of them when there is one arm) -- the title says the rest."""
+    arms (the policy when there is one arm) -- the title says the rest, so the table fits 80 columns."""
     parts = [arm.split("/") for arm in summary]
-    varying = [i for i in range(4) if len({p[i] for p in parts}) > 1] or [0, 1, 2, 3]
+    varying = [i for i in range(4) if len({p[i] for p in parts}) > 1] or [0]
     common = [f"{what} {parts[0][i]}" for i, what in enumerate(("policy", "metareasoning", "KB", "revision"))]
     shared = [common[i] for i in range(4) if i not in varying]
     if shared:
