@@ -41,7 +41,8 @@ def summary_table(summary: dict[str, dict[str, Any]], threshold: float) -> Table
     """Per strategy: episodes, localized, correct, mean plan time, replans, cost ± sd, steps, failures."""
     runs = max((s["episodes"] for s in summary.values()), default=0)
     table = Table(
-        title=f"{runs} episodes per strategy (localized: max belief >= {threshold:g}; correct: at the true state)",
+        title=f"{runs} episode{'' if runs == 1 else 's'} per strategy (localized: max belief >= {threshold:g}; "
+        "correct: at the true state)",
         title_justify="left",
         box=box.SIMPLE_HEAD,
         pad_edge=False,
