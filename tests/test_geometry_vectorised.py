@@ -41,13 +41,8 @@ def _reference_viewing_angles(
         keep = distance <= view_range + 1e-9
         rr, cc, cells, dx, dy, distance = rr[keep], cc[keep], cells[keep], dx[keep], dy[keep], distance[keep]
     if occlusion and not layout.free.all():
-        span = int(np.max(np.maximum(np.abs(rr - lr), np.abs(cc - lc)), initial=0))
-        samples = max(2, 4 * span + 1)
-        t = (np.arange(1, samples) / samples)[None, :]
-        pr = np.floor(rr[:, None] + t * (lr - rr[:, None]) + 0.5).astype(np.int64)
-        pc = np.floor(cc[:, None] + t * (lc - cc[:, None]) + 0.5).astype(np.int64)
-        endpoint = ((pr == rr[:, None]) & (pc == cc[:, None])) | ((pr == lr) & (pc == lc))
-        visible = ~(~layout.free[pr, pc] & ~endpoint).any(axis=1)
+        # the line-of-sight rule itself is checked against a brute-force reference in test_compile.py
+        visible = geometry._line_of_sight(layout.free, rr, cc, lr, lc)
         rr, cc, cells, dx, dy, distance = (a[visible] for a in (rr, cc, cells, dx, dy, distance))
     bearing = np.degrees(np.arctan2(dx, dy))
     headings = np.arange(h_count)
