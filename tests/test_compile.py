@@ -202,12 +202,15 @@ def test_true_observation_is_the_argmax_of_each_part():
 
 
 def ref_wall_distance(free: np.ndarray, r: int, c: int, dr: int, dc: int, cell_size: float) -> float:
-    """Walk cell by cell until a blocked cell or the grid's edge: (k - 0.5) steps."""
+    """Walk cell by cell until a blocked cell, the grid's edge, or (diagonally) a corner between two
+    blocked cells: (k - 0.5) steps."""
     step = math.hypot(dr, dc) * cell_size
     k = 1
     while True:
         r2, c2 = r + k * dr, c + k * dc
         if not (0 <= r2 < free.shape[0] and 0 <= c2 < free.shape[1]) or not free[r2, c2]:
+            return (k - 0.5) * step
+        if dr and dc and not free[r2 - dr, c2] and not free[r2, c2 - dc]:
             return (k - 0.5) * step
         k += 1
 
@@ -239,7 +242,7 @@ def test_wall_distances_in_the_kitchen_grid():
 
 
 @pytest.mark.parametrize("headings", [4, 8])
-@pytest.mark.parametrize("layout", [None, "..#.\n....\n.#..\n...."])
+@pytest.mark.parametrize("layout", [None, "..#.\n....\n.#..\n....", "...#\n..#.\n....\n#..."])
 def test_wall_distances_match_the_walk(headings: int, layout: str | None):
     grid = _layout(4, 4, headings, layout, cell_size=0.7)
     d = geometry.wall_distances(grid, 100.0)
@@ -257,6 +260,16 @@ def test_wall_distance_on_a_diagonal_and_at_a_blocked_cell():
     assert d[_state(grid, 0, 0, 3)] == pytest.approx(0.5 * diagonal)  # SE: the blocked centre
     assert d[_state(grid, 0, 1, 4)] == pytest.approx(0.6)  # S: the blocked centre
     assert d[_state(grid, 2, 0, 2)] == pytest.approx(3.0)  # E along the south row
+
+
+def test_a_diagonal_beam_stops_at_a_diagonal_wall():
+    grid = _layout(3, 3, 8, "..#\n.#.\n...")  # a diagonal wall: (0,2) and (1,1) touch at a corner
+    d = geometry.wall_distances(grid, 5.0)
+    diagonal = math.sqrt(2) * 1.2
+    # from (1,2) facing NW the beam would pass between (0,2) and (1,1): no gap, the wall is at the corner
+    assert d[_state(grid, 1, 2, 7)] == pytest.approx(0.5 * diagonal)
+    # from (2,1) facing NE it passes the corner of (1,1) and the free (2,2): on to the grid's edge
+    assert d[_state(grid, 2, 1, 1)] == pytest.approx(1.5 * diagonal)
 
 
 def test_scan_reading_on_a_bin_edge_is_the_bin_below():

@@ -271,7 +271,9 @@ def _line_of_sight(
 def wall_distances(layout: GridLayout, max_distance: float) -> np.ndarray:
     """Meters from each state's cell centre to the first blocked cell or grid edge straight ahead,
     ``inf`` beyond ``max_distance``. The wall is taken at the near edge of the blocking cell:
-    ``(k - 0.5)`` steps for a wall k cells ahead (a step is ``cell_size``, times sqrt 2 diagonally)."""
+    ``(k - 0.5)`` steps for a wall k cells ahead (a step is ``cell_size``, times sqrt 2 diagonally).
+    A diagonal beam also stops at a corner between two blocked cells, as Look's line of sight does:
+    a wall drawn diagonally has no gaps."""
     h_count = layout.headings
     n_cells = len(layout.free_cells)
     row, col = np.divmod(layout.free_cells, layout.cols)
@@ -287,6 +289,10 @@ def wall_distances(layout: GridLayout, max_distance: float) -> np.ndarray:
             inside = (r2 >= 0) & (r2 < layout.rows) & (c2 >= 0) & (c2 < layout.cols)
             wall = ~inside
             wall[inside] = ~layout.free[r2[inside], c2[inside]]
+            if dr and dc:  # the two cells beside the corner crossed on the way (inside when r2, c2 is)
+                pinched = inside & ~layout.free[np.where(inside, r2 - dr, 0), np.where(inside, c2, 0)]
+                pinched &= ~layout.free[np.where(inside, r2, 0), np.where(inside, c2 - dc, 0)]
+                wall |= pinched
             hit = pending[wall]
             distance = (k - 0.5) * step
             if distance <= max_distance + 1e-9:
