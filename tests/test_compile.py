@@ -495,6 +495,15 @@ def test_diagonal_and_compass_moves():
     assert up[_state(compass, 0, 0)] == _state(compass, 0, 0)
 
 
+def test_a_diagonal_move_does_not_pass_through_a_diagonal_wall():
+    grid = _layout(3, 3, 8, "..#\n.#.\n...")  # (0,2) and (1,1) touch at a corner
+    forward = geometry.motion_targets(grid, "forward")
+    backward = geometry.motion_targets(grid, "backward")
+    assert forward[_state(grid, 1, 2, 7)] == _state(grid, 1, 2, 7)  # NW into the wall's corner: stays
+    assert backward[_state(grid, 0, 1, 7)] == _state(grid, 0, 1, 7)  # and back the other way
+    assert forward[_state(grid, 2, 1, 1)] == _state(grid, 1, 2, 1)  # past one blocked corner: moves
+
+
 @pytest.mark.parametrize("failure", [0.0, 0.02, 0.3, 0.5, 1.0])
 def test_failure_mass_stays_on_the_diagonal(failure: float):
     model = _compile(_map(3, 3, 4, failure=failure, layout="...\n.#.\n..."))

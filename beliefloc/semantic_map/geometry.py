@@ -33,7 +33,8 @@ def cell_index_map(layout: GridLayout) -> np.ndarray:
 
 
 def motion_targets(layout: GridLayout, motion: str) -> np.ndarray:
-    """The intended next state of every state under a noise-free ``motion``."""
+    """The intended next state of every state under a noise-free ``motion``. A move into a blocked
+    cell, off the grid, or diagonally between two blocked cells that touch at a corner stays put."""
     h_count = layout.headings
     n_cells = len(layout.free_cells)
     heading = np.tile(np.arange(h_count), n_cells)
@@ -55,7 +56,13 @@ def motion_targets(layout: GridLayout, motion: str) -> np.ndarray:
     r2, c2 = row + dr, col + dc
     inside = (r2 >= 0) & (r2 < layout.rows) & (c2 >= 0) & (c2 < layout.cols)
     hit = index[np.where(inside, r2, 0), np.where(inside, c2, 0)]
-    target_cell = np.where(inside & (hit >= 0), hit, cell)
+    open_way = inside & (hit >= 0)
+    # a diagonal step between two blocked cells that touch at the corner would go through a wall
+    diagonal = open_way & (dr != 0) & (dc != 0)
+    side_a = index[np.where(diagonal, r2, 0), np.where(diagonal, col, 0)] >= 0
+    side_b = index[np.where(diagonal, row, 0), np.where(diagonal, c2, 0)] >= 0
+    open_way &= ~(diagonal & ~side_a & ~side_b)
+    target_cell = np.where(open_way, hit, cell)
     return target_cell * h_count + heading
 
 
