@@ -847,6 +847,10 @@ NOTES = [
     "because greedy search seldom reaches the "
     "merged beliefs. Dropping the costliest 10 % of our 100 episodes (as episodes the authors' code never "
     "finished would be dropped) still leaves 64.3.",
+    "- **The authors' main loop** (run_comparison.cpp) compares the belief after a Look with the plan's "
+    "entry by entry within 0.001 and, after a move, adopts the plan's expected belief. With our planner "
+    "on the same 30 worlds at 10^4 it gives the same episodes (cost 73.2, 5.5 replans, all correct): "
+    "plans expect rare observations, whose beliefs differ from the real ones by more than 0.001.",
     "- **Rotations.** In the authors' transition model (gridworld_triangles.cpp) a rotation succeeds with "
     "probability 0.98 and has no other outcome, so after normalising it is deterministic; beliefloc's "
     "rotations fail (stay) with 0.02, as the paper's text says of every actuation action.",
