@@ -12,7 +12,7 @@ from rich.markup import escape
 
 from beliefloc.cli.common import MAP_SUFFIXES, boundary, print_json
 from beliefloc.errors import UsageError
-from beliefloc.generate import CLASSES, SeenModel, generate_gridworld, gridworld_yaml
+from beliefloc.generate import CLASSES, MOVE_FAILURE, SeenModel, generate_gridworld, gridworld_yaml
 from beliefloc.model_file import write_atomically
 from beliefloc.render import stdout_console
 
@@ -66,14 +66,24 @@ def gridworld(
             "states: random states see each class, as the authors' code (the paper's Tables I-II).",
         ),
     ] = SeenModel.OBJECTS,
+    rotation_failure: Annotated[
+        float,
+        typer.Option(
+            "--rotation-failure",
+            metavar="P",
+            help="Failure of the rotations (the paper's text: 0.02 like every move; the authors' code: 0, "
+            "a rotation always turns).",
+        ),
+    ] = MOVE_FAILURE,
     json_output: Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")] = False,
 ) -> None:
     """Write a random grid world as a map file, as in Colledanchise's experiments (Sec VII-A).
 
     An open grid of round(sqrt(N/4)) x round(sqrt(N/4)) cells with 4 headings each, object classes
     A, B, C, D, a look with false positive and negative rates 0.01 (cost 1), and moves forward,
-    backward, rotate_cw, rotate_ccw (failure 0.02, cost 10). The same seed writes the same file,
-    byte for byte; an existing file is replaced.
+    backward, rotate_cw, rotate_ccw (failure 0.02, cost 10; with --rotation-failure 0 rotations always
+    turn, as in the authors' code). The same seed writes the same file, byte for byte; an existing
+    file is replaced.
 
     Example: beliefloc generate gridworld --states 1000 --seed 1 --seen-model states -o world.yaml
     """
@@ -82,7 +92,7 @@ def gridworld(
     directory = output.parent
     if not directory.is_dir():
         raise UsageError(f"{output}: the directory {directory} does not exist")
-    world = generate_gridworld(states, np.random.default_rng(seed), seen_model)
+    world = generate_gridworld(states, np.random.default_rng(seed), seen_model, rotation_failure=rotation_failure)
     data = gridworld_yaml(world, seed=seed).encode()
 
     write_atomically(output, lambda handle: handle.write(data))
@@ -99,6 +109,7 @@ def gridworld(
                 "rows": world.rows,
                 "cols": world.cols,
                 "seen_model": seen_model.value,
+                "rotation_failure": rotation_failure,
                 "seed": seed,
                 "classes": list(CLASSES),
                 "objects": len(world.landmarks),
