@@ -101,14 +101,16 @@ def world_seed(seed: int, episode: int) -> int:
     return int(np.random.SeedSequence([seed, episode]).generate_state(1)[0])
 
 
-def build_model(states: int, wseed: int, directory: Path) -> Any:
-    """``beliefloc generate gridworld --states N --seed WSEED --seen-model states``, loaded and compiled."""
+def build_model(states: int, wseed: int, directory: Path, rotation_failure: float | None = None) -> Any:
+    """``beliefloc generate gridworld --states N --seed WSEED --seen-model states`` (with
+    ``--rotation-failure`` when given), loaded and compiled."""
     import numpy as np
 
-    from beliefloc.generate import SeenModel, generate_gridworld, gridworld_yaml
+    from beliefloc.generate import MOVE_FAILURE, SeenModel, generate_gridworld, gridworld_yaml
     from beliefloc.semantic_map import compile_model, load_map
 
-    world = generate_gridworld(states, np.random.default_rng(wseed), SeenModel.STATES)
+    rotations = MOVE_FAILURE if rotation_failure is None else rotation_failure
+    world = generate_gridworld(states, np.random.default_rng(wseed), SeenModel.STATES, rotation_failure=rotations)
     path = directory / f"world-{states}-{wseed}.yaml"
     path.write_text(gridworld_yaml(world, seed=wseed))
     model = compile_model(load_map(path))
@@ -166,7 +168,7 @@ def child_episodes(p: dict[str, Any]) -> dict[str, Any]:
     with tempfile.TemporaryDirectory(prefix="bench-planning-") as tmp:
         for e in range(episodes):
             wseed = world_seed(seed, e)
-            model = build_model(states, wseed, Path(tmp))
+            model = build_model(states, wseed, Path(tmp), p.get("rotation_failure"))
             evaluator = SuccessorEvaluator(model)
             start_belief = uniform(model.n_states)
             ablation: list[dict[str, Any]] = []
@@ -227,7 +229,7 @@ def child_heuristics(p: dict[str, Any]) -> dict[str, Any]:
     with tempfile.TemporaryDirectory(prefix="bench-planning-") as tmp:
         for e in range(worlds):
             wseed = world_seed(seed, e)
-            model = build_model(states, wseed, Path(tmp))
+            model = build_model(states, wseed, Path(tmp), p.get("rotation_failure"))
             results = {}
             for name in p["heuristics"]:
                 r = plan(
@@ -276,7 +278,7 @@ def child_baseline(p: dict[str, Any]) -> dict[str, Any]:
     with tempfile.TemporaryDirectory(prefix="bench-planning-") as tmp:
         for e in range(worlds):
             wseed = world_seed(seed, e)
-            model = build_model(states, wseed, Path(tmp))
+            model = build_model(states, wseed, Path(tmp), p.get("rotation_failure"))
             start = uniform(model.n_states)
             ours, ours_s = _best_of(lambda m=model, b=start: plan(m, b), lambda r: float(r.seconds))
             row: dict[str, Any] = {
@@ -622,6 +624,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--heuristic-time-limit", type=float, default=20.0, help="seconds per heuristics plan")
     parser.add_argument("--baseline-worlds", type=int, default=10, help="worlds per size for the baseline")
     parser.add_argument("--baseline-time-limit", type=float, default=60.0, help="seconds per baseline plan")
+    parser.add_argument(
+        "--rotation-failure",
+        type=float,
+        help="worlds made with generate gridworld --rotation-failure P (0: the authors' code; default: 0.02)",
+    )
     parser.add_argument("--output", type=Path, help=f"markdown to write (default {RESULTS.name}, or planning-quick.md)")
     args = parser.parse_args(argv)
     if args.child:
@@ -635,7 +642,7 @@ def main(argv: list[str] | None = None) -> int:
     sizes = [int(s) for s in args.sizes]
     started = time.perf_counter()
     args.load_start = os.getloadavg()[0]
-    base = {"seed": args.seed}
+    base = {"seed": args.seed, "rotation_failure": args.rotation_failure}
 
     episodes = []
     for states in sizes:
@@ -742,7 +749,13 @@ def report(
         f"Worlds: `beliefloc generate gridworld --seen-model states` at {sizes} states, a fresh world per "
         f"episode (world seed `SeedSequence([{args.seed}, episode]).generate_state(1)[0]`), a true start drawn "
         f"uniformly, the uniform start belief, threshold {THRESHOLD}, step limit {args.max_steps}. "
-        f"Strategies are paired (same world, start and noise). bestfirst uses the defaults "
+        + (
+            ""
+            if args.rotation_failure is None
+            else f"Worlds made with `--rotation-failure {args.rotation_failure:g}`"
+            + (" (the authors' code: a rotation always turns). " if args.rotation_failure == 0 else ". ")
+        )
+        + f"Strategies are paired (same world, start and noise). bestfirst uses the defaults "
         f"(`entropy-max-prob`, 200,000 expansions, 60 s); {uniform_note}.",
         "",
         "## Tables I and II (left): plan time, replans, cost",
