@@ -18,6 +18,10 @@ if TYPE_CHECKING:
 DomainArgument = Annotated[
     Path, typer.Argument(metavar="DOMAIN", help="A domain file (domains/*.yaml).", show_default=False)
 ]
+TargetOption = Annotated[
+    str | None,
+    typer.Option("--target", "-t", help="The class searched for (default: the domain's `target`).", show_default=False),
+]
 KbOption = Annotated[
     list[Path] | None,
     typer.Option(
@@ -51,15 +55,23 @@ def parse_seen(specs: list[str] | None) -> list[Observation]:
     return observations
 
 
+def resolve_target(domain_file: Path, domain: Domain, target: str | None, *, allow_any: bool = False) -> str | None:
+    """``--target``, else the domain's ``target``; a class of the domain. With ``allow_any``, ``any``
+    or no target at all is None (a random object per trial)."""
+    chosen = target or domain.target
+    if allow_any and chosen in (None, "any"):
+        return None
+    if chosen is None:
+        raise UsageError(f"{domain_file}: no target: give --target CLASS (the domain names none)")
+    if chosen not in domain.classes:
+        raise UsageError(f"--target {chosen!r}: unknown class; expected one of: {', '.join(sorted(domain.classes))}")
+    return chosen
+
+
 @boundary
 def prior(
     domain_file: DomainArgument,
-    target: Annotated[
-        str | None,
-        typer.Option(
-            "--target", "-t", help="The class searched for (default: the domain's `target`).", show_default=False
-        ),
-    ] = None,
+    target: TargetOption = None,
     robot: Annotated[
         bool,
         typer.Option(
@@ -107,11 +119,8 @@ def prior(
         return
     if weight is not None:
         raise UsageError("--weight is the robot's prior weight: use it with --robot")
-    chosen = target or domain.target
-    if chosen is None:
-        raise UsageError(f"{domain_file}: no target: give --target CLASS (the domain names none)")
-    if chosen not in domain.classes:
-        raise UsageError(f"--target {chosen!r}: unknown class; expected one of: {', '.join(sorted(domain.classes))}")
+    chosen = resolve_target(domain_file, domain, target)
+    assert chosen is not None
     base = KnowledgeBase(domain, kb or [], use_defaults=defaults)
     for observation in parse_seen(seen):
         base.observe(observation)

@@ -10,7 +10,7 @@ import typer
 from rich.markup import escape
 
 from beliefloc.cli.common import boundary, print_json, warn
-from beliefloc.cli.prior import DefaultsOption, DomainArgument
+from beliefloc.cli.prior import DefaultsOption, DomainArgument, TargetOption, resolve_target
 from beliefloc.errors import EXIT_NEGATIVE, UsageError
 from beliefloc.render import stderr_console, stdout_console
 
@@ -99,16 +99,7 @@ def _domain_and_target(domain_file: Any, target: str | None, *, allow_any: bool 
     from beliefloc.knowledge import load_domain
 
     domain = load_domain(domain_file)
-    chosen = target or domain.target
-    if chosen == "any" and allow_any:
-        return domain, None
-    if chosen is None:
-        if allow_any:
-            return domain, None
-        raise UsageError(f"{domain_file}: no target: give --target CLASS (the domain names none)")
-    if chosen not in domain.classes:
-        raise UsageError(f"--target {chosen!r}: unknown class; expected one of: {', '.join(sorted(domain.classes))}")
-    return domain, chosen
+    return domain, resolve_target(domain_file, domain, target, allow_any=allow_any)
 
 
 def _warn_closed_rooms(domain: Domain) -> None:
@@ -124,12 +115,7 @@ def _warn_closed_rooms(domain: Domain) -> None:
 @boundary
 def run(
     domain_file: DomainArgument,
-    target: Annotated[
-        str | None,
-        typer.Option(
-            "--target", "-t", help="The class searched for (default: the domain's `target`).", show_default=False
-        ),
-    ] = None,
+    target: TargetOption = None,
     strategy: Annotated[
         str, typer.Option("--strategy", help=f"Existence metareasoning (Eq. 10-14): {', '.join(STRATEGY_NAMES)}.")
     ] = "expectation",
