@@ -421,9 +421,18 @@ def _paired_cost(rows: list[dict[str, Any]], strategy: str) -> str:
         for r in rows
         if all(r["strategies"].get(st, {}).get("status") == "localized" for st in (strategy, "bestfirst"))
     ]
-    if not both:
+    return paired_means(both)
+
+
+def paired_means(pairs: Sequence[tuple[float, float]], *, wins: bool = False) -> str:
+    """``this / reference (n=...)``: the means of paired values; with ``wins``, how often this was lower
+    (cheaper) and higher (dearer)."""
+    if not pairs:
         return "—"
-    return f"{_n(_mean([a for a, _ in both]))} / {_n(_mean([b for _, b in both]))} (n={len(both)})"
+    text = f"{_n(_mean([a for a, _ in pairs]))} / {_n(_mean([b for _, b in pairs]))} (n={len(pairs)}"
+    if wins:
+        text += f"; cheaper {sum(a < b for a, b in pairs)}, dearer {sum(a > b for a, b in pairs)}"
+    return text + ")"
 
 
 def kth_plan_times(result: dict[str, Any], strategy: str = "bestfirst", ks: int = 3) -> list[tuple[float | None, int]]:
@@ -511,9 +520,7 @@ def _paired_first_cost(rows: list[dict[str, Any]], heuristic: str) -> str:
         for r in rows
         if r["results"][heuristic]["cost"] is not None and r["results"]["entropy-max-prob"]["cost"] is not None
     ]
-    if heuristic == "entropy-max-prob" or not both:
-        return "" if heuristic == "entropy-max-prob" else "—"
-    return f"{_n(_mean([a for a, _ in both]))} / {_n(_mean([b for _, b in both]))} (n={len(both)})"
+    return "" if heuristic == "entropy-max-prob" else paired_means(both)
 
 
 def baseline_ratios(result: dict[str, Any], variant: str) -> list[float]:

@@ -27,7 +27,7 @@ from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_planning import THRESHOLD, _say, _single_threaded, build_model, world_seed
+from bench_planning import THRESHOLD, _say, _single_threaded, build_model, paired_means, world_seed
 from machine import cpu_name
 
 RESULTS = Path(__file__).resolve().parent / "results" / "planning-weight.md"
@@ -125,12 +125,7 @@ def paired(rows: list[dict[str, Any]], states: int, weight: float, reference: fl
         if w == weight and (reference, e) in by
         if by[(weight, e)]["status"] == by[(reference, e)]["status"] == "localized"
     ]
-    if not pairs or weight == reference:
-        return ""
-    mine, theirs = statistics.fmean(p[0] for p in pairs), statistics.fmean(p[1] for p in pairs)
-    cheaper = sum(a < b for a, b in pairs)
-    dearer = sum(a > b for a, b in pairs)
-    return f"{mine:.2f} / {theirs:.2f} (n={len(pairs)}; cheaper {cheaper}, dearer {dearer})"
+    return "" if not pairs or weight == reference else paired_means(pairs, wins=True)
 
 
 NOTES = [
