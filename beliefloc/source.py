@@ -248,6 +248,15 @@ def validate_source(
         raise error_cls("\n".join(shown)) from None
 
 
+def refuse_field_name(model_cls: type[BaseModel], data: Any, name: str) -> None:
+    """Raise when ``data`` uses the Python name of a field that files must write by its alias.
+
+    ``populate_by_name`` lets code build a model with the field's own name; a file may not."""
+    if isinstance(data, dict) and name in data:
+        keys = sorted({f.alias or key for key, f in model_cls.model_fields.items()})
+        raise FieldError((name,), f"unknown key {name!r}; expected one of: {', '.join(keys)}")
+
+
 def _describe(source: Source, model_cls: type[BaseModel], error: Any) -> str:
     loc: Path = tuple(error["loc"])
     kind = error["type"]

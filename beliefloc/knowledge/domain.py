@@ -31,7 +31,7 @@ from pydantic import (
 
 from beliefloc.errors import DomainError, FieldError, MapError
 from beliefloc.knowledge.robot import DEFAULT_WEIGHT, ROBOT
-from beliefloc.source import Source, read_source, validate_source
+from beliefloc.source import Source, read_source, refuse_field_name, validate_source
 
 if TYPE_CHECKING:
     from beliefloc.semantic_map import SemanticMap
@@ -224,10 +224,7 @@ class Domain(_Strict):
     @model_validator(mode="before")
     @classmethod
     def _no_internal_names(cls, data: Any) -> Any:
-        # populate_by_name would let the field's own name in: only ``search:`` is written in files
-        if isinstance(data, dict) and "map_search" in data:
-            keys = sorted({f.alias or name for name, f in cls.model_fields.items()})
-            raise FieldError(("map_search",), f"unknown key 'map_search'; expected one of: {', '.join(keys)}")
+        refuse_field_name(cls, data, "map_search")  # files write ``search:``
         return data
 
     @field_validator("rooms", mode="before")

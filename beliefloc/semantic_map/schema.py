@@ -19,6 +19,7 @@ from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, field_validator,
 
 from beliefloc.errors import FieldError
 from beliefloc.model import SourceInfo
+from beliefloc.source import refuse_field_name
 
 Probability = Annotated[float, Field(ge=0.0, le=1.0)]
 Cost = Annotated[float, Field(ge=0.0, allow_inf_nan=False)]
@@ -256,10 +257,7 @@ class SemanticMap(_Strict):
     @model_validator(mode="before")
     @classmethod
     def _no_internal_names(cls, data: Any) -> Any:
-        # populate_by_name would let the field's own name in: only ``rooms:`` is written in files
-        if isinstance(data, dict) and "room_spec" in data:
-            keys = sorted({f.alias or name for name, f in cls.model_fields.items()})
-            raise FieldError(("room_spec",), f"unknown key 'room_spec'; expected one of: {', '.join(keys)}")
+        refuse_field_name(cls, data, "room_spec")  # files write ``rooms:``
         return data
 
     # --- derived geometry -----------------------------------------------------------------------
