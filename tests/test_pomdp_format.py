@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import json
+import os
 import re
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -153,8 +157,36 @@ def test_round_trip_of_a_model_without_grid(tmp_path: Path) -> None:
     assert_same_model(tiger, read_pomdp(tmp_path / "again.pomdp"))
 
 
-def test_export_is_deterministic(rich: Model) -> None:
-    assert pomdp_text(rich) == pomdp_text(rich)
+_EXPORT_SCRIPT = """
+import sys
+from beliefloc import compile_model, load_map
+from beliefloc.pomdp_format import pomdp_text
+sys.stdout.buffer.write(pomdp_text(compile_model(load_map(sys.argv[1]))).encode())
+"""
+
+WINDOW_EXPORT_SHA256 = "4736e74240b5e2aec46dd252269a8b2115a1fbc48352f7ca385b7b05c468e57d"
+"""sha256 of ``pomdp_text`` of maps/window-2x2.yaml, pinned (test_window_export_text reads its lines);
+a deliberate change to the export updates it."""
+
+
+def _export_in_a_new_process(map_path: Path, hash_seed: str) -> bytes:
+    """``pomdp_text`` of the map at ``map_path``, computed by a fresh interpreter with ``PYTHONHASHSEED=hash_seed``."""
+    env = {**os.environ, "PYTHONHASHSEED": hash_seed}
+    result = subprocess.run(
+        [sys.executable, "-c", _EXPORT_SCRIPT, str(map_path)], env=env, capture_output=True, timeout=300, check=False
+    )
+    assert result.returncode == 0, result.stderr.decode()
+    return result.stdout
+
+
+def test_export_is_deterministic(rich: Model, window: Model, tmp_path: Path) -> None:
+    """A fresh process under two hash seeds writes this process's bytes (nothing depends on the order
+    of a set or on string hashes), and the window map's export is the pinned one."""
+    (tmp_path / "rich.yaml").write_text(RICH_MAP)
+    expected = pomdp_text(rich).encode()
+    for hash_seed in ("0", "4242"):
+        assert _export_in_a_new_process(tmp_path / "rich.yaml", hash_seed) == expected
+    assert hashlib.sha256(pomdp_text(window).encode()).hexdigest() == WINDOW_EXPORT_SHA256
 
 
 def test_window_export_text(window: Model) -> None:
@@ -601,14 +633,14 @@ def test_export_bad_input(runner, tmp_path: Path) -> None:
 
 
 def test_failed_write_leaves_no_file(tmp_path: Path, window: Model, monkeypatch: pytest.MonkeyPatch) -> None:
-    import beliefloc.pomdp_format as pomdp_format
+    import beliefloc.pomdp_format.writer as writer
 
     def broken(*args: object) -> str:
         raise RuntimeError("disk full")
 
     write_pomdp(window, tmp_path / "w.pomdp")
     before = (tmp_path / "w.pomdp").read_text()
-    monkeypatch.setattr(pomdp_format, "_observation_block", broken)  # fails half-way through the file
+    monkeypatch.setattr(writer, "_observation_block", broken)  # fails half-way through the file
     with pytest.raises(RuntimeError, match="disk full"):
         write_pomdp(window, tmp_path / "w.pomdp")
     with pytest.raises(RuntimeError, match="disk full"):
