@@ -14,7 +14,7 @@ from typing import Annotated
 import numpy as np
 from pydantic import Field, RootModel
 
-from beliefloc.errors import BeliefFileError, UsageError
+from beliefloc.errors import BeliefFileError, InvalidValueError
 from beliefloc.model import Model
 from beliefloc.source import Source, read_source, validate_source
 
@@ -42,7 +42,7 @@ def load_belief(model: Model, path: str | Path) -> tuple[np.ndarray, list[str]]:
     for name, probability in mapping.items():
         try:
             states = model.states.indices(str(name))
-        except UsageError as exc:
+        except InvalidValueError as exc:
             raise inner.error((str(name),), str(exc), BeliefFileError, key=True) from None
         belief[states] += probability / len(states)
     total = float(belief.sum())

@@ -48,8 +48,14 @@ class ModelError(BeliefLocError):
     """A compiled model file or a .pomdp file cannot be used (stale, unreadable, unsupported)."""
 
 
+class InvalidValueError(BeliefLocError, ValueError):
+    """A value handed to the library is not one it can use: an unknown state, action or room, a
+    probability outside [0, 1], a malformed step. The message speaks of the value, never of a
+    command-line option: the CLI adds the option's name (``cli.common.for_option``)."""
+
+
 class UsageError(BeliefLocError):
-    """A command-line argument is wrong (an unknown action or state, a malformed step)."""
+    """A command-line argument is wrong; raised by the CLI only, with the option's name."""
 
 
 class ImpossibleObservationError(BeliefLocError):

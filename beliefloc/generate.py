@@ -46,7 +46,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from beliefloc.errors import UsageError
+from beliefloc.errors import InvalidValueError
 
 CLASSES = ("A", "B", "C", "D")
 """The object classes, named as in the authors' code."""
@@ -125,9 +125,9 @@ class GridWorld:
 def grid_side(n_states: int) -> int:
     """Side of the square grid for about ``n_states`` states: ``round(sqrt(n_states / 4))``."""
     if not MIN_STATES <= n_states <= MAX_STATES:
-        raise UsageError(
-            f"--states must be between {MIN_STATES} (one cell with {HEADINGS} headings) and {MAX_STATES:,}, "
-            f"got {n_states}"
+        raise InvalidValueError(
+            f"the number of states must be between {MIN_STATES} (one cell with {HEADINGS} headings) and "
+            f"{MAX_STATES:,}, got {n_states}"
         )
     return max(1, round(math.sqrt(n_states / HEADINGS)))
 
@@ -142,7 +142,7 @@ def generate_gridworld(
     """A random world of Sec. VII-A with about ``n_states`` states (see the module docstring).
     ``rotation_failure`` draws nothing: the same generator state gives the same objects or seen states."""
     if not 0.0 <= rotation_failure < 1.0:
-        raise UsageError(f"--rotation-failure must be in [0, 1), got {rotation_failure:g}")
+        raise InvalidValueError(f"a rotation's failure probability must be in [0, 1), got {rotation_failure:g}")
     side = grid_side(n_states)
     if seen_model is SeenModel.OBJECTS:
         return GridWorld(

@@ -26,7 +26,7 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from beliefloc.errors import UsageError
+from beliefloc.errors import InvalidValueError
 
 NONE_OBSERVATION = "none"
 """The one observation of an action that senses nothing."""
@@ -114,7 +114,7 @@ class ObservationModel:
         if not self.parts:
             if text in (NONE_OBSERVATION, NOTHING, ""):
                 return 0
-            raise UsageError(f"observation {text!r}: this action observes nothing (use 'none' or omit it)")
+            raise InvalidValueError(f"observation {text!r}: this action observes nothing (use 'none' or omit it)")
         whole = any(text in p.values or text in p.aliases for p in self.parts)  # e.g. imported names with '+'
         if text in (NOTHING, NONE_OBSERVATION) and not whole:
             tokens: list[str] = []
@@ -124,12 +124,12 @@ class ObservationModel:
         for token, readers in zip(tokens, options, strict=True):
             if not readers:
                 which = f"{token!r} is not a reading; " if len(tokens) > 1 else ""
-                raise UsageError(f"unknown observation {text!r}: {which}{self.choices()}")
+                raise InvalidValueError(f"unknown observation {text!r}: {which}{self.choices()}")
         readings = self._assign(options, 0, {})
         if readings is None:
             silent_free = [p.name for p in self.parts if "" not in p.values]
             need = f" ({', '.join(silent_free)} must read something)" if silent_free else ""
-            raise UsageError(f"observation {text!r} cannot be read one token per part{need}: {self.choices()}")
+            raise InvalidValueError(f"observation {text!r} cannot be read one token per part{need}: {self.choices()}")
         return self.encode(
             [readings.get(p, part.values.index("") if "" in part.values else 0) for p, part in enumerate(self.parts)]
         )
@@ -336,12 +336,12 @@ class StateSpace:
                         return [first + h]
         elif text.strip() in self._lookup:
             return [self._lookup[text.strip()]]
-        raise UsageError(f"unknown state {text!r}: {self._describe()}")
+        raise InvalidValueError(f"unknown state {text!r}: {self._describe()}")
 
     def index(self, text: str) -> int:
         found = self.indices(text)
         if len(found) != 1:
-            raise UsageError(f"state {text!r} names a cell, not one state; add the heading, e.g. '{text},0'")
+            raise InvalidValueError(f"state {text!r} names a cell, not one state; add the heading, e.g. '{text},0'")
         return found[0]
 
     def _describe(self) -> str:
@@ -386,7 +386,9 @@ class Model:
         try:
             return self._by_name[name]
         except KeyError:
-            raise UsageError(f"unknown action {name!r}; this model's actions are: {', '.join(self._by_name)}") from None
+            raise InvalidValueError(
+                f"unknown action {name!r}; this model's actions are: {', '.join(self._by_name)}"
+            ) from None
 
     @property
     def actuation_actions(self) -> list[Action]:

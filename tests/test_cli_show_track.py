@@ -11,8 +11,8 @@ from typer.testing import CliRunner
 
 from beliefloc import compile_model, load_map
 from beliefloc.cli.app import app
-from beliefloc.cli.track import parse_step, resolve_steps
-from beliefloc.errors import UsageError
+from beliefloc.errors import InvalidValueError
+from beliefloc.tracking import parse_step, resolve_steps
 
 from .conftest import MAPS
 from .test_render import grid_map, write_map
@@ -65,7 +65,7 @@ def test_parse_step(text: str, parsed: tuple[str, str | None]) -> None:
 
 @pytest.mark.parametrize("text", ["", "=window", "look=", "look=a=b", "lo ok=window"])
 def test_parse_step_rejects_malformed_steps(text: str) -> None:
-    with pytest.raises(UsageError, match="ACTION or ACTION=OBSERVATION"):
+    with pytest.raises(InvalidValueError, match="ACTION or ACTION=OBSERVATION"):
         parse_step(text)
 
 
@@ -77,7 +77,7 @@ def test_resolve_steps_names_the_step() -> None:
         ("right", None, None),
         ("right", "none", 0),
     ]
-    with pytest.raises(UsageError, match=r"^step 2 'lookk=window': unknown action 'lookk'"):
+    with pytest.raises(InvalidValueError, match=r"^step 2 'lookk=window': unknown action 'lookk'"):
         resolve_steps(model, ["right", "lookk=window"])
 
 
@@ -270,12 +270,11 @@ def test_help_has_an_example(runner: CliRunner, command: str) -> None:
 
 def test_show_and_track_a_model_without_grid(runner: CliRunner, monkeypatch: pytest.MonkeyPatch) -> None:
     """An imported .pomdp has named states and no grid: a table of the most probable states."""
-    from beliefloc.cli import show, track
+    from beliefloc import model_sources
 
     from .test_render import rooms_model
 
-    monkeypatch.setattr(show, "open_model", lambda path: rooms_model())
-    monkeypatch.setattr(track, "open_model", lambda path: rooms_model())
+    monkeypatch.setattr(model_sources, "open_model", lambda path: rooms_model())
     result = runner.invoke(app, ["show", "rooms.pomdp"])
     assert result.exit_code == 0, result.output
     assert "most likely kitchen  p = 0.3333 (tied with 2 others)" in result.stdout

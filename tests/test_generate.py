@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -11,7 +14,7 @@ import pytest
 
 from beliefloc.cli.app import app
 from beliefloc.cli.generate import parse_count
-from beliefloc.errors import UsageError
+from beliefloc.errors import InvalidValueError
 from beliefloc.generate import (
     CLASSES,
     SeenModel,
@@ -42,13 +45,47 @@ def test_grid_side_is_as_in_the_authors_experiments(states: int, side: int) -> N
 
 @pytest.mark.parametrize("states", [0, 3, 10**7 + 1])
 def test_grid_side_refuses_sizes_out_of_range(states: int) -> None:
-    with pytest.raises(UsageError, match="--states must be between 4"):
+    with pytest.raises(InvalidValueError, match="the number of states must be between 4"):
         grid_side(states)
+
+
+_TEXT_SCRIPT = """
+import sys
+import numpy as np
+from beliefloc.generate import SeenModel, generate_gridworld, gridworld_yaml
+states, seed, seen_model = int(sys.argv[1]), int(sys.argv[2]), SeenModel(sys.argv[3])
+world = generate_gridworld(states, np.random.default_rng(seed), seen_model)
+sys.stdout.buffer.write(gridworld_yaml(world, seed=seed).encode())
+"""
+
+SEED_7_SHA256 = {
+    SeenModel.OBJECTS: "1b3581fea68fe03baaef16796dc0bd0e87d36cbebd733ca118f20c999fb6b4b1",
+    SeenModel.STATES: "851c129bd88ea0aca73e8e47366c41422a60a9de5441358a83876ad90e9e5c63",
+}
+"""sha256 of ``_text(1000, 7, seen_model)``, pinned: a deliberate change to what a seed draws or to
+how the file is written updates it."""
+SEED_7_COUNTS = {SeenModel.OBJECTS: "(A 31, B 13, C 23, D 27)", SeenModel.STATES: "(A 967, B 903, C 953, D 246)"}
+"""What the header of that file says seed 7 drew: the readable part of the same pin."""
+
+
+def _text_in_a_new_process(states: int, seed: int, seen_model: SeenModel, hash_seed: str) -> bytes:
+    """``_text`` computed by a fresh interpreter with ``PYTHONHASHSEED=hash_seed``."""
+    env = {**os.environ, "PYTHONHASHSEED": hash_seed}
+    args = [sys.executable, "-c", _TEXT_SCRIPT, str(states), str(seed), seen_model.value]
+    result = subprocess.run(args, env=env, capture_output=True, timeout=300, check=False)
+    assert result.returncode == 0, result.stderr.decode()
+    return result.stdout
 
 
 @pytest.mark.parametrize("seen_model", MODELS)
 def test_same_seed_gives_the_same_text(seen_model: SeenModel) -> None:
-    assert _text(1000, 7, seen_model) == _text(1000, 7, seen_model)
+    """The header promises the same file byte for byte: a fresh process under two hash seeds
+    writes this process's bytes, and those are the pinned ones."""
+    text = _text(1000, 7, seen_model)
+    for hash_seed in ("0", "4242"):
+        assert _text_in_a_new_process(1000, 7, seen_model, hash_seed) == text.encode()
+    assert SEED_7_COUNTS[seen_model] in text
+    assert hashlib.sha256(text.encode()).hexdigest() == SEED_7_SHA256[seen_model]
 
 
 @pytest.mark.parametrize("seen_model", MODELS)
@@ -248,12 +285,18 @@ def test_cli_json_and_overwrite(runner, tmp_path: Path) -> None:
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--states", "3", "--seed", "0"], "--states must be between 4"),
+        (["--states", "3", "--seed", "0"], "--states: the number of states must be between 4"),
         (["--states", "many", "--seed", "0"], "not a whole number"),
         (["--states", "100", "--seed", "-1"], "--seed"),
         (["--states", "100", "--seed", "0", "--seen-model", "cells"], "--seen-model"),
-        (["--states", "100", "--seed", "0", "--rotation-failure", "1"], "--rotation-failure must be in [0, 1)"),
-        (["--states", "100", "--seed", "0", "--rotation-failure", "-0.1"], "--rotation-failure must be in [0, 1)"),
+        (
+            ["--states", "100", "--seed", "0", "--rotation-failure", "1"],
+            "--rotation-failure: a rotation's failure probability must be in [0, 1)",
+        ),
+        (
+            ["--states", "100", "--seed", "0", "--rotation-failure", "-0.1"],
+            "--rotation-failure: a rotation's failure probability must be in [0, 1)",
+        ),
     ],
 )
 def test_cli_bad_arguments_exit_2(runner, tmp_path: Path, args: list[str], message: str) -> None:

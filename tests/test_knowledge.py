@@ -11,7 +11,7 @@ import pytest
 from typer.testing import CliRunner
 
 from beliefloc.cli.app import app
-from beliefloc.errors import EXIT_BAD_INPUT, KnowledgeBaseError
+from beliefloc.errors import EXIT_BAD_INPUT, InvalidValueError, KnowledgeBaseError
 from beliefloc.knowledge import (
     KnowledgeBase,
     Observation,
@@ -19,6 +19,7 @@ from beliefloc.knowledge import (
     domain_prior,
     load_domain,
     room_prior,
+    room_prior_from_answer,
 )
 
 from .conftest import ROOT
@@ -125,6 +126,32 @@ def test_room_prior_is_pure_and_sums_to_one() -> None:
     assert sum(result.prior.values()) == pytest.approx(1.0)
     assert result.floored == ("b",) and result.prior["b"] == pytest.approx(0.01)
     assert result.message is not None and "floor" in result.message
+
+
+def test_room_prior_owns_its_json_shape() -> None:
+    result = domain_prior(load_domain(PRINTER), "printer")
+    data = result.as_json()
+    assert list(data) == ["rooms", "alpha", "prior", "target", "uniform", "floored", "answer_sets", "terms"]
+    assert data["rooms"] == list(result.rooms) and data["prior"] == result.prior and data["target"] == "printer"
+    assert data["floored"] == [] and data["uniform"] is False and data["answer_sets"] == 1
+    pillow = next(t for t in data["terms"] if t["class"] == "pillow")
+    assert pillow == {
+        "room": "bedroom",
+        "class": "pillow",
+        "count": 1,
+        "lca": "object",
+        "height": 3,
+        "weights": [1, 2, 4],
+        "psi": pytest.approx(1 / 8),
+    }
+    assert json.loads(json.dumps(data)) == data
+
+
+def test_room_prior_from_answer_is_the_kb_prior() -> None:
+    kb = KnowledgeBase(load_domain(PRINTER))
+    assert room_prior_from_answer(kb.answer(), "printer") == kb.prior("printer")
+    with pytest.raises(KnowledgeBaseError, match="unknown target class 'unicorn'"):
+        room_prior_from_answer(kb.answer(), "unicorn")
 
 
 def test_no_support_anywhere_gives_a_uniform_prior_and_says_so(runner: CliRunner, tmp_path: Path) -> None:
@@ -362,6 +389,94 @@ def test_help_has_an_example(command: list[str], runner: CliRunner) -> None:
 def test_seen_malformed(runner: CliRunner) -> None:
     out = runner.invoke(app, ["prior", str(PRINTER), "--seen", "book1"])
     assert out.exit_code == EXIT_BAD_INPUT and "OBJECT=ROOM" in out.stderr
+
+
+# -- values, checked by the library in its own words ---------------------------------------------
+
+
+def test_the_target_is_the_one_named_else_the_domain_s() -> None:
+    domain = load_domain(PRINTER)
+    assert domain.resolve_target("computer") == "computer"
+    assert domain.resolve_target(None) == domain.target == "printer"
+    with pytest.raises(InvalidValueError, match=r"^unknown class; expected one of: bedding, book, "):
+        domain.resolve_target("unicorn")
+
+
+def test_a_domain_without_a_target_needs_one_named() -> None:
+    domain = domain_from_data(small())
+    with pytest.raises(InvalidValueError, match=r"^no target class given and the domain names none; expected one of"):
+        domain.resolve_target(None)
+    assert domain.resolve_target(None, allow_any=True) is None
+    assert domain.resolve_target("any", allow_any=True) is None
+    assert domain.resolve_target("book", allow_any=True) == "book"
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["prior", str(PRINTER), "--target", "unicorn"], "error: --target 'unicorn': unknown class; expected one of:"),
+        (["prior", str(PRINTER), "--seen", "book1"], "error: --seen 'book1': write OBJECT=ROOM or OBJECT:CLASS=ROOM"),
+        (["kb", "answer", str(PRINTER), "--seen", "=study"], "error: --seen '=study': write OBJECT=ROOM"),
+        (["kb", "answer", str(PRINTER), "--step", "3"], "error: --step 3: the domain has steps 1..2"),
+        (["prior", str(DOMAINS / "apartment.yaml"), "--robot", "--weight", "0"], "error: --weight: the weight w must"),
+        (["prior", str(DOMAINS / "apartment.yaml"), "--robot", "--weight", "1.5"], "error: --weight: the weight w"),
+    ],
+    ids=["target", "prior-seen", "kb-seen", "step", "weight-0", "weight-1.5"],
+)
+def test_the_option_a_bad_value_came_from_is_named(args: list[str], message: str, runner: CliRunner) -> None:
+    out = runner.invoke(app, args)
+    assert out.exit_code == EXIT_BAD_INPUT and out.stdout == ""
+    assert " ".join(out.stderr.split()).startswith(message), out.stderr
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("book5=kitchen", Observation("book5", "kitchen")),
+        (" book5 = kitchen ", Observation("book5", "kitchen")),
+        ("printer2:printer=study", Observation("printer2", "study", "printer")),
+    ],
+)
+def test_an_observation_is_parsed_from_object_equals_room(text: str, expected: Observation) -> None:
+    assert Observation.parse(text) == expected
+
+
+@pytest.mark.parametrize("text", ["book1", "=kitchen", "book1=", ":book=kitchen", ""])
+def test_a_malformed_observation_is_refused(text: str) -> None:
+    with pytest.raises(InvalidValueError, match="write OBJECT=ROOM or OBJECT:CLASS=ROOM"):
+        Observation.parse(text)
+
+
+def test_an_answer_set_checks_its_steps_and_owns_its_json_shape() -> None:
+    answer = KnowledgeBase(load_domain(PRINTER)).answer()
+    assert answer.check_step(None) == answer.last_step == 2 and answer.check_step(1) == 1
+    for step in (0, 3):
+        with pytest.raises(InvalidValueError, match=r"^the domain has steps 1\.\.2$"):
+            answer.check_step(step)
+    data = answer.as_json(1)
+    assert list(data) == ["step", "answer_sets", "holds", "ab"] and data["step"] == 1
+    assert "holds(in(book1,study),1)" in data["holds"]["in"]
+    assert answer.as_json()["step"] == 2
+
+
+def test_a_knowledge_base_summary_owns_its_json_shape() -> None:
+    kb = KnowledgeBase(load_domain(PRINTER))
+    data = kb.summary().as_json()
+    assert list(data) == [
+        "domain",
+        "files",
+        "consistent",
+        "answer_sets",
+        "rooms",
+        "classes",
+        "objects",
+        "located",
+        "ground_seconds",
+        "solve_seconds",
+        "warnings",
+    ]
+    assert data["domain"] == kb.domain.name and data["files"] == [str(f) for f in kb.files]
+    assert data["consistent"] is True and data["rooms"] == 3 and data["warnings"] == []
 
 
 def test_the_package_ships_the_axioms_it_loads() -> None:

@@ -14,12 +14,13 @@ import typer
 
 from beliefloc import compile_model, load_map
 from beliefloc.cli.macros import register as register_macros
-from beliefloc.errors import ModelError, UsageError
+from beliefloc.errors import InvalidValueError, ModelError
 from beliefloc.macro_file import load_macros, save_macros
 from beliefloc.model import Model
 from beliefloc.planning.ec2 import full_parts, observation_difference, pair_context
 from beliefloc.planning.macros import build_macros, expected_path, indistinguishable_pairs, macro_candidates
 from beliefloc.semantic_map import SemanticMap
+from beliefloc.simulation.strategies import EpisodeStatus
 
 from .conftest import MAPS
 
@@ -164,7 +165,7 @@ def test_window_world_merges_are_dead_ends():
 
 
 def test_gamma_outside_the_exact_range_is_refused():
-    with pytest.raises(UsageError, match="outside"):
+    with pytest.raises(InvalidValueError, match="outside"):
         build_macros(_model("khalvati-example1.yaml"), gamma=1.0)
 
 
@@ -265,4 +266,4 @@ def test_ec2_macros_localizes_in_the_corridors(seed: int):
     start = model.states.index("1,10,1")  # mid corridor, facing east
     belief = np.full(model.n_states, 1.0 / model.n_states)
     record = run_episode(model, "ec2-macros", start, belief, seed=seed, max_steps=500)
-    assert record.status == "localized", record
+    assert record.status is EpisodeStatus.LOCALIZED, record

@@ -21,11 +21,11 @@ from typer.testing import CliRunner
 
 from beliefloc import compile_model, load_map
 from beliefloc.cli.app import app
-from beliefloc.errors import EXIT_BAD_INPUT, EXIT_NEGATIVE, DomainError, UsageError
+from beliefloc.errors import EXIT_BAD_INPUT, EXIT_NEGATIVE, DomainError, InvalidValueError
 from beliefloc.knowledge import domain_from_data, load_domain
+from beliefloc.object_search.domain_space import search_space
 from beliefloc.object_search.loop import accuracy
 from beliefloc.object_search.map_space import MapSearchSpace
-from beliefloc.object_search.world import search_space
 from beliefloc.planning.best_first import plan
 from beliefloc.render.search import belief_map, belief_plane
 
@@ -107,7 +107,7 @@ def test_cell_names_round_trip_in_map_coordinates(apartment: MapSearchSpace) -> 
     ],
 )
 def test_bad_cell_names_say_what_is_there(walls: MapSearchSpace, spec: str, message: str) -> None:
-    with pytest.raises(UsageError, match=message):
+    with pytest.raises(InvalidValueError, match=message):
         walls.parse_cell(spec)
 
 
@@ -207,7 +207,7 @@ def test_a_closed_room_is_neither_entered_nor_seen(tmp_path: Path) -> None:
 
 def test_a_start_in_a_closed_room_is_refused(tmp_path: Path) -> None:
     path = _domain_file(tmp_path, rooms={"west": {"accessible": False}, "east": {}})
-    with pytest.raises(UsageError, match="the robot starts in 'west', a room marked 'accessible: false'"):
+    with pytest.raises(DomainError, match="the robot starts in 'west', a room marked 'accessible: false'"):
         search_space(load_domain(path))
 
 
@@ -216,7 +216,7 @@ def test_a_room_cut_off_from_the_start_is_an_error(tmp_path: Path) -> None:
     smap["layout"] = smap["layout"].replace(".#.....", ".#.#...")  # wall up the doorway
     smap["rooms"]["layout"] = smap["rooms"]["layout"].replace("W#W.EEE", "W#W#EEE")
     (tmp_path / "wall-hides.yaml").write_text(yaml.safe_dump(smap), encoding="utf-8")
-    with pytest.raises(UsageError, match=r"cell \[0, 4\] of room 'east' cannot be reached from the robot's start"):
+    with pytest.raises(DomainError, match=r"cell \[0, 4\] of room 'east' cannot be reached from the robot's start"):
         search_space(load_domain(_domain_file(tmp_path)))
 
 
@@ -228,7 +228,7 @@ def test_a_start_in_no_room_is_a_domain_error_at_its_line(tmp_path: Path) -> Non
 
 def test_a_map_domain_without_search_says_so(runner: CliRunner) -> None:
     path = DATA / "rooms" / "two-rooms-domain.yaml"
-    with pytest.raises(UsageError, match=r"is on the map \S+two-rooms\.yaml but has no 'search:' section"):
+    with pytest.raises(DomainError, match=r"is on the map \S+two-rooms\.yaml but has no 'search:' section"):
         search_space(load_domain(path))
     out = runner.invoke(app, ["search", "run", str(path), "--target", "cup"])
     assert out.exit_code == EXIT_BAD_INPUT and "robot_start: [row, col]" in " ".join(out.stderr.split())
@@ -236,7 +236,7 @@ def test_a_map_domain_without_search_says_so(runner: CliRunner) -> None:
 
 def test_a_domain_with_neither_search_nor_map_names_both() -> None:
     domain = domain_from_data({"name": "bare", "rooms": ["a"], "classes": {"object": None}})
-    with pytest.raises(UsageError, match=r"either a 'search:' section that places the rooms .* or 'map:'"):
+    with pytest.raises(DomainError, match=r"either a 'search:' section that places the rooms .* or 'map:'"):
         search_space(domain)
 
 

@@ -8,11 +8,11 @@ from scipy.stats import beta as beta_dist
 
 from beliefloc.object_search.existence import (
     ExistenceBelief,
-    ExistenceStrategy,
     detection_likelihoods,
     posterior_existence,
 )
-from beliefloc.object_search.posterior import CellBelief, Detector, Revision, spread_room_prior
+from beliefloc.object_search.posterior import CellBelief, Detector, spread_room_prior
+from beliefloc.object_search.settings import Metareasoning, Revision
 
 BELIEF = np.array([0.5, 0.3, 0.2])
 IN_VIEW = np.array([True, False, False])
@@ -36,14 +36,14 @@ def test_eq11_iterated_equals_the_kept_likelihood_form():
 
 
 def test_expectation_strategy_uses_the_beta_mean():
-    belief = ExistenceBelief(6, 2, ExistenceStrategy.EXPECTATION)
+    belief = ExistenceBelief(6, 2, Metareasoning.EXPECTATION)
     assert belief.theta == pytest.approx(0.75)
     belief.observe(0.5, 0.9)
     assert belief.probability_exists() == pytest.approx(0.625)
 
 
 def test_upper_bound_prior_is_the_0_9_quantile():
-    belief = ExistenceBelief(6, 2, ExistenceStrategy.UPPER_BOUND)
+    belief = ExistenceBelief(6, 2, Metareasoning.UPPER_BOUND)
     assert beta_dist.cdf(belief.theta, 6, 2) == pytest.approx(0.9)
     assert belief.theta > 0.75  # above the mean: slower to give up
 
@@ -53,8 +53,8 @@ def test_sampling_converges_to_expectation_as_the_variance_shrinks():
     gaps = []
     for scale in (1, 100, 10_000):
         rng = np.random.default_rng(0)
-        mc = ExistenceBelief(6 * scale, 2 * scale, ExistenceStrategy.SAMPLING, rng=rng, initial_samples=2000)
-        ex = ExistenceBelief(6 * scale, 2 * scale, ExistenceStrategy.EXPECTATION)
+        mc = ExistenceBelief(6 * scale, 2 * scale, Metareasoning.SAMPLING, rng=rng, initial_samples=2000)
+        ex = ExistenceBelief(6 * scale, 2 * scale, Metareasoning.EXPECTATION)
         for _ in range(3):
             mc.observe(0.5, 0.9)
             ex.observe(0.5, 0.9)
@@ -64,7 +64,7 @@ def test_sampling_converges_to_expectation_as_the_variance_shrinks():
 
 def test_eq14_draws_more_samples_near_the_threshold():
     rng = np.random.default_rng(1)
-    belief = ExistenceBelief(2, 2, ExistenceStrategy.SAMPLING, tau_minus=0.5, rng=rng, initial_samples=50)
+    belief = ExistenceBelief(2, 2, Metareasoning.SAMPLING, tau_minus=0.5, rng=rng, initial_samples=50)
     belief.observe(0.5, 0.9)
     not_e = 1 - posterior_existence(belief.samples[:50], belief.log_like_e, belief.log_like_not_e)
     wanted = int(np.ceil((1.645 * not_e.std(ddof=1) / (not_e.mean() - 0.5)) ** 2))
@@ -72,14 +72,14 @@ def test_eq14_draws_more_samples_near_the_threshold():
 
 
 def test_none_strategy_never_doubts():
-    belief = ExistenceBelief(1, 30, ExistenceStrategy.NONE)
+    belief = ExistenceBelief(1, 30, Metareasoning.NONE)
     belief.observe(0.01, 0.99)
     assert belief.probability_exists() == 1.0
 
 
 def test_sampling_needs_a_generator():
     with pytest.raises(ValueError, match="seeded"):
-        ExistenceBelief(6, 2, ExistenceStrategy.SAMPLING)
+        ExistenceBelief(6, 2, Metareasoning.SAMPLING)
 
 
 def test_room_prior_spread_over_cells():

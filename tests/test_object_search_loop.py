@@ -11,12 +11,14 @@ import pytest
 from typer.testing import CliRunner
 
 from beliefloc.cli.app import app
-from beliefloc.errors import EXIT_BAD_INPUT, EXIT_NEGATIVE, UsageError
+from beliefloc.errors import EXIT_BAD_INPUT, EXIT_NEGATIVE, DomainError, InvalidValueError
 from beliefloc.knowledge import domain_from_data, domain_prior, load_domain
-from beliefloc.object_search.existence import ExistenceStrategy
+from beliefloc.object_search.domain_space import search_space
 from beliefloc.object_search.loop import SearchRecord, Verdict, accuracy, seeded_search
 from beliefloc.object_search.policy import POLICIES, entropy, expected_entropy
-from beliefloc.object_search.world import SearchSpace, SimulatedTarget, search_space
+from beliefloc.object_search.settings import Metareasoning
+from beliefloc.object_search.space import SearchSpace
+from beliefloc.object_search.world import SimulatedTarget
 
 from .conftest import DATA, ROOT
 
@@ -38,10 +40,10 @@ def cells_of(space: SearchSpace, room: str) -> list[int]:
 
 
 def search(
-    home: tuple[SearchSpace, np.ndarray], policy: str = "pomdp", strategy: str = "none", **kwargs: Any
+    home: tuple[SearchSpace, np.ndarray], policy: str = "pomdp", metareasoning: str = "none", **kwargs: Any
 ) -> SearchRecord:
     space, prior = home
-    return seeded_search(space, prior, POLICIES[policy], ExistenceStrategy(strategy), **kwargs)
+    return seeded_search(space, prior, POLICIES[policy], Metareasoning(metareasoning), **kwargs)
 
 
 # -- the search space -----------------------------------------------------------------------------
@@ -81,13 +83,13 @@ def test_cell_names_round_trip_and_bad_ones_are_usage_errors(home: tuple[SearchS
     space, _ = home
     assert all(space.parse_cell(space.cell_name(i)) == i for i in range(space.n_cells))
     for spec, message in (("study", "ROOM:ROW,COL"), ("garage:1,1", "unknown room"), ("study:5,0", "outside")):
-        with pytest.raises(UsageError, match=message):
+        with pytest.raises(InvalidValueError, match=message):
             space.parse_cell(spec)
 
 
 def test_a_domain_without_search_section_is_a_usage_error() -> None:
     domain = domain_from_data({"name": "t", "rooms": ["a"], "classes": {"object": None}})
-    with pytest.raises(UsageError, match="no 'search:' section"):
+    with pytest.raises(DomainError, match="no 'search:' section"):
         search_space(domain)
 
 
@@ -143,7 +145,7 @@ def test_every_policy_runs_to_a_verdict(name: str) -> None:
         space,
         np.array([prior.prior[r] for r in space.rooms]),
         POLICIES[name],
-        ExistenceStrategy.EXPECTATION,
+        Metareasoning.EXPECTATION,
         seed=0,
         target_cell=space.parse_cell("study:1,3"),
     )
@@ -162,8 +164,11 @@ def test_pomdp_only_starts_uniform(home: tuple[SearchSpace, np.ndarray]) -> None
 
 
 def test_same_seed_same_search(home: tuple[SearchSpace, np.ndarray]) -> None:
-    for strategy in ("sampling", "expectation"):
-        first, second = search(home, strategy=strategy, seed=7), search(home, strategy=strategy, seed=7)
+    for metareasoning in ("sampling", "expectation"):
+        first, second = (
+            search(home, metareasoning=metareasoning, seed=7),
+            search(home, metareasoning=metareasoning, seed=7),
+        )
         assert first.steps == second.steps and first.verdict == second.verdict and first.true_cell == second.true_cell
     assert [search(home, seed=s).true_cell for s in range(4)] != [search(home, seed=7).true_cell] * 4
 
@@ -181,10 +186,10 @@ def test_a_target_in_the_kb_s_most_likely_room_is_found(home: tuple[SearchSpace,
 
 def test_an_absent_target_is_given_up_early_only_with_metareasoning(home: tuple[SearchSpace, np.ndarray]) -> None:
     for seed in range(5):
-        with_meta = search(home, strategy="expectation", seed=seed, absent=True)
+        with_meta = search(home, metareasoning="expectation", seed=seed, absent=True)
         assert with_meta.verdict is Verdict.NOT_FOUND and with_meta.time < 100
         assert with_meta.accuracy == 1.0 and with_meta.reported_cell is None
-        baseline = search(home, strategy="none", seed=seed, absent=True)
+        baseline = search(home, metareasoning="none", seed=seed, absent=True)
         assert baseline.verdict is not Verdict.NOT_FOUND
         assert baseline.accuracy == 0.0
         assert all(s.p_exists == 1.0 for s in baseline.steps)
@@ -193,8 +198,8 @@ def test_an_absent_target_is_given_up_early_only_with_metareasoning(home: tuple[
 def test_upper_bound_is_slower_to_give_up_than_expectation(home: tuple[SearchSpace, np.ndarray]) -> None:
     """The upper bound's prior θ is the 0.9 quantile, above the Beta's mean (Sec. IV-A, H3)."""
     for seed in range(3):
-        ub = search(home, strategy="upper-bound", seed=seed, absent=True)
-        ex = search(home, strategy="expectation", seed=seed, absent=True)
+        ub = search(home, metareasoning="upper-bound", seed=seed, absent=True)
+        ex = search(home, metareasoning="expectation", seed=seed, absent=True)
         assert ub.verdict is Verdict.NOT_FOUND
         assert len(ub.steps) >= len(ex.steps)
 

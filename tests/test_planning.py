@@ -18,7 +18,8 @@ from beliefloc.belief import entropy, point
 from beliefloc.cli.app import app
 from beliefloc.errors import EXIT_NEGATIVE
 from beliefloc.model import Model
-from beliefloc.planning.best_first import Heuristic, PlanStatus, SearchMemory, belief_key, plan
+from beliefloc.planning.best_first import ClosedList, PlanStatus, belief_key, plan
+from beliefloc.planning.settings import Heuristic
 from beliefloc.planning.successors import SuccessorEvaluator
 from beliefloc.semantic_map.schema import SemanticMap
 
@@ -105,7 +106,7 @@ def test_kept_closed_list_spares_the_successor_computations(monkeypatch: pytest.
     calls = []
     original = evaluator.evaluate
     monkeypatch.setattr(evaluator, "evaluate", lambda b: calls.append(1) or original(b))
-    memory = SearchMemory()
+    memory = ClosedList()
     first = plan(model, uniform(model.n_states), memory=memory, evaluator=evaluator)
     n_first = len(calls)
     again = plan(model, uniform(model.n_states), memory=memory, evaluator=evaluator)

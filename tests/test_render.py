@@ -1,4 +1,4 @@
-"""Beliefs drawn on the grid (beliefloc.render.grid), rendered to text with a recording console."""
+"""Beliefs drawn on the grid (render.belief_grid and its neighbours), rendered with a recording console."""
 
 from __future__ import annotations
 
@@ -16,18 +16,9 @@ from rich.console import Console, RenderableType
 
 from beliefloc import compile_model, load_map, uniform, update
 from beliefloc.model import Action, ActionKind, Model, ObservationModel, StateSpace
-from beliefloc.render.grid import (
-    HIGHLIGHT,
-    belief_grid,
-    belief_legend,
-    belief_view,
-    class_letters,
-    grid_width,
-    resolve_compact,
-    step_header,
-    summary_line,
-    top_states,
-)
+from beliefloc.render.belief_grid import belief_grid, belief_legend, belief_view, grid_width, resolve_compact
+from beliefloc.render.drawing import HIGHLIGHT, class_letters
+from beliefloc.render.state_tables import step_header, summary_line, top_states
 
 from .conftest import MAPS
 
@@ -307,33 +298,43 @@ def _printed(table: RenderableType, width: int = 80) -> list[str]:
 
 def test_summary_tables_fit_80_columns_without_cutting_a_header() -> None:
     """The simulate and search simulate summaries at the width of a plain terminal: no '…'."""
+    from dataclasses import replace
+
+    from beliefloc.object_search.experiment import ArmSummary
     from beliefloc.render.plan import summary_table
     from beliefloc.render.search import trials_table
+    from beliefloc.simulation.episode import StrategySummary
 
-    row = {
-        "episodes": 100,
-        "localized": 97,
-        "correct": 95,
-        "mean_plan_seconds": 0.1234,
-        "mean_replans": 12.5,
-        "mean_cost": 123.4,
-        "stdev_cost": 45.6,
-        "mean_steps": 23.4,
-        "failures": {"budget_exceeded": 2, "step_limit": 1},
-    }
-    plan_lines = _printed(summary_table({"ec2-macros": row, "bestfirst": {**row, "failures": {}}}, 0.95))
-    trial = {
-        "trials": 1000,
-        "found": 900,
-        "not_found": 90,
-        "time_limit": 10,
-        "mean_time": 123.4,
-        "stdev_time": 56.7,
-        "mean_accuracy": 0.912,
-        "within_4_cells": 950,
-        "mean_steps": 12.3,
-        "mean_commits": None,
-    }
+    row = StrategySummary(
+        episodes=100,
+        localized=97,
+        correct=95,
+        failures={"budget_exceeded": 2, "step_limit": 1},
+        mean_plan_seconds=0.1234,
+        stdev_plan_seconds=None,
+        mean_replans=12.5,
+        mean_cost=123.4,
+        stdev_cost=45.6,
+        mean_steps=23.4,
+    )
+    plan_lines = _printed(summary_table({"ec2-macros": row, "bestfirst": replace(row, failures={})}, 0.95))
+    trial = ArmSummary(
+        arm="pomdp/expectation/static/reuse",
+        trials=1000,
+        found=900,
+        not_found=90,
+        time_limit=10,
+        mean_time=123.4,
+        stdev_time=56.7,
+        median_time=None,
+        mean_accuracy=0.912,
+        stdev_accuracy=None,
+        mean_error_cells=None,
+        within_4_cells=950,
+        mean_steps=12.3,
+        mean_commits=None,
+        mean_seconds=None,
+    )
     search_lines = _printed(trials_table({"pomdp/expectation/static/reuse": trial}, "trials"))
     for lines in (plan_lines, search_lines):
         assert all(len(line) <= 80 and "…" not in line for line in lines)

@@ -17,18 +17,19 @@ from typer.testing import CliRunner
 from beliefloc import compile_model, load_map
 from beliefloc.belief import update
 from beliefloc.cli.app import app
-from beliefloc.cli.common import robot_prior_belief
-from beliefloc.errors import EXIT_BAD_INPUT, DomainError, UsageError
+from beliefloc.errors import EXIT_BAD_INPUT, DomainError, InvalidValueError
 from beliefloc.knowledge import (
     OUTSIDE,
     KnowledgeBase,
     domain_from_data,
+    domain_robot_prior,
     load_domain,
     robot_room_prior,
     robot_rooms,
+    robot_start_belief,
     spread_over_states,
 )
-from beliefloc.knowledge.robot import prior_from_answer
+from beliefloc.knowledge.robot import check_weight, robot_prior_from_answer
 from beliefloc.planning.best_first import plan
 from beliefloc.semantic_map import room_states
 
@@ -149,7 +150,7 @@ def test_spread_puts_exactly_w_on_the_kitchen_states() -> None:
     assert model.grid is not None
     states = room_states(smap.rooms, model.grid)
     answer = KnowledgeBase(load_domain(APARTMENT)).answer()
-    belief = spread_over_states(prior_from_answer(answer), states, model.n_states)
+    belief = spread_over_states(robot_prior_from_answer(answer), states, model.n_states)
     assert belief[states["kitchen"]].sum() == pytest.approx(0.9, abs=1e-12)
     assert belief.sum() == pytest.approx(1.0, abs=1e-12)
     for room, indices in states.items():
@@ -205,6 +206,62 @@ def test_domain_from_data_checks_the_rooms_against_the_map(tmp_path: Path) -> No
 def test_a_plane_domain_keeps_its_search_space() -> None:
     domain = load_domain(ROOT / "domains" / "home.yaml")
     assert domain.search is not None and domain.map_search is None and domain.semantic_map is None
+
+
+# --- the library: a domain's robot prior and start belief ------------------------------------------
+
+
+def test_a_domain_robot_prior_counts_the_cells_of_its_map() -> None:
+    result = domain_robot_prior(load_domain(APARTMENT))
+    assert result.prior.believed == ("kitchen",) and result.step == 2 and result.warnings == ()
+    assert result.cells is not None and result.cells["kitchen"] == 12 and result.cells["study"] == 18
+    assert OUTSIDE not in result.cells and result.prior.rooms == ROOMS
+
+
+def test_a_domain_robot_prior_owns_its_json_shape() -> None:
+    data = domain_robot_prior(load_domain(TWO_ROOMS_DOMAIN), weight=0.6).as_json()
+    assert list(data) == ["rooms", "prior", "robot_in", "weight", "uniform", "cells", "answer_sets"]
+    assert data["rooms"] == ["kitchen", "study", OUTSIDE] and data["cells"] == {"kitchen": 6, "study": 6, OUTSIDE: 1}
+    assert data["robot_in"] == ["kitchen"] and data["weight"] == 0.6 and data["uniform"] is False
+    assert data["prior"] == pytest.approx({"kitchen": 0.6, "study": 0.2, OUTSIDE: 0.2})
+    assert json.loads(json.dumps(data)) == data
+
+
+def test_a_domain_robot_prior_returns_its_warnings_instead_of_printing_them(capsys: pytest.CaptureFixture[str]) -> None:
+    result = domain_robot_prior(load_domain(ROOT / "domains" / "home.yaml"))
+    assert result.cells is None and result.prior.uniform
+    assert len(result.warnings) == 1 and "does not say where the robot is" in result.warnings[0]
+    assert capsys.readouterr() == ("", "")
+
+
+@pytest.mark.parametrize("weight", [0.0, -0.5, 1.5])
+def test_the_weight_is_checked_by_the_rule(weight: float) -> None:
+    with pytest.raises(InvalidValueError, match=r"the weight w must be in \(0, 1\]"):
+        check_weight(weight)
+    with pytest.raises(InvalidValueError, match=r"the weight w must be in \(0, 1\]"):
+        domain_robot_prior(load_domain(APARTMENT), weight=weight)
+    assert check_weight(1.0) == 1.0
+
+
+def test_the_start_belief_comes_with_its_prior_and_warnings() -> None:
+    model = compile_model(load_map(TWO_ROOMS))
+    start = robot_start_belief(model, load_domain(TWO_ROOMS_DOMAIN))
+    assert start.prior.rooms == ("kitchen", "study", OUTSIDE) and start.warnings == ()
+    assert start.belief.sum() == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize(
+    ("source", "domain", "message"),
+    [
+        (MAPS / "kitchen.yaml", APARTMENT, r"^\S*kitchen\.yaml has no rooms"),
+        (APARTMENT_MAP, ROOT / "domains" / "home.yaml", r"^the domain's rooms must be those of \S*apartment\.yaml; "),
+    ],
+    ids=["no-rooms", "missing-room"],
+)
+def test_the_start_belief_speaks_of_values_not_options(source: Path, domain: Path, message: str) -> None:
+    with pytest.raises(InvalidValueError, match=message) as info:
+        robot_start_belief(compile_model(load_map(source)), load_domain(domain))
+    assert "--" not in str(info.value)
 
 
 # --- the command line: prior --robot ----------------------------------------------------------------
@@ -264,7 +321,7 @@ def test_weight_needs_robot(runner: CliRunner) -> None:
 
 def _prior_belief() -> np.ndarray:
     model = compile_model(load_map(APARTMENT_MAP))
-    return robot_prior_belief(model, APARTMENT)
+    return robot_start_belief(model, load_domain(APARTMENT)).belief
 
 
 def test_plan_from_the_knowledge_base_prior(runner: CliRunner) -> None:
@@ -323,8 +380,8 @@ def test_a_room_only_the_kb_file_knows_has_no_cells(tmp_path: Path) -> None:
     (tmp_path / "garage.lp").write_text("room(garage).\n", encoding="utf-8")
     (tmp_path / "flat.yaml").write_text(yaml.safe_dump(data), encoding="utf-8")
     model = compile_model(load_map(APARTMENT_MAP))
-    with pytest.raises(UsageError, match="no cells for room 'garage'"):
-        robot_prior_belief(model, tmp_path / "flat.yaml")
+    with pytest.raises(InvalidValueError, match="no cells for room 'garage'"):
+        robot_start_belief(model, load_domain(tmp_path / "flat.yaml"))
 
 
 # --- simulate --start prior ---------------------------------------------------------------------------

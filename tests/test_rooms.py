@@ -16,7 +16,7 @@ from typer.testing import CliRunner
 from beliefloc.cli.app import app
 from beliefloc.errors import FieldError, MapError
 from beliefloc.model import GridLayout
-from beliefloc.render.grid import room_legend, room_plan, room_plan_width
+from beliefloc.render.room_plan import room_legend, room_plan, room_plan_width
 from beliefloc.semantic_map import SemanticMap, compile_model, load_map, room_states
 
 from .conftest import DATA, MAPS

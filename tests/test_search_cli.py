@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 
 import pytest
 from typer.testing import CliRunner
 
 from beliefloc.cli.app import app
-from beliefloc.errors import EXIT_BAD_INPUT, EXIT_NEGATIVE
+from beliefloc.errors import EXIT_BAD_INPUT, EXIT_NEGATIVE, InvalidValueError
+from beliefloc.object_search.settings import Metareasoning, PolicyName, Revision
 
 from .conftest import DATA, ROOT
 
@@ -98,9 +101,9 @@ def test_simulate_any_target(runner: CliRunner) -> None:
         (["--policy", "astar"], "--policy 'astar'"),
         (["--revision", "forget"], "--revision 'forget'"),
         (["--target", "unicorn"], "--target 'unicorn': unknown class"),
-        (["--time-limit", "0"], "--time-limit must be positive"),
-        (["--commit-threshold", "0.2"], "--commit-threshold must be between 0.5 and 1"),
-        (["--commit-threshold", "1"], "--commit-threshold must be between 0.5 and 1"),
+        (["--time-limit", "0"], "--time-limit: a time limit must be positive"),
+        (["--commit-threshold", "0.2"], "--commit-threshold: the commit threshold must be between 0.5 and 1"),
+        (["--commit-threshold", "1"], "--commit-threshold: the commit threshold must be between 0.5 and 1"),
         (["--trust-r", "inf"], "--trust-weight / --trust-r"),
         (["--trust-weight", "2"], "--trust-weight"),
     ],
@@ -156,3 +159,43 @@ def test_run_trust_factor_and_bad_revision(runner: CliRunner) -> None:
     assert out.exit_code in (0, EXIT_NEGATIVE) and json.loads(out.stdout)["revision"] == "trust-factor"
     out = runner.invoke(app, ["search", "run", str(PRINTER), "--revision", "forget"])
     assert out.exit_code == EXIT_BAD_INPUT and "--revision 'forget'" in out.stderr
+
+
+@pytest.mark.parametrize("spelling", [["-m", "none,upper-bound"], ["--metareasoning", "none", "-s", "upper-bound"]])
+def test_metareasoning_and_its_old_name_strategy_are_one_option(runner: CliRunner, spelling: list[str]) -> None:
+    base = ["search", "simulate", str(HOME), "-n", "2", "--json", "--no-timings", "--seed", "3"]
+    old = runner.invoke(app, [*base, "--strategy", "none,upper-bound"])
+    new = runner.invoke(app, [*base, *spelling])
+    assert old.exit_code == new.exit_code == 0, new.output
+    assert new.stdout == old.stdout
+    assert [arm["strategy"] for arm in json.loads(new.stdout)["arms"]] == ["none", "upper-bound"]
+    run = runner.invoke(app, ["search", "run", str(HOME), "--metareasoning", "none", "--json", "--no-timings"])
+    assert json.loads(run.stdout)["strategy"] == "none"
+
+
+@pytest.mark.parametrize("command", ["run", "simulate"])
+def test_every_choice_the_library_has_is_offered(runner: CliRunner, command: str) -> None:
+    out = runner.invoke(app, ["search", command, "--help"], env={"COLUMNS": "300"})
+    assert out.exit_code == 0
+    for vocabulary in (Metareasoning, PolicyName, Revision):
+        assert all(member.value in out.stdout for member in vocabulary), vocabulary
+
+
+def test_the_library_names_values_and_the_command_line_names_the_option(runner: CliRunner) -> None:
+    from beliefloc.knowledge import load_domain
+    from beliefloc.object_search.domain_space import search_space
+
+    with pytest.raises(InvalidValueError, match=r"^'kitchen:9,9': outside room 'kitchen' \(5 x 5 cells"):
+        search_space(load_domain(HOME)).parse_cell("kitchen:9,9")
+    out = runner.invoke(app, ["search", "run", str(HOME), "--target-cell", "kitchen:9,9"])
+    assert out.exit_code == EXIT_BAD_INPUT
+    assert "--target-cell: 'kitchen:9,9': outside room 'kitchen'" in out.stderr
+
+
+def test_the_search_commands_load_neither_scipy_nor_clingo() -> None:
+    code = (
+        "import sys, beliefloc.object_search.settings; light = 'numpy' not in sys.modules; "
+        "import beliefloc.cli.search; print(light, sorted({'scipy', 'clingo'} & set(sys.modules)))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.split() == ["True", "[]"]

@@ -11,14 +11,17 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from beliefloc.errors import UsageError
+from beliefloc.errors import DomainError
 from beliefloc.knowledge import Domain, KnowledgeBase, Observation, domain_from_data, load_domain
+from beliefloc.object_search.domain_space import search_space
 from beliefloc.object_search.dynamic import DynamicKnowledge, KbLink, ObjectTracker
-from beliefloc.object_search.existence import ExistenceBelief, ExistenceStrategy
+from beliefloc.object_search.existence import ExistenceBelief
 from beliefloc.object_search.loop import SearchRecord, cell_prior, initial_prior, run_search, seeded_search
 from beliefloc.object_search.policy import POLICIES
-from beliefloc.object_search.posterior import CellBelief, Detector, Revision, TrustFactor
-from beliefloc.object_search.world import SearchSpace, SimulatedObjects, SimulatedTarget, search_space
+from beliefloc.object_search.posterior import CellBelief, Detector, TrustFactor
+from beliefloc.object_search.settings import Metareasoning, Revision
+from beliefloc.object_search.space import SearchSpace
+from beliefloc.object_search.world import SimulatedObjects, SimulatedTarget
 
 from .conftest import DATA
 
@@ -205,7 +208,7 @@ def dynamic_search(domain: Domain, revision: Revision, seed: int) -> tuple[Searc
         np.array([0.5, 0.5]),
         SimulatedTarget(space.parse_cell("b:0,1"), space.detector, np.random.default_rng(seed + 100)),
         POLICIES["pomdp"],
-        ExistenceBelief(6, 2, ExistenceStrategy.NONE),
+        ExistenceBelief(6, 2, Metareasoning.NONE),
         keep_beliefs=True,
         revision=revision,
         dynamic=DynamicKnowledge(ObjectTracker.for_space(space, names), objects, link),
@@ -251,7 +254,7 @@ def test_pomdp_only_ignores_the_knowledge_base() -> None:
         return DynamicKnowledge(ObjectTracker.for_space(space, ["plate1"]), objects, link)
 
     record = seeded_search(
-        space, np.array([0.5, 0.5]), POLICIES["pomdp-only"], ExistenceStrategy.NONE, seed=0, dynamic=factory
+        space, np.array([0.5, 0.5]), POLICIES["pomdp-only"], Metareasoning.NONE, seed=0, dynamic=factory
     )
     assert calls and not record.dynamic_kb and record.commits == ()
 
@@ -289,7 +292,7 @@ def test_the_prior_of_a_locked_room_goes_to_the_others(locked: SearchSpace) -> N
 def test_searches_never_look_into_a_locked_room(locked: SearchSpace, policy: str) -> None:
     for seed in range(4):
         record = seeded_search(
-            locked, np.array([0.4, 0.2, 0.4]), POLICIES[policy], ExistenceStrategy.EXPECTATION, seed=seed
+            locked, np.array([0.4, 0.2, 0.4]), POLICIES[policy], Metareasoning.EXPECTATION, seed=seed
         )
         assert record.true_cell is not None and locked.reachable[record.true_cell]
         assert all(locked.reachable[step.view] for step in record.steps)
@@ -305,7 +308,7 @@ def test_a_robot_starting_in_a_locked_room_is_a_usage_error() -> None:
             "search": spec.model_copy(update={"robot_start": spec.robot_start.model_copy(update={"room": "store"})})
         }
     )
-    with pytest.raises(UsageError, match="starts in 'store'"):
+    with pytest.raises(DomainError, match="starts in 'store'"):
         search_space(moved)
 
 

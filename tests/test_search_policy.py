@@ -9,19 +9,14 @@ import numpy as np
 import pytest
 
 from beliefloc.knowledge import domain_prior, load_domain
-from beliefloc.object_search.existence import ExistenceStrategy
-from beliefloc.object_search.experiment import (
-    Arm,
-    TrialSettings,
-    room_hit,
-    run_trials,
-    trial_world,
-    typical_rooms,
-)
+from beliefloc.object_search.domain_space import search_space
+from beliefloc.object_search.experiment import Arm, TrialSettings, room_hit, run_trials, trial_world
 from beliefloc.object_search.loop import Verdict, seeded_search
 from beliefloc.object_search.policy import POLICIES
-from beliefloc.object_search.posterior import Detector, Revision, TrustFactor
-from beliefloc.object_search.world import SearchSpace, search_space
+from beliefloc.object_search.posterior import Detector, TrustFactor
+from beliefloc.object_search.settings import Metareasoning, PolicyName, Revision
+from beliefloc.object_search.space import SearchSpace
+from beliefloc.object_search.world import typical_rooms
 
 from .conftest import ROOT
 
@@ -34,6 +29,13 @@ def printer() -> tuple[SearchSpace, np.ndarray]:
     space = search_space(domain)
     prior = domain_prior(domain, "printer")
     return space, np.array([prior.prior[room] for room in space.rooms])
+
+
+def test_every_policy_name_has_a_registry_entry() -> None:
+    assert list(POLICIES) == [name.value for name in PolicyName]
+    for name in PolicyName:
+        policy = POLICIES[name.value]
+        assert policy.name is name and policy.description == name.description and name.description
 
 
 def greedy_scores_by_loop(space: SearchSpace, belief: np.ndarray, cell: int) -> np.ndarray:
@@ -96,7 +98,7 @@ def test_greedy_localises_targets(printer: tuple[SearchSpace, np.ndarray]) -> No
         cell = space.parse_cell(name)
         for seed in range(3):
             record = seeded_search(
-                space, prior, POLICIES["greedy"], ExistenceStrategy.NONE, seed=seed, target_cell=cell, time_limit=200
+                space, prior, POLICIES["greedy"], Metareasoning.NONE, seed=seed, target_cell=cell, time_limit=200
             )
             assert record.verdict is Verdict.FOUND, (name, seed, record.verdict)
             assert record.error_cells is not None
@@ -119,19 +121,19 @@ def test_room_hit_breaks_ties_fairly() -> None:
 def test_arms_with_their_own_parameters_share_the_trials() -> None:
     domain = load_domain(ROOT / "domains" / "home.yaml")
     arms = [
-        Arm("pomdp", ExistenceStrategy.NONE),
-        Arm("pomdp", ExistenceStrategy.NONE, time_limit=100),  # the domain's own limit, set by the arm
-        Arm("pomdp", ExistenceStrategy.NONE, time_limit=4),
-        Arm("pomdp", ExistenceStrategy.EXPECTATION, tau_absent=0.85, alpha=30, beta=10),
-        Arm("pomdp", ExistenceStrategy.NONE, Revision.TRUST),
-        Arm("pomdp", ExistenceStrategy.NONE, Revision.TRUST, trust=TrustFactor(0.5, 0.0)),  # the default, set
+        Arm("pomdp", Metareasoning.NONE),
+        Arm("pomdp", Metareasoning.NONE, time_limit=100),  # the domain's own limit, set by the arm
+        Arm("pomdp", Metareasoning.NONE, time_limit=4),
+        Arm("pomdp", Metareasoning.EXPECTATION, tau_absent=0.85, alpha=30, beta=10),
+        Arm("pomdp", Metareasoning.NONE, Revision.TRUST),
+        Arm("pomdp", Metareasoning.NONE, Revision.TRUST, trust=TrustFactor(0.5, 0.0)),  # the default, set
     ]
     assert arms[2].name == "pomdp/none/static/reuse@time_limit=4"
     assert arms[3].name == "pomdp/expectation/static/reuse@tau_absent=0.85@alpha=30@beta=10"
     assert arms[5].name == "pomdp/none/static/trust-factor@trust=0.5,0"
     settings = TrialSettings(absent_fraction=0.5, tau_absent=0.85)
-    upper = [Arm("pomdp", ExistenceStrategy.UPPER_BOUND, alpha=a, beta=b) for a, b in ((6, 2), (30, 10))]
-    more = [Arm("pomdp", ExistenceStrategy.EXPECTATION), *upper]
+    upper = [Arm("pomdp", Metareasoning.UPPER_BOUND, alpha=a, beta=b) for a, b in ((6, 2), (30, 10))]
+    more = [Arm("pomdp", Metareasoning.EXPECTATION), *upper]
     records = run_trials(domain, [*arms, *more], trials=3, seed=1, settings=settings)
     fields = ("verdict", "time", "steps", "reported_cell")
     for record in records:
@@ -151,7 +153,7 @@ def test_a_noisier_world_than_the_robot_s_model() -> None:
     """Fig. 6's "extra noise added to the observations": the world detects at its own rates, the robot
     still reasons with the domain's sensor."""
     domain = load_domain(ROOT / "domains" / "home.yaml")
-    arms = [Arm("pomdp", ExistenceStrategy.NONE), Arm("pomdp", ExistenceStrategy.NONE, dynamic_kb=True)]
+    arms = [Arm("pomdp", Metareasoning.NONE), Arm("pomdp", Metareasoning.NONE, dynamic_kb=True)]
 
     def run(world: Detector | None) -> list[tuple[object, ...]]:
         settings = TrialSettings(knowledge=0.2, world_detector=world)
@@ -167,7 +169,7 @@ def test_trial_world_is_the_world_of_the_record() -> None:
     space = search_space(domain)
     settings = TrialSettings(knowledge=0.2, absent_fraction=0.5)
     records = run_trials(
-        domain, [Arm("pomdp", ExistenceStrategy.EXPECTATION)], trials=4, seed=2, settings=settings, first=3
+        domain, [Arm("pomdp", Metareasoning.EXPECTATION)], trials=4, seed=2, settings=settings, first=3
     )
     typical = typical_rooms(domain)
     for record in records:

@@ -7,23 +7,14 @@ from collections import Counter
 import numpy as np
 import pytest
 
-from beliefloc.errors import UsageError
+from beliefloc.errors import DomainError
 from beliefloc.knowledge import Domain, KnowledgeBase, load_domain
-from beliefloc.object_search.existence import ExistenceStrategy
-from beliefloc.object_search.experiment import Arm, TrialRecord, TrialSettings, run_trials, summarize, typical_rooms
-from beliefloc.object_search.posterior import Revision
-from beliefloc.object_search.trials import (
-    P_TYPICAL,
-    Stream,
-    forbidden_rooms,
-    instances_of,
-    robot_domain,
-    sample_known,
-    sample_world,
-    trial_rng,
-    unknown_objects,
-)
-from beliefloc.object_search.world import SearchSpace, search_space
+from beliefloc.object_search.domain_space import search_space
+from beliefloc.object_search.experiment import Arm, TrialRecord, TrialSettings, run_trials, summarize
+from beliefloc.object_search.settings import Metareasoning, Revision
+from beliefloc.object_search.space import SearchSpace
+from beliefloc.object_search.trials import Stream, robot_domain, sample_known, trial_rng, unknown_objects
+from beliefloc.object_search.world import P_TYPICAL, forbidden_rooms, instances_of, sample_world, typical_rooms
 
 from .conftest import DATA, ROOT
 
@@ -106,7 +97,7 @@ def test_strong_exceptions_and_locked_rooms_shape_the_ground_truth(locked: Setup
 def test_no_findable_target_is_a_usage_error(locked: Setup) -> None:
     domain, space, typical = locked
     only_locked = domain.model_copy(update={"objects": {"cup2": domain.objects["cup2"]}})
-    with pytest.raises(UsageError, match="no objects of class 'cup' the robot could find"):
+    with pytest.raises(DomainError, match="no objects of class 'cup' the robot could find"):
         sample_world(only_locked, space, typical, np.random.default_rng(0), target_class="cup")
 
 
@@ -138,10 +129,10 @@ def test_the_robot_knows_a_fraction_of_the_other_objects_never_the_target(home: 
 # -- paired trials -----------------------------------------------------------------------------------
 
 ARMS = [
-    Arm("pomdp", ExistenceStrategy.NONE),
-    Arm("pomdp", ExistenceStrategy.EXPECTATION),
-    Arm("pomdp-only", ExistenceStrategy.NONE),
-    Arm("pomdp", ExistenceStrategy.NONE, Revision.TRUST),
+    Arm("pomdp", Metareasoning.NONE),
+    Arm("pomdp", Metareasoning.EXPECTATION),
+    Arm("pomdp-only", Metareasoning.NONE),
+    Arm("pomdp", Metareasoning.NONE, Revision.TRUST),
 ]
 
 
@@ -197,10 +188,10 @@ def test_summary_counts_and_means(paired: Paired) -> None:
     assert list(summary) == [arm.name for arm in ARMS]
     for name, stats in summary.items():
         mine = [o for r in records for o in r.outcomes if o.arm == name]
-        assert stats["trials"] == 8 == stats["found"] + stats["not_found"] + stats["time_limit"]
-        assert stats["mean_time"] == pytest.approx(np.mean([o.time for o in mine]))
-        assert stats["mean_accuracy"] == pytest.approx(np.mean([o.accuracy for o in mine]))
-    assert summary["pomdp/none/static/reuse"]["not_found"] == 0  # no metareasoning: never gives up
+        assert stats.trials == 8 == stats.found + stats.not_found + stats.time_limit
+        assert stats.mean_time == pytest.approx(np.mean([o.time for o in mine]))
+        assert stats.mean_accuracy == pytest.approx(np.mean([o.accuracy for o in mine]))
+    assert summary["pomdp/none/static/reuse"].not_found == 0  # no metareasoning: never gives up
 
 
 def test_bad_settings_and_arms_are_refused() -> None:

@@ -14,7 +14,8 @@ from beliefloc.errors import EXIT_NEGATIVE
 from beliefloc.semantic_map.schema import SemanticMap
 from beliefloc.simulation.episode import EpisodeRecord, run_episode, run_experiment, summarize
 from beliefloc.simulation.robot import SimulatedRobot
-from beliefloc.simulation.strategies import STRATEGIES
+from beliefloc.simulation.settings import StrategyName
+from beliefloc.simulation.strategies import STRATEGIES, EpisodeStatus
 
 from .conftest import MAPS, TWINS
 
@@ -54,7 +55,7 @@ def test_simulated_robot_samples_the_model():
 def test_every_strategy_localizes_the_kitchen(kitchen, strategy: str):
     """The registry's smoke test: each strategy, on the same seeded start."""
     record = run_episode(kitchen, strategy, kitchen.states.index("1,1,1"), uniform(kitchen.n_states), seed=1)
-    assert record.status == "localized"
+    assert record.status is EpisodeStatus.LOCALIZED
     assert record.max_belief >= 0.95
     assert record.steps == len(record.trace) > 0
     assert record.cost == pytest.approx(sum(kitchen.action(s.action).cost for s in record.trace))
@@ -64,14 +65,14 @@ def test_every_strategy_localizes_the_kitchen(kitchen, strategy: str):
 def test_kitchen_from_the_papers_start_localizes_correctly(kitchen, seed: int):
     """Exp. 1: the robot in the centre of the kitchen, no prior on its pose."""
     record = run_episode(kitchen, "bestfirst", kitchen.states.index("1,1,1"), uniform(kitchen.n_states), seed=seed)
-    assert record.status == "localized" and record.correct, record
+    assert record.status is EpisodeStatus.LOCALIZED and record.correct, record
 
 
 @pytest.mark.parametrize("seed", SEEDS)
 def test_hallway_from_the_papers_start_localizes_correctly(hallway, seed: int):
     """Exp. 2: the robot at the extinguisher's end of the hallway, facing the wall."""
     record = run_episode(hallway, "bestfirst", hallway.states.index("0,3,0"), uniform(hallway.n_states), seed=seed)
-    assert record.status == "localized" and record.correct, record
+    assert record.status is EpisodeStatus.LOCALIZED and record.correct, record
 
 
 def test_replans_follow_surprises(kitchen):
@@ -94,19 +95,28 @@ def test_paired_trials_share_starts(kitchen):
 def test_no_plan_is_an_honest_failure():
     twins = compile_model(SemanticMap.model_validate(TWINS))
     record = run_episode(twins, "bestfirst", 0, uniform(2), seed=0)
-    assert record.status == "no_plan" and record.steps == 0 and record.max_belief == 0.5
+    assert record.status is EpisodeStatus.NO_PLAN and record.steps == 0 and record.max_belief == 0.5
 
 
 def test_summary_uses_table_one_metric():
-    def record(name: str, seconds: list[float], cost: float, status: str = "localized") -> EpisodeRecord:
+    def record(
+        name: str, seconds: list[float], cost: float, status: EpisodeStatus = EpisodeStatus.LOCALIZED
+    ) -> EpisodeRecord:
         return EpisodeRecord(name, 0, "s", "s", "s", True, status, cost, 3, len(seconds) - 1, seconds, 0.99)
 
-    summary = summarize([record("a", [1.0, 3.0], 10), record("a", [4.0], 20), record("a", [9.0], 99, "step_limit")])
+    summary = summarize(
+        [record("a", [1.0, 3.0], 10), record("a", [4.0], 20), record("a", [9.0], 99, EpisodeStatus.STEP_LIMIT)]
+    )
     # per episode the mean over its plan calls (2, 4, 9), then the mean over episodes
-    assert summary["a"]["mean_plan_seconds"] == pytest.approx(5.0)
-    assert summary["a"]["mean_cost"] == pytest.approx(15.0)  # localized episodes only
-    assert summary["a"]["failures"] == {"step_limit": 1}
-    assert summary["a"]["mean_replans"] == pytest.approx(1 / 3)
+    assert summary["a"].mean_plan_seconds == pytest.approx(5.0)
+    assert summary["a"].mean_cost == pytest.approx(15.0)  # localized episodes only
+    assert summary["a"].failures == {"step_limit": 1}
+    assert summary["a"].mean_replans == pytest.approx(1 / 3)
+
+
+def test_every_strategy_name_has_a_strategy():
+    """The CLI offers the names of StrategyName; each must reach a strategy in the registry."""
+    assert set(STRATEGIES) == set(StrategyName)
 
 
 def test_same_seed_same_json_byte_for_byte(runner):

@@ -1,33 +1,33 @@
-"""What every command shares: the one error boundary, opening MAP|MODEL|.pomdp, beliefs, JSON."""
+"""What every command shares: the one error boundary, messages, the start belief, JSON.
+
+Imported when the command line is built, so it imports nothing numeric at module level: each
+function imports what it computes with when it runs.
+"""
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar
 
-import numpy as np
 import typer
 from rich.markup import escape
 
-from beliefloc.belief import uniform
-from beliefloc.belief_file import load_belief
-from beliefloc.errors import BeliefLocError, UsageError
-from beliefloc.model import Model
+from beliefloc.errors import BeliefLocError, InvalidValueError, UsageError
 from beliefloc.render import stderr_console
 
 if TYPE_CHECKING:
+    import numpy as np
+
+    from beliefloc.model import GridLayout, Model
     from beliefloc.semantic_map import SemanticMap
 
 P = ParamSpec("P")
 R = TypeVar("R")
-
-MAP_SUFFIXES = (".yaml", ".yml")
-POMDP_SUFFIX = ".pomdp"
-MODEL_SUFFIX = ".npz"
 
 
 def boundary(command: Callable[P, R]) -> Callable[P, R]:
@@ -45,6 +45,23 @@ def boundary(command: Callable[P, R]) -> Callable[P, R]:
     return wrapper
 
 
+@contextlib.contextmanager
+def for_option(option: str) -> Iterator[None]:
+    """The library speaks of values; the command line names the option the value came from:
+    an :class:`InvalidValueError` raised inside becomes a :class:`UsageError` that starts with
+    ``option``."""
+    try:
+        yield
+    except InvalidValueError as exc:
+        raise UsageError(f"{option}: {exc}") from None
+
+
+def target_option(target: str | None) -> str:
+    """How an error about ``--target`` names it: ``--target 'x'``, or ``--target`` when the domain's
+    own target was used."""
+    return "--target" if target is None else f"--target {target!r}"
+
+
 def report_error(exc: BeliefLocError) -> None:
     stderr_console().print(f"[bold red]error:[/] {escape(str(exc))}", soft_wrap=True)  # one line per error
 
@@ -53,32 +70,7 @@ def warn(message: str) -> None:
     stderr_console().print(f"[yellow]warning:[/] {escape(message)}", soft_wrap=True)
 
 
-def open_model(path: Path) -> Model:
-    """A model from a map (``.yaml``), a compiled model (``.npz``) or a Cassandra ``.pomdp`` file."""
-    suffix = path.suffix.lower()
-    if suffix in MAP_SUFFIXES:
-        from beliefloc.semantic_map import compile_model, load_map
-
-        return compile_model(load_map(path))
-    if suffix == MODEL_SUFFIX:
-        from beliefloc.model_file import load_model
-
-        return load_model(path)
-    if suffix == POMDP_SUFFIX:
-        from beliefloc.pomdp_format import read_pomdp
-
-        return read_pomdp(path)
-    raise UsageError(
-        f"{path}: unknown kind of file; expected a map (.yaml), a model built by 'beliefloc build' "
-        f"(.npz) or a Cassandra POMDP file (.pomdp)"
-    )
-
-
 PRIOR_PREFIX = "prior:"
-BELIEF_HELP = (
-    "'uniform', a YAML/JSON file {state: probability}, or prior:DOMAIN: where the domain's knowledge base "
-    "says the robot is (its rooms must be the map's)."
-)
 
 
 def initial_belief(model: Model, spec: str, smap: SemanticMap | None = None) -> np.ndarray:
@@ -86,75 +78,40 @@ def initial_belief(model: Model, spec: str, smap: SemanticMap | None = None) -> 
 
     ``prior:DOMAIN`` is the robot's room prior from the domain's knowledge base spread over the
     rooms of ``model``'s map (``smap``, else the map the model was compiled from, see
-    :func:`source_map`): see :mod:`beliefloc.knowledge.robot`.
+    :func:`source_map`): see :func:`beliefloc.knowledge.robot_start_belief`.
     """
+    from beliefloc.belief import uniform
+    from beliefloc.belief_file import load_belief
+
     if spec == "uniform":
         return uniform(model.n_states)
     if spec.startswith(PRIOR_PREFIX):
-        return robot_prior_belief(model, Path(spec.removeprefix(PRIOR_PREFIX)), smap)
+        from beliefloc.knowledge import load_domain, robot_start_belief
+
+        domain_file = Path(spec.removeprefix(PRIOR_PREFIX))
+        domain = load_domain(domain_file)
+        with for_option(f"--belief {PRIOR_PREFIX}{domain_file}"):
+            start = robot_start_belief(model, domain, smap)
+        for message in start.warnings:
+            warn(message)
+        return start.belief
     belief, warnings = load_belief(model, Path(spec))
     for message in warnings:
         warn(message)
     return belief
 
 
-def source_map(model: Model) -> SemanticMap:
-    """The map ``model`` was compiled from, read again and checked to be the very same file.
+def warn_if_too_wide(grid: GridLayout | None, compact: bool | None, width: int, color: bool) -> None:
+    """A warning when even the chosen form of the belief grid is wider than the terminal."""
+    from beliefloc.render.belief_grid import grid_width, resolve_compact
 
-    Raises :class:`UsageError` for a model without a map (a .pomdp import) or whose map cannot be
-    read or has changed since the model was built."""
-    from beliefloc.semantic_map import load_map
-
-    source = model.source
-    if source is None or model.grid is None:
-        raise UsageError(f"model {model.name!r} was not compiled from a map (an imported .pomdp?), so it has no rooms")
-    if not Path(source.path).is_file():
-        raise UsageError(
-            f"model {model.name!r} was compiled from {source.path}, which is not there any more; use the map itself"
-        )
-    smap = load_map(source.path)
-    if smap.source is None or smap.source.sha256 != source.sha256:
-        raise UsageError(f"{source.path} has changed since model {model.name!r} was built from it; rebuild the model")
-    return smap
-
-
-def robot_prior_belief(model: Model, domain_file: Path, smap: SemanticMap | None = None) -> np.ndarray:
-    """``--belief prior:DOMAIN``: the domain's rooms must be the rooms of ``model``'s map; the map's
-    cells give each room's states (the domain may reference another copy of the map)."""
-    from beliefloc.knowledge import KnowledgeBase, load_domain
-    from beliefloc.knowledge.domain import room_mismatch
-    from beliefloc.knowledge.robot import DEFAULT_WEIGHT, prior_from_answer, spread_over_states
-    from beliefloc.semantic_map import room_states
-
-    where = f"--belief prior:{domain_file}"
-    domain = load_domain(domain_file)
-    smap = smap if smap is not None else source_map(model)
-    label = smap.source.path if smap.source is not None else smap.name
-    if not smap.rooms:
-        raise UsageError(f"{where}: {label} has no rooms, so the knowledge base's rooms have no cells there")
-    extra, missing = room_mismatch(domain.rooms, smap.rooms)
-    if extra or missing:
-        parts = [f"not rooms of the map: {', '.join(extra)}"] if extra else []
-        parts += [f"rooms of the map the domain lacks: {', '.join(missing)}"] if missing else []
-        raise UsageError(f"{where}: the domain's rooms must be those of {label}; " + "; ".join(parts))
-    assert model.grid is not None  # source_map checked it, and a map's model always has one
-    try:
-        states = room_states(smap.rooms, model.grid)
-    except ValueError as exc:
-        raise UsageError(f"{where}: {label} does not fit model {model.name!r}: {exc}") from None
-    base = KnowledgeBase(domain)
-    weight = domain.robot.weight if domain.robot is not None else DEFAULT_WEIGHT
-    covered = sum(len(s) for s in states.values())
-    try:
-        prior = prior_from_answer(base.answer(), weight=weight, outside=covered < model.n_states)
-        belief = spread_over_states(prior, states, model.n_states)
-    except ValueError as exc:
-        raise UsageError(f"{where}: {exc}") from None
-    for message in base.warnings:
-        warn(f"clingo: {message}")
-    if prior.message:
-        warn(prior.message)
-    return belief
+    if grid is None:
+        return
+    chosen = resolve_compact(grid, compact, width, color=color)
+    needed = grid_width(grid, compact=chosen, color=color)
+    if needed > width:
+        hint = "" if chosen else "; --compact is narrower"
+        warn(f"the grid is {needed} characters wide but the terminal has {width}: lines will wrap{hint}")
 
 
 def print_json(data: Any) -> None:

@@ -8,20 +8,18 @@ from typing import Annotated
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import POMDP_SUFFIX, boundary, open_model, print_json
+from beliefloc.cli.common import boundary, print_json
+from beliefloc.cli.options import JsonOption, ModelArgument
 from beliefloc.errors import UsageError
-from beliefloc.pomdp_format import write_pomdp
+from beliefloc.model_sources import POMDP_SUFFIX
 from beliefloc.render import stdout_console
 
 
 @boundary
 def export(
-    source: Annotated[
-        Path,
-        typer.Argument(metavar="MAP|MODEL", help="A map (.yaml), a model (.npz) or a .pomdp file.", show_default=False),
-    ],
+    source: ModelArgument,
     output: Annotated[Path, typer.Option("-o", "--output", help="The .pomdp file to write.", show_default=False)],
-    json_output: Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")] = False,
+    json_output: JsonOption = False,
 ) -> None:
     """Write a model in Cassandra's .pomdp format (pomdp-solve, SARSOP, POMDPs.jl, pomdp_py).
 
@@ -33,6 +31,9 @@ def export(
     """
     if output.suffix.lower() != POMDP_SUFFIX:
         raise UsageError(f"{output}: the exported file must end in {POMDP_SUFFIX}")
+    from beliefloc.model_sources import open_model
+    from beliefloc.pomdp_format import write_pomdp
+
     model = open_model(source)
     summary = write_pomdp(model, output)
     if json_output:

@@ -10,10 +10,11 @@ import numpy as np
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import MAP_SUFFIXES, boundary, print_json
+from beliefloc.cli.common import boundary, for_option, print_json
+from beliefloc.cli.options import JsonOption
 from beliefloc.errors import UsageError
-from beliefloc.generate import CLASSES, MOVE_FAILURE, SeenModel, generate_gridworld, gridworld_yaml
-from beliefloc.model_file import write_atomically
+from beliefloc.generate import CLASSES, MOVE_FAILURE, SeenModel, generate_gridworld, grid_side, gridworld_yaml
+from beliefloc.model_sources import MAP_SUFFIXES
 from beliefloc.render import stdout_console
 
 generate_app = typer.Typer(
@@ -75,7 +76,7 @@ def gridworld(
             "a rotation always turns).",
         ),
     ] = MOVE_FAILURE,
-    json_output: Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")] = False,
+    json_output: JsonOption = False,
 ) -> None:
     """Write a random grid world as a map file, as in Colledanchise's experiments (Sec VII-A).
 
@@ -92,7 +93,12 @@ def gridworld(
     directory = output.parent
     if not directory.is_dir():
         raise UsageError(f"{output}: the directory {directory} does not exist")
-    world = generate_gridworld(states, np.random.default_rng(seed), seen_model, rotation_failure=rotation_failure)
+    from beliefloc.model_file import write_atomically
+
+    with for_option("--states"):
+        grid_side(states)
+    with for_option("--rotation-failure"):
+        world = generate_gridworld(states, np.random.default_rng(seed), seen_model, rotation_failure=rotation_failure)
     data = gridworld_yaml(world, seed=seed).encode()
 
     write_atomically(output, lambda handle: handle.write(data))

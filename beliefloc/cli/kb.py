@@ -1,22 +1,21 @@
-"""``kb check`` and ``kb answer``: ground and solve a domain's knowledge base with clingo."""
+"""``kb check`` and ``kb answer``: ground and solve a domain's knowledge base with clingo.
+
+:mod:`beliefloc.knowledge` (which loads clingo) is imported when a command runs."""
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import boundary, print_json, warn
-from beliefloc.cli.prior import DefaultsOption, DomainArgument, KbOption, SeenOption, parse_seen
-from beliefloc.errors import UsageError
-from beliefloc.render import stdout_console
+from beliefloc.cli.common import boundary, for_option, print_json, warn
+from beliefloc.cli.options import DefaultsOption, DomainArgument, JsonOption, KbOption, SeenOption
 
 if TYPE_CHECKING:
-    from beliefloc.knowledge import AnswerSet, KnowledgeBase
+    from pathlib import Path
 
-JsonOption = Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")]
+    from beliefloc.knowledge import KnowledgeBase
 
 kb_app = typer.Typer(
     name="kb",
@@ -26,18 +25,21 @@ kb_app = typer.Typer(
 )
 
 
-def _open(
-    domain_file: Path, kb: list[Path] | None, seen: list[str] | None, defaults: bool
-) -> tuple[KnowledgeBase, AnswerSet]:
-    from beliefloc.knowledge import KnowledgeBase, load_domain
+def _open(domain_file: Path, kb: list[Path] | None, seen: list[str] | None, defaults: bool) -> KnowledgeBase:
+    """The domain's knowledge base with the ``--seen`` facts, solved; clingo's warnings shown."""
+    from beliefloc.knowledge import KnowledgeBase, Observation, load_domain
 
     base = KnowledgeBase(load_domain(domain_file), kb or [], use_defaults=defaults)
-    for observation in parse_seen(seen):
+    observations = []
+    for spec in seen or []:
+        with for_option(f"--seen {spec!r}"):
+            observations.append(Observation.parse(spec))
+    for observation in observations:
         base.observe(observation)
-    answer = base.answer()
+    base.answer()
     for message in base.warnings:
         warn(f"clingo: {message}")
-    return base, answer
+    return base
 
 
 @kb_app.command()
@@ -53,27 +55,17 @@ def check(
 
     Example: beliefloc kb check domains/home.yaml
     """
-    base, answer = _open(domain_file, kb, seen, defaults)
-    located = answer.located()
-    summary = {
-        "domain": base.domain.name,
-        "files": [str(f) for f in base.files],
-        "consistent": True,
-        "answer_sets": answer.models,
-        "rooms": len(answer.rooms),
-        "classes": len(answer.classes),
-        "objects": len(answer.members),
-        "located": len(located),
-        "ground_seconds": answer.timings.ground,
-        "solve_seconds": answer.timings.solve,
-        "warnings": list(base.warnings),
-    }
+    from beliefloc.render import stdout_console
+
+    summary = _open(domain_file, kb, seen, defaults).summary()
     if json_output:
-        print_json(summary)
+        print_json(summary.as_json())
         return
+    answer = summary.answer
+    located = answer.located()
     several = "" if answer.models == 1 else f" ({answer.models} answer sets: their cautious consequences are used)"
     stdout_console().print(
-        f"[green]ok[/] {escape(str(domain_file))}: {escape(base.domain.name)}, consistent{several}; "
+        f"[green]ok[/] {escape(str(domain_file))}: {escape(summary.domain)}, consistent{several}; "
         f"{len(answer.rooms)} rooms, {len(answer.classes)} classes, {len(located)} of {len(answer.members)} objects "
         f"located at step {answer.last_step}; grounded in {answer.timings.ground * 1000:.1f} ms, "
         f"solved in {answer.timings.solve * 1000:.1f} ms",
@@ -97,21 +89,14 @@ def answer(
 
     Example: beliefloc kb answer domains/home.yaml --kb kb/books.lp --step 1
     """
+    from beliefloc.render import stdout_console
     from beliefloc.render.knowledge import answer_table
 
-    _, result = _open(domain_file, kb, seen, defaults)
-    shown = result.last_step if step is None else step
-    if not 1 <= shown <= result.last_step:
-        raise UsageError(f"--step {shown}: the domain has steps 1..{result.last_step}")
+    result = _open(domain_file, kb, seen, defaults).answer()
+    with for_option(f"--step {step}"):
+        shown = result.check_step(step)
     if json_output:
-        print_json(
-            {
-                "step": shown,
-                "answer_sets": result.models,
-                "holds": {group: [str(lit) for lit in lits] for group, lits in result.grouped(shown).items()},
-                "ab": list(result.abnormal),
-            }
-        )
+        print_json(result.as_json(shown))
         return
     stdout_console().print(answer_table(result, shown))
 

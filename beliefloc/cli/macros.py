@@ -3,21 +3,19 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
-import numpy as np
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import boundary, open_model, print_json
-from beliefloc.cli.select import GammaOption
+from beliefloc.cli.common import boundary, for_option, print_json
+from beliefloc.cli.options import GammaOption, JsonOption, ModelArgument
 from beliefloc.errors import EXIT_NEGATIVE, UsageError
-from beliefloc.model import Model
-from beliefloc.planning.ec2 import pair_context
-from beliefloc.planning.macros import MacroTable, build_macros, expected_path
 from beliefloc.render import stderr_console, stdout_console
-from beliefloc.render.ec2 import classes_table, longest_macros_table, macro_path_table, macro_summary_table
-from beliefloc.render.progress import progress_bar
+
+if TYPE_CHECKING:
+    from beliefloc.model import Model
+    from beliefloc.planning.macros import MacroTable
 
 macros_app = typer.Typer(
     name="macros",
@@ -30,12 +28,10 @@ macros_app = typer.Typer(
 @macros_app.command("build")
 @boundary
 def build(
-    source: Annotated[
-        Path, typer.Argument(metavar="MAP|MODEL", help="A map, model or .pomdp file.", show_default=False)
-    ],
+    source: ModelArgument,
     output: Annotated[Path, typer.Option("--output", "-o", help="Where to write the macro table (.npz).")],
     gamma: GammaOption = None,
-    json_output: Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")] = False,
+    json_output: JsonOption = False,
 ) -> None:
     """Find, for every pair of states that look alike, the cheapest actions that tell them apart.
 
@@ -46,6 +42,10 @@ def build(
     Example: beliefloc macros build maps/corridors.yaml -o corridors-macros.npz
     """
     from beliefloc.macro_file import save_macros
+    from beliefloc.model_sources import open_model
+    from beliefloc.planning.macros import build_macros
+    from beliefloc.render.ec2 import classes_table, macro_summary_table
+    from beliefloc.render.progress import progress_bar
 
     model = open_model(source)
     with progress_bar(stderr_console()) as progress:
@@ -54,7 +54,8 @@ def build(
         def advance(done: int, total: int) -> None:
             progress.update(task, completed=done, total=total)
 
-        table = build_macros(model, gamma, progress=advance)
+        with for_option("--gamma"):
+            table = build_macros(model, gamma, progress=advance)
     save_macros(table, output, model=model)
     summary = table.summary()
     classes = [[model.states.name(s) for s in c] for c in table.never_classes()]
@@ -90,13 +91,15 @@ def show(
             "--model", help="The map or model it was built from (default: the one it names).", show_default=False
         ),
     ] = None,
-    json_output: Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")] = False,
+    json_output: JsonOption = False,
 ) -> None:
     """Summarise a macro table, or print one pair's macro with the expected path of both states.
 
     Example: beliefloc macros show corridors-macros.npz --pair 1,2,1 1,12,1
     """
     from beliefloc.macro_file import load_macros, read_header
+    from beliefloc.model_sources import open_model
+    from beliefloc.render.ec2 import longest_macros_table, macro_path_table, macro_summary_table
 
     header, _ = read_header(macros)
     if model_path is None:
@@ -130,6 +133,8 @@ def show(
 
 
 def _longest(model: Model, table: MacroTable, count: int = 10) -> list[dict[str, Any]]:
+    import numpy as np
+
     ok = np.flatnonzero(np.isfinite(table.cost))
     order = ok[np.lexsort((ok, -table.length[ok]))][:count]
     return [
@@ -144,6 +149,11 @@ def _longest(model: Model, table: MacroTable, count: int = 10) -> list[dict[str,
 
 
 def _pair(model: Model, table: MacroTable, i: int, j: int) -> dict[str, Any]:
+    import numpy as np
+
+    from beliefloc.planning.ec2 import pair_context
+    from beliefloc.planning.macros import expected_path
+
     names = model.states
     base: dict[str, Any] = {"s_i": names.name(i), "s_j": names.name(j), "actions": [], "cost": 0.0, "steps": []}
     if i == j:

@@ -6,21 +6,17 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
-import numpy as np
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import MODEL_SUFFIX, boundary, open_model, print_json, report_error
+from beliefloc.cli.common import boundary, print_json, report_error
+from beliefloc.cli.options import JsonOption, ModelArgument
 from beliefloc.errors import EXIT_BAD_INPUT, BeliefLocError, UsageError
-from beliefloc.model import model_summary
-from beliefloc.model_file import save_model
+from beliefloc.model_sources import MODEL_SUFFIX
 from beliefloc.render import stdout_console
-from beliefloc.render.tables import model_table
 
 if TYPE_CHECKING:
     from beliefloc.semantic_map import SemanticMap
-
-JsonOption = Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")]
 
 
 def validate(
@@ -74,6 +70,8 @@ def validate(
 
 def _rooms_summary(smap: SemanticMap) -> str:
     """``, 5 rooms (bedroom, study, ...)`` and how many free cells are in none; empty without rooms."""
+    import numpy as np
+
     rooms = smap.rooms
     if not rooms:
         return ""
@@ -95,6 +93,11 @@ def build(
 
     Example: beliefloc build maps/kitchen.yaml -o kitchen.npz
     """
+    from beliefloc.model import model_summary
+    from beliefloc.model_file import save_model
+    from beliefloc.model_sources import open_model
+    from beliefloc.render.tables import model_table
+
     if output.suffix.lower() != MODEL_SUFFIX:
         raise UsageError(f"{output}: a model file must end in {MODEL_SUFFIX}")
     start = time.perf_counter()
@@ -112,15 +115,17 @@ def build(
 
 @boundary
 def inspect(
-    source: Annotated[
-        Path, typer.Argument(metavar="MAP|MODEL", help="A map, model or .pomdp file.", show_default=False)
-    ],
+    source: ModelArgument,
     json_output: JsonOption = False,
 ) -> None:
     """Show a model's states, actions, observations, sizes, sparsity and build time.
 
     Example: beliefloc inspect maps/kitchen.yaml
     """
+    from beliefloc.model import model_summary
+    from beliefloc.model_sources import open_model
+    from beliefloc.render.tables import model_table
+
     start = time.perf_counter()
     model = open_model(source)
     seconds = time.perf_counter() - start

@@ -2,92 +2,52 @@
 
 from __future__ import annotations
 
-import enum
-import math
-from pathlib import Path
 from typing import Annotated
 
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import BELIEF_HELP, boundary, initial_belief, open_model, print_json
-from beliefloc.errors import EXIT_NEGATIVE, UsageError
-from beliefloc.planning.best_first import (
+from beliefloc.cli.common import boundary, initial_belief, print_json
+from beliefloc.cli.options import (
+    BeliefOption,
+    HeuristicOption,
+    HWeightOption,
+    JsonOption,
+    MaxExpansionsOption,
+    ModelArgument,
+    PlanTimeLimitOption,
+    ThresholdOption,
+    resolve_heuristic,
+)
+from beliefloc.errors import EXIT_NEGATIVE
+from beliefloc.planning.settings import (
     DEFAULT_MAX_EXPANSIONS,
     DEFAULT_THRESHOLD,
     DEFAULT_TIME_LIMIT,
     DEFAULT_WEIGHT,
-    Heuristic,
-    PlanStatus,
-    plan,
+    Planner,
 )
 from beliefloc.render import stderr_console, stdout_console
-from beliefloc.render.plan import plan_table, search_line
-
-
-class Search(str, enum.Enum):
-    bestfirst = "bestfirst"
-    uniform = "uniform"
-
-
-Threshold = Annotated[
-    float, typer.Option("--threshold", min=0.0, max=1.0, help="Goal: one state holds at least this probability.")
-]
-HeuristicOption = Annotated[
-    Heuristic | None,
-    typer.Option(
-        "--heuristic",
-        help="h of best-first search: H(b)/(max(b)·p) (default), H(b)/p (the pseudocode), or zero.",
-        show_default=False,
-    ),
-]
-HWeightOption = Annotated[
-    float,
-    typer.Option(
-        "--h-weight",
-        help="Best-first ranks beliefs by g + W·h; 1 is the paper's. Below 1 the actions' costs count more: "
-        "cheaper plans from a longer search.",
-    ),
-]
-MaxExpansions = Annotated[
-    int, typer.Option("--max-expansions", min=1, help="Give up after expanding this many beliefs.")
-]
-TimeLimit = Annotated[float, typer.Option("--time-limit", min=0.0, help="Give up after this many seconds of search.")]
-BeliefOption = Annotated[str, typer.Option("--belief", metavar="uniform|FILE|prior:DOMAIN", help=BELIEF_HELP)]
-
-
-def resolve_heuristic(search: Search, heuristic: Heuristic | None, weight: float = DEFAULT_WEIGHT) -> Heuristic:
-    """``--search uniform`` is h = 0; ``--heuristic`` and ``--h-weight`` only apply to best-first search."""
-    check_weight(weight)
-    if search is Search.uniform:
-        if heuristic not in (None, Heuristic.ZERO):
-            raise UsageError("--search uniform is the search with h = 0; drop --heuristic or use --search bestfirst")
-        if weight != DEFAULT_WEIGHT:
-            raise UsageError("--search uniform is the search with h = 0, so --h-weight has nothing to scale; drop it")
-        return Heuristic.ZERO
-    return heuristic or Heuristic.ENTROPY_MAX_PROB
-
-
-def check_weight(weight: float) -> None:
-    if not (weight > 0.0 and math.isfinite(weight)):
-        raise UsageError(f"--h-weight must be a positive number, got {weight:g}; for h = 0 use --search uniform")
 
 
 @boundary
 def plan_command(
-    source: Annotated[
-        Path, typer.Argument(metavar="MAP|MODEL", help="A map, model or .pomdp file.", show_default=False)
-    ],
+    source: ModelArgument,
     belief: BeliefOption = "uniform",
-    threshold: Threshold = DEFAULT_THRESHOLD,
-    search: Annotated[
-        Search, typer.Option("--search", help="Best-first (with a heuristic) or uniform-cost search.")
-    ] = Search.bestfirst,
+    threshold: ThresholdOption = DEFAULT_THRESHOLD,
+    planner: Annotated[
+        Planner,
+        typer.Option(
+            "--planner",
+            "--search",
+            help="Best-first (with a heuristic) or uniform-cost search (--search is the old name).",
+        ),
+    ] = Planner.BESTFIRST,
     heuristic: HeuristicOption = None,
     h_weight: HWeightOption = DEFAULT_WEIGHT,
-    max_expansions: MaxExpansions = DEFAULT_MAX_EXPANSIONS,
-    time_limit: TimeLimit = DEFAULT_TIME_LIMIT,
-    json_output: Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")] = False,
+    max_expansions: MaxExpansionsOption = DEFAULT_MAX_EXPANSIONS,
+    time_limit: PlanTimeLimitOption = DEFAULT_TIME_LIMIT,
+    json_output: JsonOption = False,
 ) -> None:
     """Find actions and observations that take the belief to one state with probability >= threshold.
 
@@ -96,7 +56,11 @@ def plan_command(
     Example: beliefloc plan maps/kitchen.yaml --threshold 0.95
     Example: beliefloc plan maps/apartment.yaml --belief prior:domains/apartment.yaml
     """
-    chosen = resolve_heuristic(search, heuristic, h_weight)
+    from beliefloc.model_sources import open_model
+    from beliefloc.planning.best_first import PlanStatus, plan
+    from beliefloc.render.plan import effort_line, plan_table
+
+    chosen = resolve_heuristic(planner, heuristic, h_weight)
     model = open_model(source)
     start = initial_belief(model, belief)
     result = plan(
@@ -109,20 +73,7 @@ def plan_command(
         weight=h_weight,
     )
     if json_output:
-        print_json(
-            {
-                "found": result.found,
-                "status": result.status.value,
-                "cost": result.cost if result.found else None,
-                "steps": [
-                    {"action": s.action, "observation": s.observation, "max_belief": s.max_belief, "cost": s.cost}
-                    for s in result.steps
-                ],
-                "expanded": result.expanded,
-                "generated": result.generated,
-                "seconds": result.seconds,
-            }
-        )
+        print_json(result.as_json())
     else:
         out = stdout_console()
         if result.found:
@@ -131,7 +82,7 @@ def plan_command(
                 out.print(f"already localized: one state holds at least {threshold:g}")
             else:
                 out.print(plan_table(result, title))
-        out.print(search_line(result))
+        out.print(effort_line(result))
     if result.status is PlanStatus.NO_PLAN:
         stderr_console().print(
             f"[bold]no plan:[/] every belief reachable from the start was searched and none gives one state "

@@ -2,66 +2,34 @@
 
 from __future__ import annotations
 
-import enum
-from pathlib import Path
 from typing import Annotated, Any
 
 import typer
 
-from beliefloc.cli.common import boundary, initial_belief, open_model, print_json
+from beliefloc.cli.common import boundary, initial_belief, print_json
+from beliefloc.cli.options import BeliefOption, GammaOption, JsonOption, MacrosOption, ModelArgument
 from beliefloc.errors import EXIT_NEGATIVE
-from beliefloc.planning.ec2 import DEFAULT_MAX_HYPOTHESES, edges, pair_context, select
-from beliefloc.planning.macros import macro_candidates
+from beliefloc.planning.settings import DEFAULT_MAX_HYPOTHESES, SelectionRule
 from beliefloc.render import stderr_console, stdout_console
-from beliefloc.render.ec2 import edges_table, weights_table
 
 MAX_EDGES_SHOWN = 20
 
 
-class SelectStrategy(str, enum.Enum):
-    ec2 = "ec2"
-
-
-GammaOption = Annotated[
-    float | None,
-    typer.Option(
-        "--gamma",
-        min=0.0,
-        max=1.0,
-        help="Two states are distinguishable when their observation difference (Eq. 5) exceeds this. "
-        "Default: halfway between the largest difference of two states with equal noise-free readings "
-        "and the smallest of two with different ones.",
-        show_default=False,
-    ),
-]
-MacrosOption = Annotated[
-    Path | None,
-    typer.Option(
-        "--macros",
-        help="A macro table from 'beliefloc macros build': macros become candidates too.",
-        show_default=False,
-    ),
-]
-
-
 @boundary
 def select_command(
-    source: Annotated[
-        Path, typer.Argument(metavar="MAP|MODEL", help="A map, model or .pomdp file.", show_default=False)
-    ],
-    belief: Annotated[
-        str, typer.Option("--belief", help="'uniform' or a YAML/JSON file {state: probability}.")
-    ] = "uniform",
-    strategy: Annotated[
-        SelectStrategy, typer.Option("--strategy", help="The selection rule (EC2 edge weights).")
-    ] = SelectStrategy.ec2,
+    source: ModelArgument,
+    belief: BeliefOption = "uniform",
+    rule: Annotated[
+        SelectionRule,
+        typer.Option("--rule", "--strategy", help="The selection rule: EC2 edge weights (--strategy: the old name)."),
+    ] = SelectionRule.EC2,
     macros: MacrosOption = None,
     gamma: GammaOption = None,
     max_hypotheses: Annotated[
         int, typer.Option("--max-hypotheses", min=2, help="Keep at most this many most likely states (Sec. VII-B).")
     ] = DEFAULT_MAX_HYPOTHESES,
     explain: Annotated[bool, typer.Option("--explain", help="Show the edges (pairs) behind each weight.")] = False,
-    json_output: Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")] = False,
+    json_output: JsonOption = False,
 ) -> None:
     """Weigh every action (and macro) by the pairs of likely states it tells apart; choose the heaviest.
 
@@ -71,6 +39,11 @@ def select_command(
 
     Example: beliefloc select maps/khalvati-example1.yaml --belief s1-s4.json --explain
     """
+    from beliefloc.model_sources import open_model
+    from beliefloc.planning.ec2 import edges, pair_context, select
+    from beliefloc.planning.macros import macro_candidates
+    from beliefloc.render.ec2 import edges_table, weights_table
+
     model = open_model(source)
     start = initial_belief(model, belief)
     table = None
@@ -91,26 +64,13 @@ def select_command(
     if explain:
         names = model.states
         for candidate, name in zip(result.candidates, result.names, strict=True):
-            explained[name] = [
-                {
-                    "s_i": names.name(e.i),
-                    "s_j": names.name(e.j),
-                    "f_i": names.name(e.end_i),
-                    "f_j": names.name(e.end_j),
-                    "difference": e.difference,
-                    "belief_product": e.belief_product,
-                    "min_probability": e.min_probability,
-                    "cost": e.cost,
-                    "weight": e.weight,
-                }
-                for e in edges(ctx, candidate, result.hypotheses, start)
-            ]
+            explained[name] = [e.as_json(names) for e in edges(ctx, candidate, result.hypotheses, start)]
     if json_output:
         data: dict[str, Any] = {
             "weights": weights,
             "chosen": result.chosen_name,
             "gamma": ctx.gamma,
-            "strategy": strategy.value,
+            "strategy": rule.value,
             "hypotheses": len(result.hypotheses),
         }
         if explain:
@@ -118,7 +78,7 @@ def select_command(
         print_json(data)
     else:
         out = stdout_console()
-        title = f"{strategy.value} on {model.name}: {len(result.hypotheses)} hypotheses, gamma {ctx.gamma:.3g}" + (
+        title = f"{rule.value} on {model.name}: {len(result.hypotheses)} hypotheses, gamma {ctx.gamma:.3g}" + (
             f", {len(result.candidates) - len(model.actions)} macros" if table is not None else ""
         )
         out.print(weights_table(weights, result.chosen_name, title))

@@ -3,58 +3,22 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import TYPE_CHECKING
 
 import typer
 
-from beliefloc.belief import entropy, most_likely
-from beliefloc.cli.common import (
-    MAP_SUFFIXES,
-    PRIOR_PREFIX,
-    belief_dict,
-    boundary,
-    initial_belief,
-    open_model,
-    print_json,
-    source_map,
-    warn,
-)
-from beliefloc.errors import BeliefLocError
-from beliefloc.model import GridLayout, Model
+from beliefloc.cli.common import PRIOR_PREFIX, belief_dict, boundary, initial_belief, print_json, warn_if_too_wide
+from beliefloc.cli.options import BeliefOption, CompactOption, JsonOption, ModelArgument, TopOption
 from beliefloc.render import stdout_console
-from beliefloc.render.grid import belief_view, grid_width, resolve_compact, room_legend, room_plan, uses_color
 
 if TYPE_CHECKING:
+    from beliefloc.model import Model
     from beliefloc.semantic_map import SemanticMap
-
-SourceArgument = Annotated[
-    Path, typer.Argument(metavar="MAP|MODEL", help="A map, model (.npz) or .pomdp file.", show_default=False)
-]
-BeliefOption = Annotated[
-    str,
-    typer.Option(
-        "--belief",
-        metavar="uniform|FILE|prior:DOMAIN",
-        help="The belief to start from: 'uniform', a YAML/JSON file {state: probability} (the output of "
-        "'track --json' works too), or prior:DOMAIN: where the domain's knowledge base says the robot is.",
-    ),
-]
-CompactOption = Annotated[
-    bool | None,
-    typer.Option(
-        "--compact/--full",
-        help="Force compact cells (2 characters: cell shade, arrow of the most likely heading) or full "
-        "cells (a pixel per heading). Default: full when it fits the terminal.",
-        show_default=False,
-    ),
-]
-TopOption = Annotated[int, typer.Option("--top", min=0, help="How many of the most likely states to list.")]
-JsonOption = Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")]
 
 
 @boundary
 def show(
-    source: SourceArgument,
+    source: ModelArgument,
     belief_spec: BeliefOption = "uniform",
     compact: CompactOption = None,
     top: TopOption = 5,
@@ -69,6 +33,11 @@ def show(
     Example: beliefloc show maps/window-2x2.yaml --compact
     Example: beliefloc show maps/apartment.yaml --belief prior:domains/apartment.yaml
     """
+    from beliefloc.belief import entropy, most_likely
+    from beliefloc.render.belief_grid import belief_view
+    from beliefloc.render.drawing import uses_color
+    from beliefloc.render.room_plan import room_legend, room_plan
+
     model, smap = _open(source)
     belief = initial_belief(model, belief_spec, smap)
     rooms = smap.rooms if smap is not None else {}
@@ -107,6 +76,9 @@ def show(
 
 def _open(source: Path) -> tuple[Model, SemanticMap | None]:
     """The model, and the map it comes from when there is one (to draw its rooms)."""
+    from beliefloc.errors import BeliefLocError
+    from beliefloc.model_sources import MAP_SUFFIXES, open_model, source_map
+
     if source.suffix.lower() in MAP_SUFFIXES:
         from beliefloc.semantic_map import compile_model, load_map
 
@@ -127,17 +99,6 @@ def _room_letters(smap: SemanticMap) -> dict[str, str] | None:
     if spec is None or spec.legend is None:
         return None
     return {name: letter for letter, name in spec.legend.items()}
-
-
-def warn_if_too_wide(grid: GridLayout | None, compact: bool | None, width: int, color: bool) -> None:
-    """A warning when even the chosen form of the grid is wider than the terminal."""
-    if grid is None:
-        return
-    chosen = resolve_compact(grid, compact, width, color=color)
-    needed = grid_width(grid, compact=chosen, color=color)
-    if needed > width:
-        hint = "" if chosen else "; --compact is narrower"
-        warn(f"the grid is {needed} characters wide but the terminal has {width}: lines will wrap{hint}")
 
 
 def register(app: typer.Typer) -> None:

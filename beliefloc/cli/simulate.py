@@ -3,47 +3,51 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated
 
-import numpy as np
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import boundary, initial_belief, open_model, print_json
-from beliefloc.cli.plan import (
+from beliefloc.cli.common import boundary, initial_belief, print_json, warn_if_too_wide
+from beliefloc.cli.options import (
     BeliefOption,
+    CompactOption,
+    GammaOption,
     HeuristicOption,
     HWeightOption,
-    MaxExpansions,
-    Threshold,
-    TimeLimit,
-    check_weight,
+    JsonOption,
+    MacrosOption,
+    MaxExpansionsOption,
+    ModelArgument,
+    PlanTimeLimitOption,
+    SeedOption,
+    ThresholdOption,
+    TimingsOption,
+    resolve_heuristic,
 )
-from beliefloc.cli.show import CompactOption, warn_if_too_wide
 from beliefloc.errors import EXIT_NEGATIVE, UsageError
-from beliefloc.model import Model
-from beliefloc.planning.best_first import (
+from beliefloc.planning.settings import (
     DEFAULT_MAX_EXPANSIONS,
     DEFAULT_THRESHOLD,
     DEFAULT_TIME_LIMIT,
     DEFAULT_WEIGHT,
-    Heuristic,
+    Planner,
 )
 from beliefloc.render import stderr_console, stdout_console
-from beliefloc.render.grid import belief_view, uses_color
-from beliefloc.render.plan import plan_table, summary_table
-from beliefloc.render.progress import progress_bar
-from beliefloc.simulation.episode import DEFAULT_MAX_STEPS, EpisodeRecord, StepRecord, run_experiment, summarize
-from beliefloc.simulation.strategies import STRATEGIES, PlannerSettings
+from beliefloc.simulation.settings import DEFAULT_MAX_STEPS, StrategyName
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from beliefloc.model import Model
+    from beliefloc.simulation.episode import EpisodeRecord, StepRecord
 
 
 @boundary
 def simulate(
-    map_file: Annotated[
-        Path, typer.Argument(metavar="MAP|MODEL", help="A map, model or .pomdp file.", show_default=False)
-    ],
+    map_file: ModelArgument,
     episodes: Annotated[int, typer.Option("--episodes", "-n", min=1, help="How many episodes.")] = 1,
-    seed: Annotated[int, typer.Option("--seed", min=0, help="Seed of the starts and of the world's noise.")] = 0,
+    seed: SeedOption = 0,
     start: Annotated[
         str,
         typer.Option(
@@ -55,44 +59,35 @@ def simulate(
     ] = "random",
     strategy: Annotated[
         list[str] | None,
-        typer.Option("--strategy", "-s", help=f"Repeat to compare: {', '.join(STRATEGIES)}.", show_default="bestfirst"),
+        typer.Option(
+            "--strategy",
+            "-s",
+            help=f"Repeat to compare: {', '.join(s.value for s in StrategyName)}.",
+            show_default=StrategyName.BESTFIRST.value,
+        ),
     ] = None,
     belief: BeliefOption = "uniform",
-    threshold: Threshold = DEFAULT_THRESHOLD,
+    threshold: ThresholdOption = DEFAULT_THRESHOLD,
     heuristic: HeuristicOption = None,
     h_weight: HWeightOption = DEFAULT_WEIGHT,
-    max_expansions: MaxExpansions = DEFAULT_MAX_EXPANSIONS,
-    time_limit: TimeLimit = DEFAULT_TIME_LIMIT,
+    max_expansions: MaxExpansionsOption = DEFAULT_MAX_EXPANSIONS,
+    time_limit: PlanTimeLimitOption = DEFAULT_TIME_LIMIT,
     max_steps: Annotated[
         int,
         typer.Option(
             "--max-steps", "--max-actions", min=1, help="Stop an episode after this many actions (the paper: 500)."
         ),
     ] = DEFAULT_MAX_STEPS,
-    macros: Annotated[
-        Path | None,
-        typer.Option(
-            "--macros",
-            help="ec2-macros: a table from 'beliefloc macros build' (default: built for the model in memory).",
-            show_default=False,
-        ),
-    ] = None,
-    gamma: Annotated[
-        float | None,
-        typer.Option(
-            "--gamma", min=0.0, max=1.0, help="ec2: distinguishability threshold (Eq. 5).", show_default=False
-        ),
-    ] = None,
+    macros: MacrosOption = None,
+    gamma: GammaOption = None,
     world: Annotated[
         Path | None,
         typer.Option("--world", help="Simulate the robot in this model instead (same states).", show_default=False),
     ] = None,
     show: Annotated[bool, typer.Option("--show", help="Print the belief grid after every step.")] = False,
     compact: CompactOption = None,
-    timings: Annotated[
-        bool, typer.Option("--timings/--no-timings", help="Include plan times in --json (off: byte-identical reruns).")
-    ] = True,
-    json_output: Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")] = False,
+    timings: TimingsOption = True,
+    json_output: JsonOption = False,
 ) -> None:
     """Run localization episodes: every strategy from the same seeded starts (paired trials).
 
@@ -103,12 +98,17 @@ def simulate(
     Example: beliefloc simulate maps/corridors.yaml -n 20 -s ec2-macros -s ec2 --max-actions 500
     Example: beliefloc simulate maps/apartment.yaml -n 20 --belief prior:domains/apartment.yaml --start prior
     """
-    check_weight(h_weight)
+    from beliefloc.model_sources import open_model
+    from beliefloc.render.belief_grid import belief_view
+    from beliefloc.render.drawing import uses_color
+    from beliefloc.render.plan import plan_table, summary_table
+    from beliefloc.render.progress import progress_bar
+    from beliefloc.simulation.episode import run_experiment, strategy_name, summarize
+    from beliefloc.simulation.strategies import EpisodeStatus, PlannerSettings
+
+    chosen_heuristic = resolve_heuristic(Planner.BESTFIRST, heuristic, h_weight)
+    names = [strategy_name(name) for name in strategy or [StrategyName.BESTFIRST.value]]
     model = open_model(map_file)
-    names = strategy or ["bestfirst"]
-    for name in names:
-        if name not in STRATEGIES:
-            raise UsageError(f"unknown strategy {name!r}; expected one of: {', '.join(STRATEGIES)}")
     start_belief = initial_belief(model, belief)
     start_state = None if start in ("random", "prior") else model.states.index(start)
     world_model = _world(world, model) if world is not None else None
@@ -119,7 +119,7 @@ def simulate(
         table = load_macros(macros, model)
     settings = PlannerSettings(
         threshold,
-        heuristic or Heuristic.ENTROPY_MAX_PROB,
+        chosen_heuristic,
         max_expansions,
         time_limit,
         gamma=gamma,
@@ -175,19 +175,24 @@ def simulate(
     summary = summarize(records)
     if json_output:
         print_json(
-            {"episodes": [_episode_json(r, timings) for r in records], "summary": _summary_json(summary, timings)}
+            {
+                "episodes": [r.as_json(timings=timings) for r in records],
+                "summary": {name: s.as_json(timings=timings) for name, s in summary.items()},
+            }
         )
     else:
         if show or episodes == 1:
             for r in records:
                 out.print(_episode_line(r))
         out.print(summary_table(summary, threshold))
-    first = [r for r in records if r.strategy == names[0]]
-    if any(r.status != "localized" for r in first):
+    first = [r for r in records if r.strategy == names[0].value]
+    if any(r.status is not EpisodeStatus.LOCALIZED for r in first):
         raise typer.Exit(EXIT_NEGATIVE)
 
 
 def _world(path: Path, model: Model) -> Model:
+    from beliefloc.model_sources import open_model
+
     world = open_model(path)
     if world.states.names != model.states.names:
         raise UsageError(f"{path}: the world must have the same states as {model.name} (the robot's model)")
@@ -195,25 +200,14 @@ def _world(path: Path, model: Model) -> Model:
 
 
 def _episode_line(r: EpisodeRecord) -> str:
-    verdict = "localized" if r.status == "localized" else r.status.replace("_", " ")
+    from beliefloc.simulation.strategies import EpisodeStatus
+
+    verdict = "localized" if r.status is EpisodeStatus.LOCALIZED else r.status.value.replace("_", " ")
     right = "correctly" if r.correct else "WRONGLY"
     return escape(
         f"{r.strategy}, episode {r.episode + 1}: {verdict} {right} at {r.final} (p = {r.max_belief:.3f}; true "
         f"{r.true_final}, started at {r.start}) after {r.steps} steps, cost {r.cost:g}, {r.replans} replans"
     )
-
-
-def _episode_json(r: EpisodeRecord, timings: bool) -> dict[str, Any]:
-    data = r.as_json()
-    if not timings:
-        data["plan_seconds"] = None
-    return data
-
-
-def _summary_json(summary: dict[str, dict[str, Any]], timings: bool) -> dict[str, dict[str, Any]]:
-    if timings:
-        return summary
-    return {name: {k: (None if "seconds" in k else v) for k, v in stats.items()} for name, stats in summary.items()}
 
 
 def register(app: typer.Typer) -> None:

@@ -2,101 +2,17 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
-import numpy as np
 import typer
 
-from beliefloc.belief import update
-from beliefloc.cli.common import belief_dict, boundary, initial_belief, open_model, print_json
-from beliefloc.cli.show import BeliefOption, CompactOption, JsonOption, SourceArgument, TopOption, warn_if_too_wide
-from beliefloc.errors import ImpossibleObservationError, UsageError
-from beliefloc.model import Action, Model
+from beliefloc.cli.common import belief_dict, boundary, initial_belief, print_json, warn_if_too_wide
+from beliefloc.cli.options import BeliefOption, CompactOption, JsonOption, ModelArgument, TopOption
 from beliefloc.render import stdout_console
-from beliefloc.render.grid import belief_summary, belief_view, step_header, summary_line, uses_color
 
-STEP_FORM = "should be ACTION or ACTION=OBSERVATION, e.g. 'right' or 'look=window_seen'"
-
-
-@dataclass(frozen=True)
-class Step:
-    """One logged step, checked against a model."""
-
-    text: str
-    """As written on the command line."""
-    action: Action
-    observation: str | None
-    """As written; None when nothing was observed (prediction only)."""
-    index: int | None
-    """The observation's index in ``action.observation``; None when nothing was observed."""
-
-
-def parse_step(text: str) -> tuple[str, str | None]:
-    """``"look=window_seen"`` -> ``("look", "window_seen")``; ``"right"`` -> ``("right", None)``.
-
-    Raises :class:`UsageError` for an empty action, an empty observation or a second ``=``; the
-    caller says which step it was.
-    """
-    action, sep, observation = text.partition("=")
-    action, observation = action.strip(), observation.strip()
-    if not action or any(ch.isspace() for ch in action) or (sep and not observation) or "=" in observation:
-        raise UsageError(STEP_FORM)
-    return action, (observation if sep else None)
-
-
-def resolve_steps(model: Model, texts: Sequence[str]) -> list[Step]:
-    """Check every step against ``model`` before any is applied, so a typo in the last step fails
-    before the output starts. Messages name the step: ``step 2 'lookk=window': unknown action ...``.
-
-    A perception action must say what it observed. An actuation action may: with passive sensors
-    their joint reading, otherwise ``none``; without an observation the step is a prediction only.
-    """
-    steps = []
-    for number, text in enumerate(texts, start=1):
-        try:
-            name, observation = parse_step(text)
-            action = model.action(name)
-            if observation is None:
-                if not action.is_actuation:
-                    raise UsageError(
-                        f"{name!r} is a perception action, so the step must say what it observed, "
-                        f"e.g. '{name}={action.observation.name(0)}'; {action.observation.choices()}"
-                    )
-                index = None
-            else:
-                index = action.observation.index(observation)
-        except UsageError as exc:
-            raise UsageError(f"step {number} {text!r}: {exc}") from None
-        steps.append(Step(text, action, observation, index))
-    return steps
-
-
-@dataclass(frozen=True)
-class Tracked:
-    number: int
-    """1 for the first step."""
-    step: Step
-    probability: float | None
-    """``p(o | a, b)`` before the step; None when nothing was observed."""
-    belief: np.ndarray
-    """The belief after the step."""
-
-
-def track_beliefs(model: Model, belief: np.ndarray, steps: Sequence[Step]) -> Iterator[Tracked]:
-    """The Bayes filter over ``steps`` (see :func:`beliefloc.belief.update`), one belief per step,
-    lazily so that a caller can show the steps before a failing one.
-
-    An observation impossible under the belief raises :class:`ImpossibleObservationError` naming
-    the step.
-    """
-    for number, step in enumerate(steps, start=1):
-        try:
-            belief, p = update(model, belief, step.action, step.index)
-        except ImpossibleObservationError as exc:
-            raise ImpossibleObservationError(f"step {number} {step.text!r}: {exc}") from None
-        yield Tracked(number, step, None if step.index is None else p, belief)
+if TYPE_CHECKING:
+    from beliefloc.model import Model
+    from beliefloc.tracking import Tracked
 
 
 StepsArgument = Annotated[
@@ -112,7 +28,7 @@ StepsArgument = Annotated[
 
 @boundary
 def track(
-    source: SourceArgument,
+    source: ModelArgument,
     steps: StepsArgument,
     belief_spec: BeliefOption = "uniform",
     compact: CompactOption = None,
@@ -128,9 +44,15 @@ def track(
 
     Example: beliefloc track maps/window-2x2.yaml look=window_seen right
     """
+    from beliefloc.model_sources import open_model
+    from beliefloc.render.belief_grid import belief_view
+    from beliefloc.render.drawing import uses_color
+    from beliefloc.render.state_tables import belief_summary, step_header, summary_line
+    from beliefloc.tracking import resolve_steps, track_beliefs
+
     model = open_model(source)
     belief = initial_belief(model, belief_spec)
-    resolved = resolve_steps(model, steps)
+    resolved = resolve_steps(model, steps)  # every step checked before the output starts
     if json_output:
         tracked = list(track_beliefs(model, belief, resolved))
         print_json(

@@ -4,6 +4,9 @@ from __future__ import annotations
 
 from collections import defaultdict
 from dataclasses import dataclass, field
+from typing import Any
+
+from beliefloc.errors import InvalidValueError
 
 
 @dataclass(frozen=True, order=True)
@@ -33,7 +36,7 @@ class AnswerSet:
     """The shown atoms of the answer set, or of the intersection of all answer sets.
 
     ``models`` is 1 when the program has exactly one answer set (the paper's assumption); when it
-    is 2 or more, the atoms are the *cautious consequences* -- those true in every answer set -- so
+    is 2 or more, the atoms are the *cautious consequences* (those true in every answer set), so
     that nothing believed depends on an arbitrary choice between answer sets.
     """
 
@@ -49,6 +52,26 @@ class AnswerSet:
     last_step: int
     models: int = 1
     timings: Timings = field(default_factory=Timings)
+
+    def check_step(self, step: int | None = None) -> int:
+        """``step`` (default: the last step) when it is one of the answer set's steps 1..last;
+        raises :class:`InvalidValueError` otherwise (the message gives the range; the caller names
+        the step it was given)."""
+        wanted = self.last_step if step is None else step
+        if not 1 <= wanted <= self.last_step:
+            raise InvalidValueError(f"the domain has steps 1..{self.last_step}")
+        return wanted
+
+    def as_json(self, step: int | None = None) -> dict[str, Any]:
+        """The beliefs at ``step`` (default: the last; checked by :meth:`check_step`) as plain JSON
+        data: the ``holds`` literals grouped by fluent, and the ``ab`` atoms."""
+        shown = self.check_step(step)
+        return {
+            "step": shown,
+            "answer_sets": self.models,
+            "holds": {group: [str(lit) for lit in lits] for group, lits in self.grouped(shown).items()},
+            "ab": list(self.abnormal),
+        }
 
     def at(self, step: int | None = None) -> list[Literal]:
         """The literals at ``step`` (default: the last step), sorted."""

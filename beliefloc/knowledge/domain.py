@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any, Literal, overload
 
 from pydantic import (
     BaseModel,
@@ -29,7 +29,7 @@ from pydantic import (
     model_validator,
 )
 
-from beliefloc.errors import DomainError, FieldError, MapError
+from beliefloc.errors import DomainError, FieldError, InvalidValueError, MapError
 from beliefloc.knowledge.robot import DEFAULT_WEIGHT, ROBOT
 from beliefloc.source import Source, read_source, refuse_field_name, validate_source
 
@@ -85,7 +85,7 @@ class RobotStart(_Strict):
     """``[row, col]`` inside the room, from its top-left cell ``[0, 0]``."""
 
 
-class Sensor(_Strict):
+class DetectorSettings(_Strict):
     """The detector analysing one view: ``p(present | target in view)`` and ``p(present | not)``."""
 
     true_positive: Annotated[float, Field(gt=0, le=1)] = 0.9
@@ -115,7 +115,7 @@ class Existence(_Strict):
 class SearchSettings(_Strict):
     """What every ``search:`` section has: the sensor, the costs, the limits of a search."""
 
-    sensor: Sensor = Field(default_factory=Sensor)
+    sensor: DetectorSettings = Field(default_factory=DetectorSettings)
     costs: Costs = Field(default_factory=Costs)
     time_limit: Annotated[float, Field(gt=0)] = 100.0
     existence: Existence = Field(default_factory=Existence)
@@ -125,8 +125,9 @@ class SearchSettings(_Strict):
     """tau-: stop with NotFound when p(not E) exceeds it."""
 
 
-class SearchSpace(SearchSettings):
-    """Rooms as grids of cells placed on a plane, where the robot starts, and its sensor."""
+class PlaneSearch(SearchSettings):
+    """The ``search:`` section of a domain without a map: rooms as grids of cells placed on a plane,
+    where the robot starts, and its sensor."""
 
     room_size: Size = (5, 5)
     """``[rows, cols]`` of every room not listed in ``room_sizes``."""
@@ -191,7 +192,7 @@ class Domain(_Strict):
     objects: dict[AspName, ObjectInstance] = Field(default_factory=dict)
     defaults: dict[AspName, Default] = Field(default_factory=dict)
     target: AspName | None = None
-    """The class searched for when ``--target`` is not given."""
+    """The class searched for when none is named (see :meth:`resolve_target`)."""
     steps: int = Field(default=2, ge=1, le=100)
     """Time steps 1..steps: step 1 is the initial knowledge; observations go to the last step."""
     kb: list[str] = Field(default_factory=list)
@@ -199,8 +200,9 @@ class Domain(_Strict):
     map: str | None = None
     """A semantic map (``maps/*.yaml``), relative to the domain file, whose rooms are the domain's."""
     robot: RobotKnowledge | None = None
-    """Where the robot probably is, for ``--belief prior:DOMAIN`` and ``prior --robot``."""
-    search: SearchSpace | None = None
+    """Where the robot probably is: the facts of its room prior and start belief
+    (:mod:`beliefloc.knowledge.robot_start`)."""
+    search: PlaneSearch | None = None
     """The geometry for object search (``beliefloc search``) on a plane of rooms; knowledge-only
     domains leave it out. Always None when the domain references a map: see :attr:`map_search`."""
     map_search: MapSearch | None = Field(default=None, alias="search")
@@ -319,7 +321,7 @@ class Domain(_Strict):
             raise FieldError(("search", key), f"unknown key {key!r}; expected one of: {expected}")
         _check_sensor(search.sensor)
 
-    def _check_search(self, search: SearchSpace) -> None:
+    def _check_search(self, search: PlaneSearch) -> None:
         for key in ("placement", "room_sizes"):
             for room in getattr(search, key):
                 if room not in self.rooms:
@@ -389,8 +391,32 @@ class Domain(_Strict):
         base = self._path.parent if self._path is not None else Path.cwd()
         return [base / name for name in self.kb]
 
+    @overload
+    def resolve_target(self, target: str | None, *, allow_any: Literal[False] = False) -> str: ...
+    @overload
+    def resolve_target(self, target: str | None, *, allow_any: bool) -> str | None: ...
+    def resolve_target(self, target: str | None, *, allow_any: bool = False) -> str | None:
+        """The class searched for: ``target``, else the domain's :attr:`target`; a class of the domain.
 
-def _check_sensor(sensor: Sensor) -> None:
+        With ``allow_any``, ``"any"`` or no target at all is None (a random object per trial).
+        Raises :class:`InvalidValueError` for an unknown class (the message lists the classes; the
+        caller names the value it was given), or when neither names one.
+        """
+        chosen = target or self.target
+        if allow_any and chosen in (None, "any"):
+            return None
+        classes = ", ".join(sorted(self.classes))
+        if chosen is None:
+            where = f"{self._path}: " if self._path is not None else ""
+            raise InvalidValueError(
+                f"{where}no target class given and the domain names none; expected one of: {classes}"
+            )
+        if chosen not in self.classes:
+            raise InvalidValueError(f"unknown class; expected one of: {classes}")
+        return chosen
+
+
+def _check_sensor(sensor: DetectorSettings) -> None:
     if sensor.view % 2 == 0:
         raise FieldError(
             ("search", "sensor", "view"),

@@ -13,7 +13,7 @@ Equations (numbering of the paper)::
 Reading of Eq. 3 (the extracted text is ambiguous about heights): the primary class n is at height
 h = 1, its parent at h = 2, ..., the lowest common ancestor (LCA) of n and the target class at
 h = H_n. ``W_1 = 1`` ("the first postulate considers object instances"), and for h >= 2, ``W_h`` is
-the number of child *classes* of the node at height h -- the target's own class counts as a child.
+the number of child *classes* of the node at height h; the target's own class counts as a child.
 This is the reading that reproduces the worked example exactly: pillow -> bedding -> object gives
 H = 3, W = (1, 2, 4), psi = 1/8; computer -> computer_access (3 children: computer, fax, printer)
 gives H = 2, W = (1, 3), psi = 1/3; three books -> book_magazine -> object gives
@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 XI = 1.0
 """Fechner's constant xi of Eq. 2 (the paper uses 1)."""
@@ -53,6 +54,18 @@ class PsiTerm:
     @property
     def height(self) -> int:
         return len(self.path)
+
+    def as_json(self) -> dict[str, Any]:
+        """The term as plain JSON data: ``class`` is the primary class, ``height`` is H."""
+        return {
+            "room": self.room,
+            "class": self.primary,
+            "count": self.count,
+            "lca": self.lca,
+            "height": self.height,
+            "weights": list(self.weights),
+            "psi": self.psi,
+        }
 
 
 @dataclass(frozen=True)
@@ -94,6 +107,19 @@ class RoomPrior:
                 "(cautious consequences)"
             )
         return "; ".join(parts) or None
+
+    def as_json(self) -> dict[str, Any]:
+        """The prior as plain JSON data (the stable interface for scripts), with its psi terms."""
+        return {
+            "rooms": list(self.rooms),
+            "alpha": self.alpha,
+            "prior": self.prior,
+            "target": self.target,
+            "uniform": self.uniform,
+            "floored": list(self.floored),
+            "answer_sets": self.models,
+            "terms": [term.as_json() for term in self.terms],
+        }
 
 
 def children(parents: Mapping[str, str]) -> dict[str, list[str]]:

@@ -1,8 +1,8 @@
-"""Grounding and solving a domain's knowledge base with clingo -- the only module that imports clingo.
+"""Grounding and solving a domain's knowledge base with clingo: the only module that imports clingo.
 
 The program is ``kb/axioms.lp`` + the domain's own ``.lp`` files + any extra files, and the domain's
 facts. Facts reach clingo as symbols: each kind of fact is a parametrised program part
-(``#program is_fact(o, c). is(o, c).``) grounded with :func:`clingo.Function` arguments -- nothing
+(``#program is_fact(o, c). is(o, c).``) grounded with :func:`clingo.Function` arguments; nothing
 from a domain file is ever pasted into program text.
 
 Revision (multi-shot solving): every (object, room, step) has an external atom ``observed(O, R, I)``
@@ -19,10 +19,11 @@ import time
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import clingo
 
-from beliefloc.errors import KnowledgeBaseError
+from beliefloc.errors import InvalidValueError, KnowledgeBaseError
 from beliefloc.knowledge.answer import AnswerSet, Literal, Timings
 from beliefloc.knowledge.domain import Domain
 from beliefloc.knowledge.prior import DEFAULT_FLOOR, RoomPrior, room_prior
@@ -69,8 +70,48 @@ class Observation:
     cls: str | None = None
     step: int | None = None
 
+    @classmethod
+    def parse(cls, text: str) -> Observation:
+        """``OBJECT=ROOM`` (an object the domain knows) or ``OBJECT:CLASS=ROOM`` (a new object), at
+        the last step; raises :class:`InvalidValueError` for any other text (the message says what
+        to write; the caller names the text it was given)."""
+        what, sep, room = text.partition("=")
+        obj, _, class_ = what.partition(":")
+        if not sep or not obj.strip() or not room.strip():
+            raise InvalidValueError("write OBJECT=ROOM or OBJECT:CLASS=ROOM, e.g. book5=kitchen")
+        return cls(obj.strip(), room.strip(), class_.strip() or None)
+
     def describe(self, step: int) -> str:
         return f"holds(in({self.obj},{self.room}),{self.step or step})"
+
+
+@dataclass(frozen=True)
+class KnowledgeBaseSummary:
+    """What checking a knowledge base found: it is consistent (else :meth:`KnowledgeBase.answer`
+    raised), with its files, its answer set, clingo's warnings and timings."""
+
+    domain: str
+    """The domain's name."""
+    files: tuple[Path, ...]
+    answer: AnswerSet
+    warnings: tuple[str, ...] = ()
+
+    def as_json(self) -> dict[str, Any]:
+        """The summary as plain JSON data (the stable interface for scripts): counts, not lists."""
+        answer = self.answer
+        return {
+            "domain": self.domain,
+            "files": [str(f) for f in self.files],
+            "consistent": True,
+            "answer_sets": answer.models,
+            "rooms": len(answer.rooms),
+            "classes": len(answer.classes),
+            "objects": len(answer.members),
+            "located": len(answer.located()),
+            "ground_seconds": answer.timings.ground,
+            "solve_seconds": answer.timings.solve,
+            "warnings": list(self.warnings),
+        }
 
 
 def _fn(name: str, *args: clingo.Symbol) -> clingo.Symbol:
@@ -117,7 +158,7 @@ class KnowledgeBase:
         for observation in observations:
             self.observe(observation)
 
-    # -- grounding ----------------------------------------------------------------------------
+    # grounding
     def _log(self, code: clingo.MessageCode, message: str) -> None:
         text = message.strip()
         if code == clingo.MessageCode.RuntimeError:
@@ -193,7 +234,7 @@ class KnowledgeBase:
                 parts.append(("robot_carried_fact", []))
         return parts
 
-    # -- solving ------------------------------------------------------------------------------
+    # solving
     def answer(self) -> AnswerSet:
         """The answer set (or the cautious consequences of several); raises when there is none."""
         if self._answer is None:
@@ -218,7 +259,7 @@ class KnowledgeBase:
             )
         return _to_answer(texts, list(self.domain.rooms), self.domain.steps, models, self.timings)
 
-    # -- revision -----------------------------------------------------------------------------
+    # revision
     def observe(self, observation: Observation) -> bool:
         """Add an observed fact and re-solve; returns whether it was new.
 
@@ -276,10 +317,15 @@ class KnowledgeBase:
 
     def prior(self, target: str, *, floor: float = DEFAULT_FLOOR) -> RoomPrior:
         """Eq. 2-5 from the current answer set, for ``target`` (a class)."""
-        return prior_from_answer(self.answer(), target, floor=floor)
+        return room_prior_from_answer(self.answer(), target, floor=floor)
+
+    def summary(self) -> KnowledgeBaseSummary:
+        """Solve (raising when the knowledge base is inconsistent) and say what was found."""
+        answer = self.answer()
+        return KnowledgeBaseSummary(self.domain.name, tuple(self.files), answer, tuple(self.warnings))
 
 
-def prior_from_answer(answer: AnswerSet, target: str, *, floor: float = DEFAULT_FLOOR) -> RoomPrior:
+def room_prior_from_answer(answer: AnswerSet, target: str, *, floor: float = DEFAULT_FLOOR) -> RoomPrior:
     """The room prior for ``target`` from the objects located at the answer set's last step."""
     if target not in answer.classes:
         shown = ", ".join(sorted(answer.classes))

@@ -22,9 +22,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
+from beliefloc.errors import InvalidValueError
 from beliefloc.knowledge.answer import AnswerSet
 
 ROBOT = "robot"
@@ -71,6 +73,44 @@ class RobotPrior:
         return "; ".join(parts) or None
 
 
+@dataclass(frozen=True)
+class DomainRobotPrior:
+    """A domain's robot prior with what is shown beside it: the cells of each region on the
+    domain's map, the step it is read at, and what a user should be warned about."""
+
+    prior: RobotPrior
+    cells: dict[str, int] | None
+    """Region -> free cells of the domain's map (:data:`OUTSIDE` for those in no room); None
+    when the domain references no map."""
+    step: int
+    """The answer set's step the prior is read at (its last)."""
+    warnings: tuple[str, ...] = ()
+    """clingo's warnings and :attr:`RobotPrior.message`, in that order."""
+
+    def as_json(self) -> dict[str, Any]:
+        """The record as plain JSON data (the stable interface for scripts)."""
+        return {
+            "rooms": list(self.prior.rooms),
+            "prior": self.prior.prior,
+            "robot_in": list(self.prior.believed),
+            "weight": self.prior.weight,
+            "uniform": self.prior.uniform,
+            "cells": self.cells,
+            "answer_sets": self.prior.models,
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class RobotStartBelief:
+    """A start belief over a model's states from the robot's room prior (:func:`spread_over_states`)."""
+
+    belief: np.ndarray
+    """``belief[s]``: probability of state s; sums to 1."""
+    prior: RobotPrior
+    warnings: tuple[str, ...] = ()
+    """clingo's warnings and :attr:`RobotPrior.message`, in that order."""
+
+
 def robot_rooms(answer: AnswerSet, step: int | None = None) -> tuple[str, ...]:
     """The rooms R with ``holds(in(robot, R), step)`` (default: the last step), in room order."""
     located = {
@@ -80,6 +120,14 @@ def robot_rooms(answer: AnswerSet, step: int | None = None) -> tuple[str, ...]:
     }
     ordered = [room for room in answer.rooms if room in located]
     return (*ordered, *sorted(located - set(ordered)))
+
+
+def check_weight(weight: float) -> float:
+    """``weight`` itself when it is a weight w of the rule: in (0, 1] (at 0 the rooms the knowledge
+    base names would get nothing). Raises :class:`InvalidValueError` otherwise."""
+    if not 0.0 < weight <= 1.0:
+        raise InvalidValueError(f"the weight w must be in (0, 1], got {weight:g}")
+    return weight
 
 
 def robot_room_prior(
@@ -92,16 +140,15 @@ def robot_room_prior(
 ) -> RobotPrior:
     """The rule of the module docstring over ``rooms`` (plus :data:`OUTSIDE` when ``outside``).
 
-    Raises ValueError for no rooms, a weight outside (0, 1], or a believed room that is not one of
-    ``rooms``.
+    Raises :class:`InvalidValueError` for no rooms, a weight outside (0, 1] (:func:`check_weight`),
+    or a believed room that is not one of ``rooms``.
     """
     if not rooms:
-        raise ValueError("no rooms: a prior over rooms needs at least one")
-    if not 0.0 < weight <= 1.0:
-        raise ValueError(f"the weight w must be in (0, 1], got {weight:g}")
+        raise InvalidValueError("no rooms: a prior over rooms needs at least one")
+    check_weight(weight)
     unknown = [room for room in believed if room not in rooms]
     if unknown:
-        raise ValueError(
+        raise InvalidValueError(
             f"the knowledge base puts the robot in {', '.join(unknown)}, which is not a room of: {', '.join(rooms)}"
         )
     regions = (*rooms, OUTSIDE) if outside else tuple(rooms)
@@ -113,7 +160,7 @@ def robot_room_prior(
     return RobotPrior(regions, prior, tuple(believed), weight, models)
 
 
-def prior_from_answer(answer: AnswerSet, *, weight: float = DEFAULT_WEIGHT, outside: bool = False) -> RobotPrior:
+def robot_prior_from_answer(answer: AnswerSet, *, weight: float = DEFAULT_WEIGHT, outside: bool = False) -> RobotPrior:
     """:func:`robot_room_prior` over the answer set's rooms, for the rooms it puts the robot in."""
     return robot_room_prior(answer.rooms, robot_rooms(answer), weight=weight, outside=outside, models=answer.models)
 
@@ -122,8 +169,9 @@ def spread_over_states(prior: RobotPrior, room_states: Mapping[str, np.ndarray],
     """The start belief: each room's probability spread uniformly over its states.
 
     ``room_states`` maps every room of the map to its state indices (disjoint); the states in no
-    room are :data:`OUTSIDE`. Raises ValueError when a room of the prior has no states, or when
-    the map has states in no room that the prior has no share for (or the other way round).
+    room are :data:`OUTSIDE`. Raises :class:`InvalidValueError` when a room of the prior has no
+    states, or when the map has states in no room that the prior has no share for (or the other way
+    round).
     """
     belief = np.zeros(n_states)
     covered = np.zeros(n_states, dtype=bool)
@@ -134,11 +182,11 @@ def spread_over_states(prior: RobotPrior, room_states: Mapping[str, np.ndarray],
         states = outside if room == OUTSIDE else room_states.get(room, np.zeros(0, dtype=np.int64))
         if len(states) == 0:
             where = "no free cell in no room" if room == OUTSIDE else f"no cells for room {room!r}"
-            raise ValueError(f"the map has {where}, but the robot's prior gives it {prior.prior[room]:.3g}")
+            raise InvalidValueError(f"the map has {where}, but the robot's prior gives it {prior.prior[room]:.3g}")
         belief[states] = prior.prior[room] / len(states)
     if len(outside) and OUTSIDE not in prior.rooms:
-        raise ValueError(f"{len(outside)} states are in no room, but the robot's prior has no share for them")
+        raise InvalidValueError(f"{len(outside)} states are in no room, but the robot's prior has no share for them")
     extra = [room for room in room_states if room not in prior.prior]
     if extra:
-        raise ValueError(f"the map's rooms {', '.join(extra)} are not rooms of the knowledge base")
+        raise InvalidValueError(f"the map's rooms {', '.join(extra)} are not rooms of the knowledge base")
     return belief

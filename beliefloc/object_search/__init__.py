@@ -3,12 +3,16 @@ prior and kept observation likelihoods, and metareasoning about whether the targ
 
 One algorithm or role per module:
 
-* ``world``: the search space (cells, rooms, sparse views) and the simulated world (target, objects);
+* ``settings``: the vocabulary (metareasoning, revisions, policy names) and the checks of a search's
+  values; no numeric imports, so the command line can offer the names without loading numpy;
+* ``space``: the robot's model, the search space (cells, rooms, sparse views) on a plane of rooms;
+  ``map_space``: the same on a semantic map; ``domain_space``: ``search_space(domain)``, either one;
+* ``world``: the simulated world (where every object is, the target's and the objects' detectors);
 * ``posterior``: Eq. 6-7, the cell belief, its revision (re-use, discard, trust factors);
 * ``existence``: Eq. 8-14, the Beta metareasoning and its three approximations;
 * ``policy``: which view to analyse next (``pomdp``, ``greedy``, ``pomdp-only``);
 * ``dynamic``: Algorithm 1 lines 7-10, objects seen during the search committed to the knowledge base;
 * ``loop``: Algorithm 1 itself (``run_search``, ``seeded_search``);
-* ``trials``: simulated ground truths and the robot's partial knowledge (pure, seeded);
+* ``trials``: the random streams of paired trials and the robot's partial knowledge (pure, seeded);
 * ``experiment``: paired trials over arms and their summary (``run_trials``, ``summarize``).
 """

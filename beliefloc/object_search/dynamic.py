@@ -5,9 +5,9 @@ While it looks for the target, the robot's detector also looks for the other obj
 know the room of (the same detector, the same rates, in the same views). For each such object the
 robot keeps a belief over cells exactly as for the target (Eq. 6-7 with a uniform prior over all
 cells); summed per room, it says how likely the object is in each room. When that exceeds the
-*commit threshold* (:data:`COMMIT_THRESHOLD` = 0.9) for a room the robot can enter, the hypothesis
-is "elevated from being associated with a high probability to being associated with complete
-certainty" (Sec. III-C2): ``in(object, room)`` is committed to the knowledge base
+*commit threshold* (:data:`~beliefloc.object_search.settings.COMMIT_THRESHOLD` = 0.9) for a room
+the robot can enter, the hypothesis is "elevated from being associated with a high probability to
+being associated with complete certainty" (Sec. III-C2): ``in(object, room)`` is committed to the knowledge base
 (:meth:`KnowledgeBase.observe <beliefloc.knowledge.KnowledgeBase.observe>`), which is solved
 again; the new answer set gives a new room prior for the target (Eq. 5), and the loop revises the
 cell belief with it (:meth:`CellBelief.revise <beliefloc.object_search.posterior.CellBelief.revise>`).
@@ -17,12 +17,13 @@ there is ever in view, so only elimination could put mass there.
 Roles: :class:`ObjectTracker` is the robot's (pure numpy), :class:`SimulatedObjects
 <beliefloc.object_search.world.SimulatedObjects>` the world's, and a :class:`KnowledgeLink` the
 knowledge base's -- :class:`KbLink` wraps a :class:`~beliefloc.knowledge.KnowledgeBase` (clingo is
-imported only by whoever builds one).
+imported only by whoever builds one). :func:`objects_dynamic` puts the three together for one
+search, and :func:`dynamic_factory` does it for a single seeded search on a domain.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Protocol
 
@@ -30,13 +31,13 @@ import numpy as np
 
 from beliefloc.errors import KnowledgeBaseError
 from beliefloc.object_search.posterior import Detector
-from beliefloc.object_search.world import SearchSpace, SimulatedObjects
+from beliefloc.object_search.settings import COMMIT_THRESHOLD, check_commit_threshold
+from beliefloc.object_search.space import SearchSpace
+from beliefloc.object_search.world import SimulatedObjects, place_objects, typical_rooms
 
 if TYPE_CHECKING:
     from beliefloc.knowledge import KnowledgeBase
-
-COMMIT_THRESHOLD = 0.9
-"""An object's belief of being in one room above which ``in(object, room)`` is committed to the KB."""
+    from beliefloc.knowledge.domain import Domain
 
 
 @dataclass
@@ -58,8 +59,7 @@ class ObjectTracker:
     """``active[j]``: object j is still tracked (not committed yet)."""
 
     def __post_init__(self) -> None:
-        if not 0.5 < self.threshold < 1.0:
-            raise ValueError(f"the commit threshold must be in (0.5, 1), got {self.threshold}")
+        check_commit_threshold(self.threshold)
         if self.log_likelihood.shape != (len(self.names), len(self.room_of_cell)):
             self.log_likelihood = np.zeros((len(self.names), len(self.room_of_cell)))
         if len(self.active) != len(self.names):
@@ -171,3 +171,49 @@ class KbLink:
             self.cache[key] = cached
         self.committed.append(fact)
         return cached.copy()
+
+
+DynamicFactory = Callable[[np.random.Generator, np.random.Generator], DynamicKnowledge]
+"""Builds the dynamic-KB parts of one search from two generators: one to place the other objects,
+one for their detections."""
+
+
+def objects_dynamic(
+    space: SearchSpace,
+    cells: Mapping[str, int],
+    names: Sequence[str],
+    link: KnowledgeLink,
+    detect_rng: np.random.Generator,
+    *,
+    threshold: float = COMMIT_THRESHOLD,
+    world_detector: Detector | None = None,
+) -> DynamicKnowledge:
+    """The dynamic-KB parts of one search: the robot tracks ``names``, which stand on ``cells`` (object ->
+    cell) in the world and are detected with ``detect_rng`` (at ``world_detector``'s rates; None: the
+    robot's model's); commits go through ``link``."""
+    where = np.array([cells[name] for name in names], dtype=int)
+    return DynamicKnowledge(
+        ObjectTracker.for_space(space, names, threshold),
+        SimulatedObjects(tuple(names), where, world_detector or space.detector, detect_rng),
+        link,
+    )
+
+
+def dynamic_factory(
+    domain: Domain, space: SearchSpace, kb: KnowledgeBase, target: str, *, threshold: float = COMMIT_THRESHOLD
+) -> DynamicFactory:
+    """The dynamic KB of a single seeded search on ``domain``: the domain's
+    objects are placed in the world (:func:`~beliefloc.object_search.world.place_objects`; the target
+    is another, anonymous instance), the robot tracks those the domain gives no room, and commits go
+    to ``kb``, whose room prior of ``target`` the search starts from. Solves clingo once here, for
+    the objects' typical rooms."""
+    check_commit_threshold(threshold)
+    typical = typical_rooms(domain)
+    names = [name for name, obj in domain.objects.items() if obj.room is None]
+
+    def factory(place_rng: np.random.Generator, detect_rng: np.random.Generator) -> DynamicKnowledge:
+        _, cells = place_objects(domain, space, typical, place_rng)
+        link = KbLink(lambda: kb, target, space.rooms)
+        return objects_dynamic(space, cells, names, link, detect_rng, threshold=threshold)
+
+    return factory

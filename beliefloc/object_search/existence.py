@@ -10,7 +10,8 @@ detection ``o`` multiplies the kept likelihoods (Eq. 12) by (Eq. 9)::
 
 with ``b`` the cell belief assuming the target exists. For one θ the posterior is (Eq. 11, in closed
 form over the whole sequence) ``p_θ(E | o) = θ L_E / (θ L_E + (1 - θ) L_¬E)``, and Eq. 10 averages it
-over the Beta. Three approximations:
+over the Beta. Three approximations (:class:`~beliefloc.object_search.settings.Metareasoning`; its
+``none`` is no metareasoning at all):
 
 * ``expectation``: θ = α' / (α' + β'), the Beta's mean;
 * ``upper-bound``: θ = the Beta's ``value_ub`` quantile (0.9 in the paper);
@@ -23,24 +24,18 @@ current samples' ``p_j(¬E | o)``; N is capped (``max_samples``) because it dive
 
 from __future__ import annotations
 
-import enum
 import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from beliefloc.errors import InvalidValueError
+from beliefloc.object_search.settings import Metareasoning
+
 Z_90 = 1.645
 VALUE_UB = 0.9
 DEFAULT_SAMPLES = 100
 MAX_SAMPLES = 20_000
-
-
-class ExistenceStrategy(enum.Enum):
-    EXPECTATION = "expectation"
-    UPPER_BOUND = "upper-bound"
-    SAMPLING = "sampling"
-    NONE = "none"
-    """No metareasoning: the target is assumed to exist (the paper's baseline)."""
 
 
 def detection_likelihoods(
@@ -66,11 +61,11 @@ def posterior_existence(theta: np.ndarray | float, log_like_e: float, log_like_n
 
 @dataclass
 class ExistenceBelief:
-    """The kept sequence likelihoods given E and ¬E (Eq. 12) and the chosen approximation."""
+    """The kept sequence likelihoods given E and ¬E (Eq. 12) and the chosen approximation (``metareasoning``)."""
 
     alpha: float
     beta: float
-    strategy: ExistenceStrategy = ExistenceStrategy.EXPECTATION
+    metareasoning: Metareasoning = Metareasoning.EXPECTATION
     tau_minus: float = 0.7
     value_ub: float = VALUE_UB
     rng: np.random.Generator | None = None
@@ -83,16 +78,16 @@ class ExistenceBelief:
 
     def __post_init__(self) -> None:
         if not (self.alpha > 0 and self.beta > 0):
-            raise ValueError("the Beta's parameters must be positive")
-        if self.strategy is ExistenceStrategy.SAMPLING:
+            raise InvalidValueError("the Beta's parameters must be positive")
+        if self.metareasoning is Metareasoning.SAMPLING:
             if self.rng is None:
-                raise ValueError("the sampling strategy needs a seeded numpy Generator")
+                raise InvalidValueError("sampling metareasoning needs a seeded numpy Generator")
             self.samples = self.rng.beta(self.alpha, self.beta, size=self.initial_samples)
 
     @property
     def theta(self) -> float:
-        """The single prior P(E) of the expectation and upper-bound strategies."""
-        if self.strategy is ExistenceStrategy.UPPER_BOUND:
+        """The single prior P(E) of the expectation and upper-bound approximations."""
+        if self.metareasoning is Metareasoning.UPPER_BOUND:
             key = (self.alpha, self.beta, self.value_ub)
             if self._quantile is None or self._quantile[0] != key:  # the quantile costs ~0.1 ms: once per search
                 from scipy.stats import beta  # lazy: scipy.stats is slow to import
@@ -105,14 +100,14 @@ class ExistenceBelief:
         """Eq. 12: one more detection's likelihoods given E and ¬E."""
         self.log_like_e += math.log(like_e) if like_e > 0 else -math.inf
         self.log_like_not_e += math.log(like_not_e) if like_not_e > 0 else -math.inf
-        if self.strategy is ExistenceStrategy.SAMPLING:
+        if self.metareasoning is Metareasoning.SAMPLING:
             self._resample()
 
     def probability_exists(self) -> float:
-        """Eq. 10 under the chosen approximation (1 for the ``none`` strategy)."""
-        if self.strategy is ExistenceStrategy.NONE:
+        """Eq. 10 under the chosen approximation (1 without metareasoning, ``none``)."""
+        if self.metareasoning is Metareasoning.NONE:
             return 1.0
-        if self.strategy is ExistenceStrategy.SAMPLING:
+        if self.metareasoning is Metareasoning.SAMPLING:
             return float(posterior_existence(self.samples, self.log_like_e, self.log_like_not_e).mean())
         return float(posterior_existence(self.theta, self.log_like_e, self.log_like_not_e))
 

@@ -1,10 +1,10 @@
 """Paired object-search trials (Zhang, Sridharan & Wyatt 2015, Sec. IV-A): every arm -- a policy, a
-metareasoning strategy, a static or dynamic knowledge base, a revision -- on the same seeded worlds,
+metareasoning, a static or dynamic knowledge base, a revision -- on the same seeded worlds,
 targets, knowledge and noise. Records are plain data; :func:`summarize` computes the statistics.
 
 One trial ``t`` of a run seeded ``s`` (streams: :func:`~beliefloc.object_search.trials.trial_rng`):
 
-1. the ground truth and the target (:func:`~beliefloc.object_search.trials.sample_world`); absent
+1. the ground truth and the target (:func:`~beliefloc.object_search.world.sample_world`); absent
    with probability ``absent_fraction``;
 2. the robot's knowledge: a fraction ``knowledge`` of the other objects' true rooms; its knowledge
    base (clingo) and the target class's room prior (Eq. 2-5), with or without the domain's defaults;
@@ -17,20 +17,20 @@ This module builds knowledge bases, so it reads ``kb/*.lp`` through clingo; it p
 The API for benchmarks::
 
     from beliefloc.knowledge import load_domain
-    from beliefloc.object_search.existence import ExistenceStrategy
     from beliefloc.object_search.experiment import Arm, TrialSettings, run_trials, summarize
-    from beliefloc.object_search.posterior import Revision
-    arms = [Arm("pomdp", ExistenceStrategy.NONE),                        # static KB (H2)
-            Arm("pomdp", ExistenceStrategy.NONE, dynamic_kb=True),       # dynamic KB
-            Arm("pomdp", ExistenceStrategy.NONE, Revision.TRUST)]        # trust factors
+    from beliefloc.object_search.settings import Metareasoning, Revision
+    arms = [Arm("pomdp", Metareasoning.NONE),                        # static KB (H2)
+            Arm("pomdp", Metareasoning.NONE, dynamic_kb=True),       # dynamic KB
+            Arm("pomdp", Metareasoning.NONE, Revision.TRUST)]        # trust factors
     records = run_trials(load_domain("domains/home.yaml"), arms, trials=100, seed=0,
                          settings=TrialSettings(knowledge=0.2, defaults=False))
-    summarize(records)["pomdp/none/dynamic/reuse"]["mean_accuracy"]
+    summarize(records)["pomdp/none/dynamic/reuse"].mean_accuracy
     [o.error_cells for r in records for o in r.outcomes if o.arm == arms[1].name]   # for a CDF
 
 ``TrialRecord.outcomes`` are in the order of ``arms``; cells are indices into the search space
-(``search_space(domain).cell_name(i)`` names them). An arm may set its own time limit, τ+, τ-, Beta
-and trust factors (``Arm("pomdp", ExistenceStrategy.NONE, time_limit=60)``), so arms differing only
+(``search_space(domain).cell_name(i)`` names them, :mod:`beliefloc.object_search.domain_space`).
+Each record gives its JSON form (``as_json``). An arm may set its own time limit, τ+, τ-, Beta
+and trust factors (``Arm("pomdp", Metareasoning.NONE, time_limit=60)``), so arms differing only
 in them share a trial's knowledge base; ``TrialSettings(world_detector=...)`` makes the world
 noisier than the robot's model; :func:`room_hit` and :func:`trial_world` serve the paper benchmark
 (``benchmarks/bench_search_paper.py``).
@@ -40,36 +40,32 @@ from __future__ import annotations
 
 import statistics
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from beliefloc.errors import InvalidValueError
 from beliefloc.knowledge.domain import Domain
-from beliefloc.object_search.dynamic import (
-    COMMIT_THRESHOLD,
-    DynamicKnowledge,
-    KbLink,
-    KnowledgeLink,
-    ObjectTracker,
-    PriorCache,
-)
-from beliefloc.object_search.existence import ExistenceBelief, ExistenceStrategy
-from beliefloc.object_search.loop import run_search
+from beliefloc.object_search.domain_space import search_space
+from beliefloc.object_search.dynamic import KbLink, PriorCache, objects_dynamic
+from beliefloc.object_search.existence import ExistenceBelief
+from beliefloc.object_search.loop import Verdict, run_search
 from beliefloc.object_search.policy import POLICIES
-from beliefloc.object_search.posterior import Detector, Revision, TrustFactor
-from beliefloc.object_search.trials import (
-    P_TYPICAL,
-    Stream,
-    World,
-    robot_domain,
-    sample_known,
-    sample_world,
-    trial_rng,
-    unknown_objects,
+from beliefloc.object_search.posterior import Detector, TrustFactor
+from beliefloc.object_search.settings import (
+    COMMIT_THRESHOLD,
+    Metareasoning,
+    Revision,
+    check_commit_threshold,
+    check_fraction,
+    check_time_limit,
+    wall_clock,
 )
-from beliefloc.object_search.world import SearchSpace, SimulatedObjects, SimulatedTarget, search_space
+from beliefloc.object_search.space import SearchSpace
+from beliefloc.object_search.trials import Stream, robot_domain, sample_known, trial_rng, unknown_objects
+from beliefloc.object_search.world import P_TYPICAL, SimulatedTarget, World, sample_world, typical_rooms
 
 
 @dataclass(frozen=True)
@@ -77,7 +73,8 @@ class Arm:
     """One way of searching, compared with the others on the same trials."""
 
     policy: str
-    strategy: ExistenceStrategy = ExistenceStrategy.EXPECTATION
+    """A name of :data:`~beliefloc.object_search.policy.POLICIES`."""
+    metareasoning: Metareasoning = Metareasoning.EXPECTATION
     revision: Revision = Revision.REUSE
     dynamic_kb: bool = False
     time_limit: float | None = None
@@ -93,7 +90,7 @@ class Arm:
 
     def __post_init__(self) -> None:
         if self.policy not in POLICIES:
-            raise ValueError(f"unknown policy {self.policy!r}; expected one of: {', '.join(POLICIES)}")
+            raise InvalidValueError(f"unknown policy {self.policy!r}; expected one of: {', '.join(POLICIES)}")
 
     def overrides(self) -> dict[str, float]:
         """The search parameters this arm sets itself (keys of :func:`search_parameters`)."""
@@ -108,14 +105,29 @@ class Arm:
 
     @property
     def name(self) -> str:
-        """``policy/strategy/static|dynamic/revision``, e.g. ``pomdp/expectation/static/reuse``, then
+        """``policy/metareasoning/static|dynamic/revision``, e.g. ``pomdp/expectation/static/reuse``, then
         ``@key=value`` for each parameter the arm sets itself, e.g. ``pomdp/none/static/reuse@time_limit=60``."""
-        name = f"{self.policy}/{self.strategy.value}/{'dynamic' if self.dynamic_kb else 'static'}/{self.revision.value}"
+        name = f"{self.policy}/{self.metareasoning.value}/{self.kb}/{self.revision.value}"
         for key, value in self.overrides().items():
             name += f"@{key}={value:g}"
         if self.trust is not None:
             name += f"@trust={self.trust.weight:g},{self.trust.r:g}"
         return name
+
+    @property
+    def kb(self) -> str:
+        """``dynamic`` or ``static``: whether the arm commits what it sees to its knowledge base."""
+        return "dynamic" if self.dynamic_kb else "static"
+
+    def as_json(self) -> dict[str, Any]:
+        """The arm as JSON (``strategy``: the metareasoning, the key's historical name)."""
+        return {
+            "name": self.name,
+            "policy": self.policy,
+            "strategy": self.metareasoning.value,
+            "kb": self.kb,
+            "revision": self.revision.value,
+        }
 
 
 @dataclass(frozen=True)
@@ -146,9 +158,24 @@ class TrialSettings:
 
     def __post_init__(self) -> None:
         for name in ("knowledge", "absent_fraction", "p_typical"):
-            value = getattr(self, name)
-            if not 0.0 <= value <= 1.0:
-                raise ValueError(f"{name} must be in [0, 1], got {value}")
+            check_fraction(name, getattr(self, name))
+        check_commit_threshold(self.commit_threshold)
+        if self.time_limit is not None:
+            check_time_limit(self.time_limit)
+
+    def as_json(self, domain: Domain) -> dict[str, Any]:
+        """The settings as JSON, with the search parameters they
+        give on ``domain`` (:func:`search_parameters`)."""
+        return {
+            "knowledge": self.knowledge,
+            "defaults": self.defaults,
+            "absent_fraction": self.absent_fraction,
+            "target": self.target,
+            "p_typical": self.p_typical,
+            "commit_threshold": self.commit_threshold,
+            "trust": {"weight": self.trust.weight, "r": self.trust.r},
+            **search_parameters(domain, self),
+        }
 
 
 @dataclass(frozen=True)
@@ -156,8 +183,7 @@ class ArmOutcome:
     """One arm's search in one trial."""
 
     arm: str
-    verdict: str
-    """``found``, ``not-found`` or ``time-limit``."""
+    verdict: Verdict
     time: float
     """Localisation time in simulation units (travel + analysis)."""
     steps: int
@@ -169,6 +195,20 @@ class ArmOutcome:
     """``(object, room)`` facts committed to the knowledge base (dynamic arms)."""
     seconds: float
     """Wall-clock time of the search."""
+
+    def as_json(self, space: SearchSpace, *, timings: bool = True) -> dict[str, Any]:
+        """The outcome as JSON (without ``arm``, its key in the trial's ``outcomes``); cells
+        named by ``space``; ``seconds`` None without ``timings``."""
+        return {
+            "verdict": self.verdict.value,
+            "time": self.time,
+            "steps": self.steps,
+            "reported_cell": None if self.reported_cell is None else space.cell_name(self.reported_cell),
+            "error_cells": self.error_cells,
+            "accuracy": self.accuracy,
+            "commits": [list(fact) for fact in self.commits],
+            "seconds": wall_clock(self.seconds, timings),
+        }
 
 
 @dataclass(frozen=True)
@@ -189,25 +229,80 @@ class TrialRecord:
     seconds: float
     """Wall-clock time of the whole trial (world, knowledge base, every arm)."""
 
+    def as_json(self, space: SearchSpace, *, timings: bool = True) -> dict[str, Any]:
+        """The trial as JSON: cells and rooms named by ``space``, the
+        outcomes by arm; wall-clock ``seconds`` None without ``timings``."""
+        return {
+            "trial": self.index,
+            "target": self.target,
+            "target_class": self.target_class,
+            "present": self.present,
+            "true_room": self.true_room,
+            "true_cell": None if self.true_cell is None else space.cell_name(self.true_cell),
+            "known": self.known,
+            "room_prior": dict(zip(space.rooms, self.room_prior, strict=True)),
+            "outcomes": {o.arm: o.as_json(space, timings=timings) for o in self.outcomes},
+            "seconds": wall_clock(self.seconds, timings),
+        }
 
-def typical_rooms(domain: Domain) -> dict[str, str]:
-    """Where the domain's defaults put each object (and where the file puts the others): the
-    ``in(O, R)`` the knowledge base holds at step 1, with the defaults. Solves clingo once."""
-    from beliefloc.knowledge import KnowledgeBase
 
-    return KnowledgeBase(domain, use_defaults=True).answer().located(step=1)
+@dataclass(frozen=True)
+class ArmSummary:
+    """One arm's statistics over paired trials (:func:`summarize`); a mean or spread is None when
+    there is nothing (or, for a standard deviation, one value) to compute it from."""
+
+    arm: str
+    trials: int
+    found: int
+    not_found: int
+    time_limit: int
+    """How many searches ended with each :class:`~beliefloc.object_search.loop.Verdict`."""
+    mean_time: float | None
+    stdev_time: float | None
+    median_time: float | None
+    """Localisation time in simulation units."""
+    mean_accuracy: float | None
+    stdev_accuracy: float | None
+    mean_error_cells: float | None
+    """Distance between the reported and the true cell, over the searches that have both."""
+    within_4_cells: int
+    """Searches that reported a cell within 4 cells of the target."""
+    mean_steps: float | None
+    mean_commits: float | None
+    mean_seconds: float | None
+    """Wall-clock seconds per search."""
+
+    def as_json(self, *, timings: bool = True) -> dict[str, Any]:
+        """The statistics as JSON (without ``arm``, their key
+        there); ``mean_seconds`` None without ``timings``."""
+        return {
+            "trials": self.trials,
+            "found": self.found,
+            "not_found": self.not_found,
+            "time_limit": self.time_limit,
+            "mean_time": self.mean_time,
+            "stdev_time": self.stdev_time,
+            "median_time": self.median_time,
+            "mean_accuracy": self.mean_accuracy,
+            "stdev_accuracy": self.stdev_accuracy,
+            "mean_error_cells": self.mean_error_cells,
+            "within_4_cells": self.within_4_cells,
+            "mean_steps": self.mean_steps,
+            "mean_commits": self.mean_commits,
+            "mean_seconds": wall_clock(self.mean_seconds, timings),
+        }
 
 
 def search_parameters(domain: Domain, settings: TrialSettings) -> dict[str, float]:
     """τ+, τ-, the time limit and the Beta's (α', β'): the settings', else the domain's ``search:``."""
-    spec = domain.search_settings
-    assert spec is not None  # search_space checked it
+    own = domain.search_settings
+    assert own is not None  # search_space checked it
     return {
-        "time_limit": spec.time_limit if settings.time_limit is None else settings.time_limit,
-        "tau_found": spec.tau_found if settings.tau_found is None else settings.tau_found,
-        "tau_absent": spec.tau_absent if settings.tau_absent is None else settings.tau_absent,
-        "alpha": spec.existence.alpha if settings.alpha is None else settings.alpha,
-        "beta": spec.existence.beta if settings.beta is None else settings.beta,
+        "time_limit": own.time_limit if settings.time_limit is None else settings.time_limit,
+        "tau_found": own.tau_found if settings.tau_found is None else settings.tau_found,
+        "tau_absent": own.tau_absent if settings.tau_absent is None else settings.tau_absent,
+        "alpha": own.existence.alpha if settings.alpha is None else settings.alpha,
+        "beta": own.existence.beta if settings.beta is None else settings.beta,
     }
 
 
@@ -237,8 +332,7 @@ def run_trial(
         return KnowledgeBase(robot, use_defaults=settings.defaults)
 
     first = make_kb()
-    prior = first.prior(world.target_class).prior
-    room_prior = np.array([prior[room] for room in space.rooms])
+    room_prior = space.over_rooms(first.prior(world.target_class).prior)
     spare = [first]  # the first dynamic arm to commit continues from this one
     cache: PriorCache = {}
     names = unknown_objects(domain, world, known)
@@ -271,7 +365,7 @@ def run_trial(
             ExistenceBelief(
                 own["alpha"],
                 own["beta"],
-                arm.strategy,
+                arm.metareasoning,
                 tau_minus=own["tau_absent"],
                 rng=trial_rng(seed, index, Stream.BETA_SAMPLES),
             ),
@@ -284,7 +378,7 @@ def run_trial(
         outcomes.append(
             ArmOutcome(
                 arm=arm.name,
-                verdict=record.verdict.value,
+                verdict=record.verdict,
                 time=record.time,
                 steps=len(record.steps),
                 reported_cell=record.reported_cell,
@@ -321,10 +415,10 @@ def run_trials(
     """Trials ``first .. first + trials - 1`` (a trial depends only on ``seed`` and its index, so a run
     can be split and its parts joined), every arm on each. ``on_trial`` is called after each trial."""
     if trials < 1 or not arms:
-        raise ValueError("need at least one trial and one arm")
+        raise InvalidValueError("need at least one trial and one arm")
     names = [arm.name for arm in arms]
     if len(set(names)) != len(names):
-        raise ValueError(f"the same arm twice: {', '.join(sorted(n for n in set(names) if names.count(n) > 1))}")
+        raise InvalidValueError(f"the same arm twice: {', '.join(sorted(n for n in set(names) if names.count(n) > 1))}")
     settings = settings or TrialSettings()
     space = search_space(domain)
     typical = typical_rooms(domain)
@@ -337,33 +431,34 @@ def run_trials(
     return records
 
 
-def summarize(records: Sequence[TrialRecord]) -> dict[str, dict[str, Any]]:
-    """Per arm: trials, verdict counts, localisation time (mean, standard deviation, median),
-    accuracy (mean, standard deviation), the error in cells of the reported cells, steps, commits,
-    and wall-clock seconds per search."""
-    out: dict[str, dict[str, Any]] = {}
+def summarize(records: Sequence[TrialRecord]) -> dict[str, ArmSummary]:
+    """Per arm, in the order the records first name them: trials, verdict counts, localisation time
+    (mean, standard deviation, median), accuracy (mean, standard deviation), the error in cells of the
+    reported cells, steps, commits, and wall-clock seconds per search (:class:`ArmSummary`)."""
+    out: dict[str, ArmSummary] = {}
     arms = list(dict.fromkeys(o.arm for r in records for o in r.outcomes))
     for arm in arms:
         mine = [o for r in records for o in r.outcomes if o.arm == arm]
         times = [o.time for o in mine]
         accuracies = [o.accuracy for o in mine]
         errors = [o.error_cells for o in mine if o.error_cells is not None]
-        out[arm] = {
-            "trials": len(mine),
-            "found": sum(o.verdict == "found" for o in mine),
-            "not_found": sum(o.verdict == "not-found" for o in mine),
-            "time_limit": sum(o.verdict == "time-limit" for o in mine),
-            "mean_time": _mean(times),
-            "stdev_time": _stdev(times),
-            "median_time": statistics.median(times) if times else None,
-            "mean_accuracy": _mean(accuracies),
-            "stdev_accuracy": _stdev(accuracies),
-            "mean_error_cells": _mean(errors),
-            "within_4_cells": sum(e <= 4.0 for e in errors),
-            "mean_steps": _mean([o.steps for o in mine]),
-            "mean_commits": _mean([len(o.commits) for o in mine]),
-            "mean_seconds": _mean([o.seconds for o in mine]),
-        }
+        out[arm] = ArmSummary(
+            arm=arm,
+            trials=len(mine),
+            found=sum(o.verdict is Verdict.FOUND for o in mine),
+            not_found=sum(o.verdict is Verdict.NOT_FOUND for o in mine),
+            time_limit=sum(o.verdict is Verdict.TIME_LIMIT for o in mine),
+            mean_time=_mean(times),
+            stdev_time=_stdev(times),
+            median_time=statistics.median(times) if times else None,
+            mean_accuracy=_mean(accuracies),
+            stdev_accuracy=_stdev(accuracies),
+            mean_error_cells=_mean(errors),
+            within_4_cells=sum(e <= 4.0 for e in errors),
+            mean_steps=_mean([o.steps for o in mine]),
+            mean_commits=_mean([len(o.commits) for o in mine]),
+            mean_seconds=_mean([o.seconds for o in mine]),
+        )
     return out
 
 
@@ -375,27 +470,6 @@ def _stdev(values: Sequence[float]) -> float | None:
     return statistics.stdev(values) if len(values) > 1 else None
 
 
-def objects_dynamic(
-    space: SearchSpace,
-    cells: Mapping[str, int],
-    names: Sequence[str],
-    link: KnowledgeLink,
-    detect_rng: np.random.Generator,
-    *,
-    threshold: float = COMMIT_THRESHOLD,
-    world_detector: Detector | None = None,
-) -> DynamicKnowledge:
-    """The dynamic-KB parts of one search: the robot tracks ``names``, which stand on ``cells`` (object ->
-    cell) in the world and are detected with ``detect_rng`` (at ``world_detector``'s rates; None: the
-    robot's model's); commits go through ``link``."""
-    where = np.array([cells[name] for name in names], dtype=int)
-    return DynamicKnowledge(
-        ObjectTracker.for_space(space, names, threshold),
-        SimulatedObjects(tuple(names), where, world_detector or space.detector, detect_rng),
-        link,
-    )
-
-
 def room_hit(room_prior: Sequence[float], true_room: int, k: int = 1) -> float:
     """ASP alone (Zhang et al. Sec. IV-A, H1, Fig. 4): the chance that room ``true_room`` (an index into
     ``room_prior``) is among the ``k`` rooms the prior ranks first, ties broken uniformly at random.
@@ -405,7 +479,7 @@ def room_hit(room_prior: Sequence[float], true_room: int, k: int = 1) -> float:
     ``k / n``, not whatever the order of the rooms in the file would give an ``argmax``."""
     prior = np.asarray(room_prior, dtype=float)
     if not 0 <= true_room < len(prior) or k < 1:
-        raise ValueError(f"need a room index in [0, {len(prior)}) and k >= 1, got {true_room} and {k}")
+        raise InvalidValueError(f"need a room index in [0, {len(prior)}) and k >= 1, got {true_room} and {k}")
     level = prior[true_room]
     above = int(np.sum(prior > level + 1e-12))
     tied = int(np.sum(np.abs(prior - level) <= 1e-12))

@@ -34,16 +34,19 @@ from __future__ import annotations
 
 import enum
 import math
-from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 
-from beliefloc.object_search.dynamic import DynamicKnowledge
-from beliefloc.object_search.existence import ExistenceBelief, ExistenceStrategy, detection_likelihoods
+from beliefloc.errors import InvalidValueError
+from beliefloc.object_search.dynamic import DynamicFactory, DynamicKnowledge
+from beliefloc.object_search.existence import ExistenceBelief, detection_likelihoods
 from beliefloc.object_search.policy import Policy
-from beliefloc.object_search.posterior import CellBelief, Revision, TrustFactor, spread_room_prior
-from beliefloc.object_search.world import SearchSpace, SimulatedTarget
+from beliefloc.object_search.posterior import CellBelief, TrustFactor, spread_room_prior
+from beliefloc.object_search.settings import Metareasoning, PolicyName, Revision, check_time_limit
+from beliefloc.object_search.space import SearchSpace
+from beliefloc.object_search.world import SimulatedTarget
 
 ACCURACY_SIGMA = 2.0
 """σ of the Gaussian accuracy fall-off, in cells."""
@@ -52,10 +55,15 @@ TAU_ABSENT = 0.7
 TIME_LIMIT = 100.0
 
 
-class Verdict(enum.Enum):
+class Verdict(str, enum.Enum):
+    """How a search ended (lines 14-16 of Algorithm 1, and the time limit)."""
+
     FOUND = "found"
+    """One cell's belief passed τ+: the target is there."""
     NOT_FOUND = "not-found"
+    """p(¬E) passed τ-: the target is probably not in the domain."""
     TIME_LIMIT = "time-limit"
+    """The time ran out; the most likely cell is reported."""
 
 
 @dataclass(frozen=True)
@@ -78,13 +86,27 @@ class Step:
     commits: tuple[tuple[str, str], ...] = ()
     """``(object, room)`` facts committed to the knowledge base at this step (dynamic KB)."""
 
+    def as_json(self, space: SearchSpace) -> dict[str, Any]:
+        """The step as JSON, cells named by ``space``."""
+        return {
+            "step": self.index,
+            "view": space.cell_name(self.view),
+            "observation": "present" if self.present else "absent",
+            "cost": self.cost,
+            "time": self.time,
+            "p_exists": self.p_exists,
+            "max_belief": self.best_belief,
+            "most_likely": space.cell_name(self.best_cell),
+            "commits": [list(fact) for fact in self.commits],
+        }
+
 
 @dataclass(frozen=True)
 class SearchRecord:
     """A whole search as plain data."""
 
-    policy: str
-    strategy: str
+    policy: PolicyName
+    metareasoning: Metareasoning
     steps: tuple[Step, ...]
     verdict: Verdict
     time: float
@@ -96,15 +118,46 @@ class SearchRecord:
     """Distance between the reported and the true cell, when both exist."""
     accuracy: float
     initial_belief: np.ndarray
-    revision: str = Revision.REUSE.value
+    revision: Revision = Revision.REUSE
     dynamic_kb: bool = False
     rejected: tuple[tuple[str, str], ...] = ()
     """Commits the knowledge base refused (it would have had no answer set)."""
+    room_prior: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    """The knowledge base's room prior the search was given (axis: the space's rooms)."""
+    seed: int | None = None
+    """The seed of :func:`seeded_search` (None: the generators were handed in)."""
 
     @property
     def commits(self) -> tuple[tuple[str, str], ...]:
         """Every fact committed to the knowledge base, in order."""
         return tuple(fact for step in self.steps for fact in step.commits)
+
+    def as_json(self, space: SearchSpace, *, domain: str, target: str) -> dict[str, Any]:
+        """The search as JSON (a caller adds the wall-clock ``seconds`` it measured): cells
+        named by ``space`` (:meth:`SearchSpace.cell_name`), the search of ``domain`` for ``target``.
+        The key ``strategy`` is the metareasoning (the name the JSON has always had)."""
+
+        def name(cell: int | None) -> str | None:
+            return None if cell is None else space.cell_name(cell)
+
+        return {
+            "domain": domain,
+            "target": target,
+            "policy": self.policy.value,
+            "strategy": self.metareasoning.value,
+            "revision": self.revision.value,
+            "dynamic_kb": self.dynamic_kb,
+            "seed": self.seed,
+            "room_prior": dict(zip(space.rooms, self.room_prior.tolist(), strict=True)),
+            "true_cell": name(self.true_cell),
+            "steps": [step.as_json(space) for step in self.steps],
+            "verdict": self.verdict.value,
+            "time": self.time,
+            "reported_cell": name(self.reported_cell),
+            "error_cells": self.error_cells,
+            "accuracy": self.accuracy,
+            "rejected_commits": [list(fact) for fact in self.rejected],
+        }
 
 
 def accuracy(space: SearchSpace, reported: int | None, true: int | None, sigma: float = ACCURACY_SIGMA) -> float:
@@ -162,8 +215,9 @@ def run_search(
     base (``pomdp-only``) ignores both. Deterministic given the generators of ``target``,
     ``existence`` and ``dynamic.objects``; ``dynamic`` is updated in place.
     """
-    if not 0 < tau_found < 1 or time_limit <= 0:
-        raise ValueError("tau_found must be in (0, 1) and time_limit positive")
+    if not 0 < tau_found < 1:
+        raise InvalidValueError(f"tau+ must be between 0 and 1 (exclusive), got {tau_found:g}")
+    check_time_limit(time_limit)
     uses_kb = policy.kb_prior
     pooled = revision is Revision.TRUST and uses_kb
     cells = CellBelief.start(initial_prior(space, room_prior, policy), (trust or TrustFactor()) if pooled else None)
@@ -230,7 +284,7 @@ def run_search(
         dynamic.rejected.extend(rejected)
     return SearchRecord(
         policy=policy.name,
-        strategy=existence.strategy.value,
+        metareasoning=existence.metareasoning,
         steps=tuple(steps),
         verdict=verdict,
         time=time,
@@ -239,15 +293,11 @@ def run_search(
         error_cells=error,
         accuracy=accuracy(space, reported, target.cell, sigma),
         initial_belief=start_belief,
-        revision=revision.value,
+        revision=revision,
         dynamic_kb=dynamic is not None and uses_kb,
         rejected=tuple(rejected),
+        room_prior=np.array(room_prior, dtype=float),
     )
-
-
-DynamicFactory = Callable[[np.random.Generator, np.random.Generator], DynamicKnowledge]
-"""Builds the dynamic-KB parts of one search from two generators: one to place the other objects,
-one for their detections."""
 
 
 def search_streams(seed: int) -> tuple[np.random.Generator, ...]:
@@ -260,7 +310,7 @@ def seeded_search(
     space: SearchSpace,
     room_prior: np.ndarray,
     policy: Policy,
-    strategy: ExistenceStrategy,
+    metareasoning: Metareasoning,
     *,
     seed: int,
     target_cell: int | None = None,
@@ -284,8 +334,8 @@ def seeded_search(
         target = SimulatedTarget(target_cell, space.detector, detect_rng)
     else:
         target = SimulatedTarget.at_random(space, place_rng, detect_rng)
-    existence = ExistenceBelief(alpha, beta, strategy, tau_minus=tau_absent, rng=beta_rng)
-    return run_search(
+    existence = ExistenceBelief(alpha, beta, metareasoning, tau_minus=tau_absent, rng=beta_rng)
+    record = run_search(
         space,
         room_prior,
         target,
@@ -298,3 +348,4 @@ def seeded_search(
         trust=trust,
         dynamic=None if dynamic is None else dynamic(objects_rng, objects_detect_rng),
     )
+    return replace(record, seed=seed)

@@ -2,8 +2,8 @@
 
 A domain that references a map (``map: ../maps/apartment.yaml``) takes its rooms' cells, its walls
 and its distances from the map instead of rectangles placed on a plane
-(:func:`~beliefloc.object_search.world.build_space`). :class:`MapSearchSpace` is a
-:class:`~beliefloc.object_search.world.SearchSpace`, so the loop, the policies, the trials and the
+(:func:`~beliefloc.object_search.space.build_space`). :class:`MapSearchSpace` is a
+:class:`~beliefloc.object_search.space.SearchSpace`, so the loop, the policies, the trials and the
 drawings use it unchanged. The choices:
 
 * **Cells** are the free cells of the map's rooms: the target is in a room, and the robot stands on
@@ -44,11 +44,11 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from beliefloc.errors import UsageError
+from beliefloc.errors import DomainError, InvalidValueError
 from beliefloc.knowledge.domain import Domain
 from beliefloc.model import GridLayout
 from beliefloc.object_search.posterior import Detector
-from beliefloc.object_search.world import SearchSpace
+from beliefloc.object_search.space import SearchSpace
 from beliefloc.semantic_map.geometry import viewing_angles_many
 
 CACHE_NUMBERS = 1 << 22
@@ -106,27 +106,27 @@ class MapSearchSpace(SearchSpace):
             self._distances.popitem(last=False)
         return result
 
-    def parse_cell(self, spec: str) -> int:
-        """``ROOM:ROW,COL`` or ``ROW,COL`` in map coordinates -> cell index; :class:`UsageError`
+    def parse_cell(self, text: str) -> int:
+        """``ROOM:ROW,COL`` or ``ROW,COL`` in map coordinates -> cell index; :class:`InvalidValueError`
         saying what is there instead (a wall, another room, a free cell in no room)."""
-        room, sep, where = spec.rpartition(":")
+        room, sep, where = text.rpartition(":")
         row_text, comma, col_text = where.partition(",")
         if not comma or not row_text.strip().isdigit() or not col_text.strip().isdigit():
             example = self.cell_name(self.start)
-            raise UsageError(f"{spec!r}: write ROOM:ROW,COL in the map's rows and columns, e.g. {example}")
+            raise InvalidValueError(f"{text!r}: write ROOM:ROW,COL in the map's rows and columns, e.g. {example}")
         if sep and room not in self.rooms:
-            raise UsageError(f"{spec!r}: unknown room {room!r}; expected one of: {', '.join(self.rooms)}")
+            raise InvalidValueError(f"{text!r}: unknown room {room!r}; expected one of: {', '.join(self.rooms)}")
         r, c = int(row_text), int(col_text)
         rows, cols = self.shape
         if not (r < rows and c < cols):
-            raise UsageError(f"{spec!r}: [{r}, {c}] is outside the {rows}x{cols} grid of {self.map_name}")
+            raise InvalidValueError(f"{text!r}: [{r}, {c}] is outside the {rows}x{cols} grid of {self.map_name}")
         cell = int(self.cell_at[r, c])
         if cell < 0:
             what = "a free cell in no room (the target is only in rooms)" if self.free[r, c] else "blocked"
-            raise UsageError(f"{spec!r}: [{r}, {c}] of {self.map_name} is {what}")
+            raise InvalidValueError(f"{text!r}: [{r}, {c}] of {self.map_name} is {what}")
         actual = self.rooms[self.room_of_cell[cell]]
         if sep and actual != room:
-            raise UsageError(f"{spec!r}: [{r}, {c}] is in {actual!r}, not {room!r}")
+            raise InvalidValueError(f"{text!r}: [{r}, {c}] is in {actual!r}, not {room!r}")
         return cell
 
     def room_shape(self, room: int) -> tuple[int, int]:
@@ -138,18 +138,20 @@ class MapSearchSpace(SearchSpace):
 
 def map_search_space(domain: Domain) -> MapSearchSpace:
     """The search space of a validated domain with ``map:`` (see the module docstring);
-    :class:`UsageError` when it has no ``search:`` section, the robot starts in a closed room, or a
+    :class:`DomainError` when it has no ``search:`` section, the robot starts in a closed room, or a
     cell of an open room cannot be reached."""
     smap = domain.semantic_map
-    spec = domain.map_search
+    settings = domain.map_search
     label = str(domain.map_file) if domain.map_file is not None else str(domain.map)
-    if spec is None:
-        raise UsageError(
+    if settings is None:
+        raise DomainError(
             f"domain {domain.name!r} is on the map {label} but has no 'search:' section: add one with "
             "robot_start: [row, col], a cell of a room (docs/domain-format.md, 'A domain on a map')"
         )
     if smap is None:
-        raise UsageError(f"domain {domain.name!r}: its map {label} was not loaded; read the domain with load_domain")
+        raise InvalidValueError(
+            f"domain {domain.name!r}: its map {label} was not loaded; read the domain with load_domain"
+        )
     rooms = list(domain.rooms)
     closed = [name for name in rooms if not domain.rooms[name].accessible]
     masks = smap.rooms
@@ -164,11 +166,11 @@ def map_search_space(domain: Domain) -> MapSearchSpace:
     passable = smap.free.copy()
     passable[where[~open_cell, 0], where[~open_cell, 1]] = False
     graph, node_at = travel_graph(passable)
-    r, c = spec.robot_start
+    r, c = settings.robot_start
     start = int(cell_at[r, c])  # a cell of a room: checked when the domain was loaded
     start_room = rooms[room_of_cell[start]]
     if start_room in closed:
-        raise UsageError(
+        raise DomainError(
             f"domain {domain.name!r}: the robot starts in {start_room!r}, a room marked 'accessible: false'; "
             "start it in a room it can search"
         )
@@ -177,11 +179,11 @@ def map_search_space(domain: Domain) -> MapSearchSpace:
         room_of_cell=room_of_cell,
         local=where,
         plane=where.astype(float),
-        views=map_views(smap.free, cell_at, open_cell, spec.sensor.view),
+        views=map_views(smap.free, cell_at, open_cell, settings.sensor.view),
         start=start,
-        detector=Detector(spec.sensor.true_positive, spec.sensor.false_positive),
-        travel_cost=spec.costs.travel,
-        analysis_cost=spec.costs.analysis,
+        detector=Detector(settings.sensor.true_positive, settings.sensor.false_positive),
+        travel_cost=settings.costs.travel,
+        analysis_cost=settings.costs.analysis,
         accessible=accessible,
         map_name=label,
         free=smap.free,
@@ -194,7 +196,7 @@ def map_search_space(domain: Domain) -> MapSearchSpace:
     if len(cut_off):
         room = rooms[room_of_cell[cut_off[0]]]
         cr, cc = (int(x) for x in where[cut_off[0]])
-        raise UsageError(
+        raise DomainError(
             f"domain {domain.name!r}: cell [{cr}, {cc}] of room {room!r} cannot be reached from the robot's start "
             f"[{r}, {c}] on {label} (walls, or rooms marked 'accessible: false', are in the way); open a doorway "
             f"or mark {room!r} 'accessible: false'"

@@ -1,4 +1,5 @@
 """Which view to analyse next: the policies of object search, in one registry (Zhang et al. Sec. III-B, Table I).
+Their names and one-line descriptions are :class:`~beliefloc.object_search.settings.PolicyName`.
 
 A policy maps ``(space, b, robot)`` to a view, where ``b`` is the cell belief given that the target
 exists (axis: cell) and ``robot`` the cell the robot stands on. Pure numpy, no randomness.
@@ -41,7 +42,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from beliefloc.object_search.world import SearchSpace
+from beliefloc.object_search.settings import PolicyName
+from beliefloc.object_search.space import SearchSpace
 
 Select = Callable[[SearchSpace, np.ndarray, int], int]
 
@@ -120,15 +122,22 @@ def select_greedy(space: SearchSpace, belief: np.ndarray, robot: int) -> int:
 
 @dataclass(frozen=True)
 class Policy:
-    name: str
+    name: PolicyName
     select: Select
     kb_prior: bool
     """False: the search starts from a uniform prior over cells instead of the knowledge base's."""
-    description: str
+
+    @property
+    def description(self) -> str:
+        return self.name.description
 
 
 POLICIES: dict[str, Policy] = {
-    "pomdp": Policy("pomdp", select_pomdp, True, "expected entropy reduction per time unit, KB prior"),
-    "greedy": Policy("greedy", select_greedy, True, "view that best confirms the most likely cell, KB prior"),
-    "pomdp-only": Policy("pomdp-only", select_pomdp, False, "expected entropy reduction per time unit, uniform prior"),
+    policy.name.value: policy
+    for policy in (
+        Policy(PolicyName.POMDP, select_pomdp, True),
+        Policy(PolicyName.GREEDY, select_greedy, True),
+        Policy(PolicyName.POMDP_ONLY, select_pomdp, False),
+    )
 }
+"""Every policy by its name: one entry per :class:`~beliefloc.object_search.settings.PolicyName`."""

@@ -12,7 +12,7 @@ update (:meth:`CellBelief.observe_view`) adds ``log(L_in / L_out)`` to the viewe
 normalises, so nothing downstream can tell.
 
 When the knowledge base is revised and gives a new room prior (Algorithm 1, lines 7-10), the
-posterior is recomputed in one of three ways (:class:`Revision`):
+posterior is recomputed in one of three ways (:class:`~beliefloc.object_search.settings.Revision`):
 
 * ``reuse`` -- Eq. 7 with the kept likelihood (*observation re-use*, the paper's choice);
 * ``discard`` -- Eq. 7 with the likelihood reset to 1 (*observation discard*, strictly Bayesian
@@ -27,21 +27,14 @@ A detection analyses the cells in the robot's field of view and reports ``presen
 
 from __future__ import annotations
 
-import enum
 import math
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 
-
-class Revision(enum.Enum):
-    REUSE = "reuse"
-    """Keep the observation likelihood when the prior changes (the paper's choice)."""
-    DISCARD = "discard"
-    """Reset the likelihood to 1 when the prior changes (Bayes-correct after a commitment)."""
-    TRUST = "trust-factor"
-    """Pool the KB's belief and the observations' belief with trust factors (r-norm), ref. [32]."""
+from beliefloc.errors import InvalidValueError
+from beliefloc.object_search.settings import Revision
 
 
 @dataclass(frozen=True)
@@ -72,7 +65,9 @@ class TrustFactor:
 
     def __post_init__(self) -> None:
         if not (0.0 <= self.weight <= 1.0) or not (self.r >= 0.0 and math.isfinite(self.r)):
-            raise ValueError(f"trust factor: need 0 <= weight <= 1 and r >= 0, got weight {self.weight}, r {self.r}")
+            raise InvalidValueError(
+                f"trust factor: need 0 <= weight <= 1 and r >= 0, got weight {self.weight}, r {self.r}"
+            )
 
     def pool(self, kb: np.ndarray, log_likelihood: np.ndarray) -> np.ndarray:
         """The pooled belief from ``b_kb`` and the kept log-likelihood (both over cells); sums to 1."""

@@ -1,214 +1,46 @@
-"""The search space of object search and a simulated world (Zhang, Sridharan & Wyatt 2015, Sec. III-B).
+"""The simulated world of object search (Zhang, Sridharan & Wyatt 2015, Sec. IV-A): where every object
+is, and the detector that answers the robot's views. Pure numpy and seeded: randomness only through
+passed Generators, no I/O; clingo only in :func:`typical_rooms`, which asks the knowledge base once
+per domain.
 
-Pure numpy/scipy; randomness only through a passed Generator. Two roles kept apart (DESIGN.md):
+The robot's model (:class:`~beliefloc.object_search.space.SearchSpace`) may differ from this world:
+the world's detector may be noisier than the one the robot assumes (DESIGN.md, "Roles that stay
+apart").
 
-* :class:`SearchSpace` is the robot's *model*: cells (each room a grid placed on a plane), the room
-  of each cell, view points and the field of view of each, travel distances between view points,
-  which rooms the robot can enter.
-* :class:`SimulatedTarget` and :class:`SimulatedObjects` are the *world*: they know where the
-  target and the other objects are (or that the target is absent) and answer a view with
-  present/absent at the detector's rates.
-
-Cells are numbered room by room (in the domain's room order), row-major inside a room. There is
-one view point per cell: the robot stands on the cell and analyses the square of ``view x view``
-cells centred on it, clipped to its room (a camera does not see through walls). ``views`` is a
-sparse CSR matrix, ``views[v, i] = 1`` when view ``v`` covers cell ``i`` (axes: view, cell), and
-view ``v`` stands on cell ``v``: at 10^4 cells a dense matrix would hold 10^8 entries for about
-9 x 10^4 that are set.
-
-A domain that references a map (``map:``) gets a :class:`~beliefloc.object_search.map_space.MapSearchSpace`
-instead: the cells of the map's rooms, shortest paths round walls, views that walls cut short
-(:mod:`beliefloc.object_search.map_space`); everything downstream sees a :class:`SearchSpace`.
-
-A room marked ``accessible: false`` keeps its cells (the room prior and the drawings still have
-them) but the robot cannot stand there: its view points cover nothing and are never chosen
-(:attr:`SearchSpace.reachable`), and no view from another room sees into it.
+* **Ground truth** (:func:`sample_world`, :class:`World`): every object of the domain is in a room
+  and on a cell. An object the domain file places (``room:``) is there; an object standing ``on``
+  another is in that one's room. Any other object is in its *typical room* -- where the domain's
+  defaults put it, as the knowledge base concludes at step 1 (:func:`typical_rooms` computes it
+  with clingo, once per domain) -- with probability ``p_typical`` (:data:`P_TYPICAL` = 0.8), and
+  otherwise in a room drawn uniformly among the rooms it may be in: those the robot can enter, less
+  the rooms a strong exception of a domain default rules out (:func:`forbidden_rooms`; a known fact
+  there would make the knowledge base inconsistent). So an object with a default is in its typical
+  room with probability ``p + (1 - p) / rooms``. Each object's cell is drawn uniformly in its room.
+* **The target** is one object of the domain: one of the instances of the target class (or of any
+  class), drawn uniformly among those whose true room the robot can enter -- a target the robot
+  could never reach would measure the domain, not the search. The detector responds to that
+  instance only (the paper: "the robot has to find one instance of the target"). An *absent*
+  target was drawn the same way and then taken out of the world.
+* **Detections**: :class:`SimulatedTarget` and :class:`SimulatedObjects` know where the target and
+  the other objects are (or that the target is absent) and answer a view with present/absent at
+  the detector's rates.
 """
 
 from __future__ import annotations
 
-from collections.abc import Collection
-from dataclasses import dataclass, field
-from functools import cached_property
+from collections.abc import Mapping
+from dataclasses import dataclass
 
 import numpy as np
-import scipy.sparse as sp
 
-from beliefloc.errors import UsageError
+from beliefloc.errors import DomainError, InvalidValueError
 from beliefloc.knowledge.domain import Domain
-from beliefloc.knowledge.domain import SearchSpace as SearchSpec
 from beliefloc.object_search.posterior import Detector
+from beliefloc.object_search.settings import check_fraction
+from beliefloc.object_search.space import SearchSpace
 
-
-@dataclass(frozen=True, eq=False)
-class SearchSpace:
-    """Cells, rooms, views and distances of a domain's ``search:`` section."""
-
-    rooms: tuple[str, ...]
-    room_of_cell: np.ndarray
-    """``room_of_cell[i]``: index into ``rooms`` (int, shape (cells,))."""
-    local: np.ndarray
-    """``local[i] = (row, col)`` of cell i inside its room (int, shape (cells, 2))."""
-    plane: np.ndarray
-    """``plane[i] = (row, col)`` of cell i on the plane (float, shape (cells, 2))."""
-    views: sp.csr_matrix
-    """``views[v, i] = 1.0``: view v covers cell i (sparse CSR float, shape (views, cells))."""
-    start: int
-    """The cell (= view point) the robot starts on."""
-    detector: Detector
-    travel_cost: float
-    """Time units per cell of straight-line distance."""
-    analysis_cost: float
-    """Time units per analysed view."""
-    accessible: np.ndarray = field(default_factory=lambda: np.ones(0, dtype=bool))
-    """``accessible[k]``: the robot can enter room k (bool, shape (rooms,)); empty means all."""
-
-    def __post_init__(self) -> None:
-        if len(self.accessible) == 0:
-            object.__setattr__(self, "accessible", np.ones(len(self.rooms), dtype=bool))
-
-    @property
-    def n_cells(self) -> int:
-        return len(self.room_of_cell)
-
-    @cached_property
-    def reachable(self) -> np.ndarray:
-        """``reachable[v]``: view point v is in a room the robot can enter (bool, shape (views,))."""
-        result: np.ndarray = self.accessible[self.room_of_cell]
-        return result
-
-    def view_cells(self, view: int) -> np.ndarray:
-        """The cells view ``view`` covers (sorted int indices)."""
-        start, end = self.views.indptr[view], self.views.indptr[view + 1]
-        result: np.ndarray = self.views.indices[start:end]
-        return result
-
-    def in_view(self, view: int) -> np.ndarray:
-        """The cells view ``view`` covers, as a boolean mask over cells."""
-        mask = np.zeros(self.n_cells, dtype=bool)
-        mask[self.view_cells(view)] = True
-        return mask
-
-    @cached_property
-    def _plane_axes(self) -> tuple[np.ndarray, np.ndarray]:
-        return np.ascontiguousarray(self.plane[:, 0]), np.ascontiguousarray(self.plane[:, 1])
-
-    def distances_from(self, cell: int) -> np.ndarray:
-        """Euclidean distance on the plane (in cells) from ``cell`` to every view point."""
-        rows, cols = self._plane_axes
-        result: np.ndarray = np.hypot(rows - rows[cell], cols - cols[cell])
-        return result
-
-    def action_costs(self, cell: int) -> np.ndarray:
-        """Time of going from ``cell`` to each view point and analysing the view there."""
-        result: np.ndarray = self.travel_cost * self.distances_from(cell) + self.analysis_cost
-        return result
-
-    def cells_of(self, room: int) -> np.ndarray:
-        """The cells of room ``room`` (index into ``rooms``)."""
-        return np.flatnonzero(self.room_of_cell == room)
-
-    def cell_name(self, cell: int) -> str:
-        """``room:row,col``, the form ``--target-cell`` takes."""
-        row, col = self.local[cell]
-        return f"{self.rooms[self.room_of_cell[cell]]}:{row},{col}"
-
-    def parse_cell(self, spec: str) -> int:
-        """``ROOM:ROW,COL`` -> cell index; :class:`UsageError` naming what is wrong."""
-        room, sep, where = spec.partition(":")
-        row_text, comma, col_text = where.partition(",")
-        if not sep or not comma or not row_text.strip().isdigit() or not col_text.strip().isdigit():
-            raise UsageError(f"{spec!r}: write ROOM:ROW,COL, e.g. study:2,3")
-        if room not in self.rooms:
-            raise UsageError(f"{spec!r}: unknown room {room!r}; expected one of: {', '.join(self.rooms)}")
-        index = self.rooms.index(room)
-        matches = np.flatnonzero(
-            (self.room_of_cell == index) & (self.local[:, 0] == int(row_text)) & (self.local[:, 1] == int(col_text))
-        )
-        if len(matches) == 0:
-            rows, cols = self.room_shape(index)
-            raise UsageError(f"{spec!r}: outside room {room!r} ({rows} x {cols} cells, rows and columns from 0)")
-        return int(matches[0])
-
-    def room_shape(self, room: int) -> tuple[int, int]:
-        cells = self.local[self.room_of_cell == room]
-        return int(cells[:, 0].max()) + 1, int(cells[:, 1].max()) + 1
-
-
-def search_space(domain: Domain) -> SearchSpace:
-    """Build the search space of a validated domain: on its map when it has ``map:``
-    (:func:`~beliefloc.object_search.map_space.map_search_space`), else on its plane of rooms.
-    :class:`UsageError` if it has no ``search:`` or the robot starts in a room it cannot enter."""
-    if domain.map is not None:
-        from beliefloc.object_search.map_space import map_search_space
-
-        return map_search_space(domain)
-    if domain.search is None:
-        raise UsageError(
-            f"domain {domain.name!r} has no 'search:' section, which object search needs: either a 'search:' "
-            "section that places the rooms on a plane (placement, robot_start: {room: R, cell: [row, col]}), or "
-            "'map:' (a semantic map with rooms) and a 'search:' section with robot_start: [row, col] "
-            "(docs/domain-format.md, 'Object search')"
-        )
-    closed = [name for name, room in domain.rooms.items() if not room.accessible]
-    start_room = domain.search.robot_start.room
-    if start_room in closed:
-        raise UsageError(
-            f"domain {domain.name!r}: the robot starts in {start_room!r}, a room marked 'accessible: false'; "
-            "start it in a room it can search"
-        )
-    return build_space(list(domain.rooms), domain.search, inaccessible=closed)
-
-
-def build_space(rooms: list[str], spec: SearchSpec, *, inaccessible: Collection[str] = ()) -> SearchSpace:
-    """Cells room by room, row-major; one view point per cell (see the module docstring).
-
-    The views are built offset by offset of the ``view x view`` window, room by room: O(cells x view²)."""
-    half = spec.sensor.view // 2
-    room_of_cell, local, plane, viewers, covered = [], [], [], [], []
-    base = 0
-    for index, room in enumerate(rooms):
-        rows, cols = spec.size_of(room)
-        top, left = spec.placement[room]
-        r, c = np.divmod(np.arange(rows * cols), cols)
-        room_of_cell.append(np.full(rows * cols, index))
-        local.append(np.stack([r, c], axis=1))
-        plane.append(np.stack([r + top, c + left], axis=1).astype(float))
-        if room not in inaccessible:
-            ids = base + np.arange(rows * cols)
-            for dr in range(-half, half + 1):
-                for dc in range(-half, half + 1):
-                    inside = (r + dr >= 0) & (r + dr < rows) & (c + dc >= 0) & (c + dc < cols)
-                    viewers.append(ids[inside])
-                    covered.append(base + (r[inside] + dr) * cols + c[inside] + dc)
-        base += rows * cols
-    room_arr = np.concatenate(room_of_cell)
-    local_arr = np.concatenate(local)
-    n = len(room_arr)
-    view_rows = np.concatenate(viewers) if viewers else np.zeros(0, dtype=int)
-    view_cols = np.concatenate(covered) if covered else np.zeros(0, dtype=int)
-    views = sp.csr_matrix((np.ones(len(view_rows)), (view_rows, view_cols)), shape=(n, n))
-    views.sort_indices()
-    start_room = rooms.index(spec.robot_start.room)
-    start = int(
-        np.flatnonzero(
-            (room_arr == start_room)
-            & (local_arr[:, 0] == spec.robot_start.cell[0])
-            & (local_arr[:, 1] == spec.robot_start.cell[1])
-        )[0]
-    )
-    return SearchSpace(
-        rooms=tuple(rooms),
-        room_of_cell=room_arr,
-        local=local_arr,
-        plane=np.concatenate(plane),
-        views=views,
-        start=start,
-        detector=Detector(spec.sensor.true_positive, spec.sensor.false_positive),
-        travel_cost=spec.costs.travel,
-        analysis_cost=spec.costs.analysis,
-        accessible=np.array([room not in inaccessible for room in rooms], dtype=bool),
-    )
+P_TYPICAL = 0.8
+"""Probability that an object with a default is in the room the default says (our choice)."""
 
 
 @dataclass
@@ -260,3 +92,145 @@ class SimulatedObjects:
         rate = np.where(seen, self.detector.true_positive, self.detector.false_positive)
         result: np.ndarray = self.rng.random(len(self.names)) < rate
         return result
+
+
+def ancestors(domain: Domain, cls: str) -> list[str]:
+    """``cls`` and its ancestors up to the root (the hierarchy is a validated tree)."""
+    chain = [cls]
+    parent = domain.classes.get(cls)
+    while parent is not None:
+        chain.append(parent)
+        parent = domain.classes.get(parent)
+    return chain
+
+
+def instances_of(domain: Domain, cls: str) -> list[str]:
+    """The objects of class ``cls`` or of a class below it, in the domain's order."""
+    return [name for name, obj in domain.objects.items() if cls in ancestors(domain, obj.class_)]
+
+
+def forbidden_rooms(domain: Domain) -> dict[str, frozenset[str]]:
+    """Rooms each object is known NOT to be in: the strong exceptions of the domain file's defaults,
+    ``-holds(in(X, R), 1) :- strong_exception(D, C), default(D, _, R), instance(X, C)`` (kb/axioms.lp).
+    Defaults written in ``.lp`` files are not read here."""
+    out: dict[str, set[str]] = {}
+    for default in domain.defaults.values():
+        for cls in default.strong_exceptions:
+            for name in instances_of(domain, cls):
+                out.setdefault(name, set()).add(default.room)
+    return {name: frozenset(rooms) for name, rooms in out.items()}
+
+
+@dataclass(frozen=True)
+class World:
+    """The ground truth of one trial."""
+
+    rooms: Mapping[str, str]
+    """Object -> the room it is in (every object of the domain but an absent target)."""
+    cells: Mapping[str, int]
+    """Object -> the cell it stands on (the same objects)."""
+    target: str
+    """The object searched for (an instance of ``target_class``)."""
+    target_class: str
+    present: bool
+
+    @property
+    def target_cell(self) -> int | None:
+        return self.cells.get(self.target) if self.present else None
+
+    @property
+    def target_room(self) -> str | None:
+        return self.rooms.get(self.target) if self.present else None
+
+
+def place_objects(
+    domain: Domain,
+    space: SearchSpace,
+    typical: Mapping[str, str],
+    rng: np.random.Generator,
+    *,
+    p_typical: float = P_TYPICAL,
+) -> tuple[dict[str, str], dict[str, int]]:
+    """Every object's room and cell (see the module docstring); ``typical``: object -> typical room."""
+    check_fraction("p_typical", p_typical)
+    enterable = [room for room in domain.rooms if domain.rooms[room].accessible]
+    forbidden = forbidden_rooms(domain)
+    rooms: dict[str, str] = {}
+    for name, obj in domain.objects.items():
+        if obj.room is not None:
+            rooms[name] = obj.room
+        elif obj.on is None:
+            rooms[name] = _draw_room(name, typical, enterable, forbidden, rng, p_typical)
+    for name, obj in domain.objects.items():  # an object on another one is in that one's room
+        if name not in rooms:
+            base, seen = obj.on, {name}
+            while base is not None and base not in rooms and base not in seen:
+                seen.add(base)
+                base = domain.objects[base].on
+            rooms[name] = (
+                rooms[base] if base is not None and base in rooms else _draw_room(name, {}, enterable, {}, rng, 0.0)
+            )
+    cells: dict[str, int] = {}
+    for name in domain.objects:
+        in_room = space.cells_of(space.rooms.index(rooms[name]))
+        cells[name] = int(in_room[rng.integers(len(in_room))])
+    return {name: rooms[name] for name in domain.objects}, cells
+
+
+def _draw_room(
+    name: str,
+    typical: Mapping[str, str],
+    enterable: list[str],
+    forbidden: Mapping[str, frozenset[str]],
+    rng: np.random.Generator,
+    p_typical: float,
+) -> str:
+    usual = typical.get(name)
+    if usual is not None and rng.random() < p_typical:
+        return usual
+    allowed = [room for room in enterable if room not in forbidden.get(name, frozenset())] or enterable
+    return allowed[int(rng.integers(len(allowed)))]
+
+
+def sample_world(
+    domain: Domain,
+    space: SearchSpace,
+    typical: Mapping[str, str],
+    rng: np.random.Generator,
+    *,
+    target_class: str | None = None,
+    absent: bool = False,
+    p_typical: float = P_TYPICAL,
+) -> World:
+    """One ground truth (see the module docstring). ``target_class`` None: any object may be the target.
+
+    Raises :class:`InvalidValueError` for a class the domain does not have, and :class:`DomainError`
+    when no object of the target class is in a room the robot can enter."""
+    if target_class is not None and target_class not in domain.classes:
+        raise InvalidValueError(
+            f"unknown target class {target_class!r}; expected one of: {', '.join(sorted(domain.classes))}"
+        )
+    enterable = {room for room in domain.rooms if domain.rooms[room].accessible}
+    rooms, cells = place_objects(domain, space, typical, rng, p_typical=p_typical)
+    pool = list(domain.objects) if target_class is None else instances_of(domain, target_class)
+    candidates = [name for name in pool if rooms[name] in enterable]
+    if not candidates:
+        what = "objects" if target_class is None else f"objects of class {target_class!r}"
+        raise DomainError(
+            f"domain {domain.name!r} has no {what} the robot could find (none, or all in rooms marked "
+            "'accessible: false'): add one under 'objects:' (without 'room:' to leave its place to chance)"
+        )
+    target = candidates[int(rng.integers(len(candidates)))]
+    chosen_class = target_class if target_class is not None else domain.objects[target].class_
+    if absent:
+        rooms = {k: v for k, v in rooms.items() if k != target}
+        cells = {k: v for k, v in cells.items() if k != target}
+    return World(rooms, cells, target, chosen_class, not absent)
+
+
+def typical_rooms(domain: Domain) -> dict[str, str]:
+    """Where the domain's defaults put each object (and where the file puts the others): the
+    ``in(O, R)`` the knowledge base holds at step 1, with the defaults. Solves clingo once."""
+    from beliefloc.knowledge import KnowledgeBase
+
+    return KnowledgeBase(domain, use_defaults=True).answer().located(step=1)

@@ -24,7 +24,7 @@ Differences from the pseudocode, each for a stated reason:
   :attr:`PlanStatus.BUDGET_EXCEEDED`, never a fake success.
 * **Memory.** A node keeps its parent, action, observation and g -- not its belief, which is
   recomputed from the parent's on pop (parents' beliefs are kept in a bounded cache).
-* **The closed list is kept across replans** as a :class:`SearchMemory`: the successor statistics of
+* **The closed list is kept across replans** as a :class:`ClosedList`: the successor statistics of
   every belief already expanded. A replan re-expands such a belief without recomputing them. Unlike
   pruning closed beliefs outright (the authors' code), this keeps the search complete.
 """
@@ -37,32 +37,25 @@ import heapq
 import time
 from collections import OrderedDict
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
 from beliefloc.belief import entropy
 from beliefloc.model import Model
+from beliefloc.planning.settings import (
+    DEFAULT_MAX_EXPANSIONS,
+    DEFAULT_THRESHOLD,
+    DEFAULT_TIME_LIMIT,
+    DEFAULT_WEIGHT,
+    Heuristic,
+    check_weight,
+)
 from beliefloc.planning.successors import SuccessorEvaluator, SuccessorStats
 
-DEFAULT_THRESHOLD = 0.95
-DEFAULT_MAX_EXPANSIONS = 200_000
-DEFAULT_TIME_LIMIT = 60.0
-DEFAULT_WEIGHT = 1.0
 KEY_RESOLUTION = 2**30
 """Beliefs are compared after rounding every entry to a multiple of 2^-30 (about 1e-9)."""
 _CACHE_BYTES = 256 * 2**20
-
-
-class Heuristic(enum.Enum):
-    ENTROPY_MAX_PROB = "entropy-max-prob"
-    ENTROPY_PROB = "entropy-prob"
-    ZERO = "zero"
-
-    def __call__(self, entropy: float, max_belief: float, probability: float) -> float:
-        if self is Heuristic.ZERO:
-            return 0.0
-        weight = probability * (max_belief if self is Heuristic.ENTROPY_MAX_PROB else 1.0)
-        return entropy / weight
 
 
 class PlanStatus(enum.Enum):
@@ -115,9 +108,25 @@ class PlanResult:
     def cost(self) -> float:
         return self.steps[-1].cost if self.steps else 0.0
 
+    def as_json(self) -> dict[str, Any]:
+        """What ``plan --json`` prints: the status, the steps with their expected observations, the
+        search's effort."""
+        return {
+            "found": self.found,
+            "status": self.status.value,
+            "cost": self.cost if self.found else None,
+            "steps": [
+                {"action": s.action, "observation": s.observation, "max_belief": s.max_belief, "cost": s.cost}
+                for s in self.steps
+            ],
+            "expanded": self.expanded,
+            "generated": self.generated,
+            "seconds": self.seconds,
+        }
+
 
 @dataclass
-class SearchMemory:
+class ClosedList:
     """The closed list kept across replans: successor statistics of every expanded belief."""
 
     successors: dict[bytes, list[SuccessorStats]] = field(default_factory=dict)
@@ -136,18 +145,17 @@ def plan(
     heuristic: Heuristic = Heuristic.ENTROPY_MAX_PROB,
     max_expansions: int = DEFAULT_MAX_EXPANSIONS,
     time_limit: float = DEFAULT_TIME_LIMIT,
-    memory: SearchMemory | None = None,
+    memory: ClosedList | None = None,
     evaluator: SuccessorEvaluator | None = None,
     weight: float = DEFAULT_WEIGHT,
 ) -> PlanResult:
     """Search for actions that take ``belief`` to one with ``max(b) >= threshold``.
 
     Nodes are ranked by ``f = g + weight · h`` (``weight > 0``; 1 is the paper's search)."""
-    if not weight > 0.0:
-        raise ValueError(f"weight must be positive, got {weight}")
+    check_weight(weight)
     start = time.perf_counter()
     evaluator = evaluator or SuccessorEvaluator(model)
-    memory = memory if memory is not None else SearchMemory()
+    memory = memory if memory is not None else ClosedList()
     # node records, by node id
     parent: list[int] = [-1]
     action_of: list[int] = [-1]

@@ -45,7 +45,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from beliefloc.model import Model, ObservationPart
+from beliefloc.model import Model, ObservationPart, StateSpace
 
 DEFAULT_MAX_HYPOTHESES = 400
 """Sec. VII-B: keep at most this many of the most likely states as hypotheses."""
@@ -356,6 +356,20 @@ class Edge:
     @property
     def weight(self) -> float:
         return self.belief_product * self.min_probability / self.cost
+
+    def as_json(self, names: StateSpace) -> dict[str, str | float]:
+        """What ``select --explain --json`` prints for the edge, states by name."""
+        return {
+            "s_i": names.name(self.i),
+            "s_j": names.name(self.j),
+            "f_i": names.name(self.end_i),
+            "f_j": names.name(self.end_j),
+            "difference": self.difference,
+            "belief_product": self.belief_product,
+            "min_probability": self.min_probability,
+            "cost": self.cost,
+            "weight": self.weight,
+        }
 
 
 def edges(ctx: PairContext, candidate: Candidate, states: np.ndarray, belief: np.ndarray) -> list[Edge]:

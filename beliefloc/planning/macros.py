@@ -37,7 +37,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-from beliefloc.errors import UsageError
+from beliefloc.errors import InvalidValueError
 from beliefloc.model import Model
 from beliefloc.planning.ec2 import PairContext, gamma_bounds, pair_context
 
@@ -192,16 +192,16 @@ def build_macros(
     ctx = context if context is not None else pair_context(model, gamma)
     lo, hi = gamma_bounds(model)
     if not lo <= ctx.gamma < hi:
-        raise UsageError(
+        raise InvalidValueError(
             f"gamma {ctx.gamma:g} is outside [{lo:.4g}, {hi:.4g}), the range in which 'distinguishable' means "
             "'different noise-free readings' for this model's sensors; macros are built on that grouping. "
-            "Omit --gamma for the default (the middle of the range)."
+            "Leave gamma unset for the default (the middle of the range)."
         )
     n = model.n_states
     sig = ctx.full_signature
     total = count_indistinguishable_pairs(sig)
     if total > max_pairs:
-        raise UsageError(
+        raise InvalidValueError(
             f"{model.name}: {total:,} pairs of states look alike, more than the {max_pairs:,} a macro table "
             "may hold; give the robot a sensor that tells more places apart"
         )

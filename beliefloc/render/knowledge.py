@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from rich.table import Table
 
-from beliefloc.knowledge import AnswerSet, RobotPrior, RoomPrior
+if TYPE_CHECKING:  # the records only: rendering them needs no clingo
+    from beliefloc.knowledge import AnswerSet, RobotPrior, RoomPrior
 
 
 def prior_table(prior: RoomPrior, title: str) -> Table:

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING
 
 from rich import box
 from rich.table import Table
 
-from beliefloc.planning.best_first import PlanResult
+if TYPE_CHECKING:
+    from beliefloc.planning.best_first import PlanResult
+    from beliefloc.simulation.episode import StrategySummary
 
 
 def plan_table(result: PlanResult, title: str) -> Table:
@@ -30,16 +32,16 @@ def plan_table(result: PlanResult, title: str) -> Table:
     return table
 
 
-def search_line(result: PlanResult) -> str:
+def effort_line(result: PlanResult) -> str:
     return (
         f"{result.status.value}: {result.expanded} beliefs expanded, {result.generated} generated, "
         f"{result.seconds:.3f} s"
     )
 
 
-def summary_table(summary: dict[str, dict[str, Any]], threshold: float) -> Table:
+def summary_table(summary: dict[str, StrategySummary], threshold: float) -> Table:
     """Per strategy: episodes, localized, correct, mean plan time, replans, cost ± sd, steps, failures."""
-    runs = max((s["episodes"] for s in summary.values()), default=0)
+    runs = max((s.episodes for s in summary.values()), default=0)
     table = Table(
         title=f"{runs} episode{'' if runs == 1 else 's'} per strategy (localized: max belief >= {threshold:g}; "
         "correct: at the true state)",
@@ -53,18 +55,18 @@ def summary_table(summary: dict[str, dict[str, Any]], threshold: float) -> Table
     for name, s in summary.items():
         table.add_row(
             name,
-            str(s["localized"]),
-            str(s["correct"]),
-            _num(s["mean_plan_seconds"], "{:.4f}"),
-            _num(s["mean_replans"], "{:.2f}"),
-            _pm(s["mean_cost"], s["stdev_cost"], "{:.1f}"),  # mean ± sd
-            _num(s["mean_steps"], "{:.1f}"),
+            str(s.localized),
+            str(s.correct),
+            _num(s.mean_plan_seconds, "{:.4f}"),
+            _num(s.mean_replans, "{:.2f}"),
+            _pm(s.mean_cost, s.stdev_cost, "{:.1f}"),  # mean ± sd
+            _num(s.mean_steps, "{:.1f}"),
         )
     # failures go under the table (rarely any, and long words): the columns then fit 80 characters
     failures = [
-        f"{name}: " + ", ".join(f"{count} {status}" for status, count in s["failures"].items())
+        f"{name}: " + ", ".join(f"{count} {status}" for status, count in s.failures.items())
         for name, s in summary.items()
-        if s["failures"]
+        if s.failures
     ]
     table.caption = "not localized: " + "; ".join(failures) if failures else "every episode localized"
     table.caption_justify = "left"

@@ -2,7 +2,7 @@
 
 The plane shows every room at its placement, two characters per cell, blank between rooms. A
 cell's shade is its probability relative to the largest one drawn (viridis, as in
-:mod:`beliefloc.render.grid`); ``R`` marks the robot, ``*`` the most likely cell (red), ``T`` the
+:mod:`beliefloc.render.belief_grid`); ``R`` marks the robot, ``*`` the most likely cell (red), ``T`` the
 simulated target's true cell (the simulator knows it; the robot does not). Without colour a cell
 is a shade character and its mark.
 
@@ -17,7 +17,8 @@ Functions here only observe a search record; they return rich renderables and ne
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Mapping
+from typing import TYPE_CHECKING
 
 import numpy as np
 from rich import box
@@ -27,8 +28,11 @@ from rich.text import Text
 
 from beliefloc.object_search.loop import SearchRecord, Step, Verdict
 from beliefloc.object_search.map_space import MapSearchSpace
-from beliefloc.object_search.world import SearchSpace
-from beliefloc.render.grid import BLOCKED, HIGHLIGHT, LEVELS, PALETTE, PLAIN_SHADES
+from beliefloc.object_search.space import SearchSpace
+from beliefloc.render.drawing import BLOCKED, HIGHLIGHT, LEVELS, PALETTE, PLAIN_SHADES
+
+if TYPE_CHECKING:
+    from beliefloc.object_search.experiment import ArmSummary
 
 _VERDICT_STYLE = {Verdict.FOUND: "bold green", Verdict.NOT_FOUND: "bold yellow", Verdict.TIME_LIMIT: "bold red"}
 
@@ -157,7 +161,7 @@ def room_letters(rooms: tuple[str, ...]) -> list[str]:
 def steps_table(space: SearchSpace, record: SearchRecord) -> Table:
     """Every step of a search in one table."""
     table = Table(
-        title=f"{record.policy} search, {record.strategy} metareasoning",
+        title=f"{record.policy.value} search, {record.metareasoning.value} metareasoning",
         title_justify="left",
         box=box.SIMPLE_HEAD,  # no side borders: a step with map cell names fits 80 columns
         show_edge=False,
@@ -211,12 +215,12 @@ def verdict_text(space: SearchSpace, record: SearchRecord) -> Text:
     return text
 
 
-def trials_table(summary: dict[str, dict[str, Any]], title: str) -> Table:
+def trials_table(summary: Mapping[str, ArmSummary], title: str) -> Table:
     """Per arm of paired trials: verdicts (found / not found / time limit), localisation time (mean ±
     standard deviation), accuracy, reported cells within 4 cells of the truth, steps and
     knowledge-base commits.
 
-    An arm is named ``policy/strategy/kb/revision``; the table shows the parts that differ between
+    An arm is named ``policy/metareasoning/kb/revision``; the table shows the parts that differ between
     arms (the policy when there is one arm) -- the title says the rest, so the table fits 80 columns."""
     parts = [arm.split("/") for arm in summary]
     varying = [i for i in range(4) if len({p[i] for p in parts}) > 1] or [0]
@@ -232,15 +236,15 @@ def trials_table(summary: dict[str, dict[str, Any]], title: str) -> Table:
     for s, part in zip(summary.values(), parts, strict=True):
         row = [
             " ".join(part[i] for i in varying),
-            str(s["trials"]),
-            f"{s['found']}/{s['not_found']}/{s['time_limit']}",
-            _pm(s["mean_time"], s["stdev_time"]),
-            "-" if s["mean_accuracy"] is None else f"{s['mean_accuracy']:.3f}",
-            str(s["within_4_cells"]),
-            "-" if s["mean_steps"] is None else f"{s['mean_steps']:.1f}",
+            str(s.trials),
+            f"{s.found}/{s.not_found}/{s.time_limit}",
+            _pm(s.mean_time, s.stdev_time),
+            "-" if s.mean_accuracy is None else f"{s.mean_accuracy:.3f}",
+            str(s.within_4_cells),
+            "-" if s.mean_steps is None else f"{s.mean_steps:.1f}",
         ]
         if dynamic:
-            row.append("-" if part[2] == "static" or s["mean_commits"] is None else f"{s['mean_commits']:.1f}")
+            row.append("-" if part[2] == "static" or s.mean_commits is None else f"{s.mean_commits:.1f}")
         rows.append(row)
     table = Table(title=title, title_justify="left", box=box.SIMPLE_HEAD, show_edge=False, pad_edge=False)
     table.add_column("arm", no_wrap=True)

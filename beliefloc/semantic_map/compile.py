@@ -27,11 +27,10 @@ from beliefloc.semantic_map.schema import (
     LookSensor,
     ScanSensor,
     SemanticMap,
+    Sensor,
     _grid_lines,
     here_classes,
 )
-
-Sensor = LookSensor | ScanSensor | HereSensor
 
 
 def layout_of(smap: SemanticMap) -> GridLayout:

@@ -174,7 +174,9 @@ class HereSensor(_SensorBase):
     """Probability of reading another class, spread evenly over the others."""
 
 
-Sensor = Annotated[LookSensor | ScanSensor | HereSensor, Field(discriminator="type")]
+Sensor = LookSensor | ScanSensor | HereSensor
+"""A perception action's sensor; the map file says which by ``type``."""
+_TaggedSensor = Annotated[Sensor, Field(discriminator="type")]
 
 RoomName = Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*$", max_length=64)]
 """A lowercase letter, then lowercase letters, digits and ``_``: the room names of a domain's
@@ -243,7 +245,7 @@ class SemanticMap(_Strict):
     layout: str | None = None
     landmarks: list[Landmark] = Field(default_factory=list)
     actions: dict[str, ActionSpec]
-    sensors: dict[Name, Sensor] = Field(default_factory=dict)
+    sensors: dict[Name, _TaggedSensor] = Field(default_factory=dict)
     annotations: list[Annotation] = Field(default_factory=list)
     room_spec: Rooms | None = Field(default=None, alias="rooms")
     """The ``rooms:`` section as written; :attr:`rooms` gives each room's cells."""

@@ -16,14 +16,12 @@ from typing import Any
 import numpy as np
 
 from beliefloc.belief import most_likely, update
-from beliefloc.errors import ImpossibleObservationError
+from beliefloc.errors import ImpossibleObservationError, InvalidValueError
 from beliefloc.model import Model
 from beliefloc.planning.best_first import PlanResult
-from beliefloc.planning.successors import SuccessorEvaluator
 from beliefloc.simulation.robot import SimulatedRobot
-from beliefloc.simulation.strategies import STRATEGIES, GiveUp, PlannerSettings
-
-DEFAULT_MAX_STEPS = 200
+from beliefloc.simulation.settings import DEFAULT_MAX_STEPS, StrategyName
+from beliefloc.simulation.strategies import EpisodeStatus, GiveUp, PlannerSettings, SharedWork, make_strategy
 
 
 @dataclass(frozen=True)
@@ -47,8 +45,7 @@ class EpisodeRecord:
     true_final: str
     correct: bool
     """The most likely state is the robot's true state."""
-    status: str
-    """``localized``, ``no_plan``, ``budget_exceeded``, ``step_limit`` or ``impossible_observation``."""
+    status: EpisodeStatus
     cost: float
     steps: int
     replans: int
@@ -56,9 +53,13 @@ class EpisodeRecord:
     max_belief: float
     trace: list[StepRecord] = field(default_factory=list)
 
-    def as_json(self) -> dict[str, Any]:
+    def as_json(self, *, timings: bool = True) -> dict[str, Any]:
+        """What ``simulate --json`` prints per episode; without ``timings`` no clock value."""
         data = asdict(self)
         data.pop("trace")
+        data["status"] = self.status.value
+        if not timings:
+            data["plan_seconds"] = None
         return data
 
 
@@ -71,9 +72,19 @@ def episode_rngs(seed: int, episode: int) -> tuple[np.random.Generator, np.rando
     return np.random.default_rng(start), np.random.default_rng(world), np.random.default_rng(strategy)
 
 
+def strategy_name(text: str) -> StrategyName:
+    """The strategy called ``text`` (:class:`InvalidValueError` listing the names otherwise); a
+    :class:`StrategyName` is returned as it is."""
+    try:
+        return StrategyName(text)
+    except ValueError:
+        names = ", ".join(s.value for s in StrategyName)
+        raise InvalidValueError(f"unknown strategy {text!r}; expected one of: {names}") from None
+
+
 def run_episode(
     model: Model,
-    strategy_name: str,
+    strategy: str,
     start_state: int,
     start_belief: np.ndarray,
     *,
@@ -81,24 +92,38 @@ def run_episode(
     episode: int = 0,
     world: Model | None = None,
     settings: PlannerSettings | None = None,
-    evaluator: SuccessorEvaluator | None = None,
+    shared: SharedWork | None = None,
     max_steps: int = DEFAULT_MAX_STEPS,
     on_step: OnStep | None = None,
 ) -> EpisodeRecord:
-    """One episode of ``strategy_name`` from ``start_state`` (the robot's secret)."""
+    """One episode of the strategy named ``strategy`` from ``start_state`` (the robot's secret)."""
     settings = settings or PlannerSettings()
     _, world_rng, strategy_rng = episode_rngs(seed, episode)
     robot = SimulatedRobot(world or model, start_state, world_rng)
-    strategy = STRATEGIES[strategy_name](model, settings, evaluator or SuccessorEvaluator(model), strategy_rng)
+    name = strategy_name(strategy)
+    chooser = make_strategy(name, settings, shared or SharedWork.for_model(model), strategy_rng)
     names = model.states
-    record = EpisodeRecord(strategy_name, episode, names.name(start_state), "", "", False, "", 0.0, 0, 0, [], 0.0)
+    record = EpisodeRecord(
+        name.value,
+        episode,
+        names.name(start_state),
+        "",
+        "",
+        False,
+        EpisodeStatus.LOCALIZED,
+        0.0,
+        0,
+        0,
+        [],
+        0.0,
+    )
     belief = start_belief
-    status = "localized"
+    status = EpisodeStatus.LOCALIZED
     while belief.max() < settings.threshold:
         if record.steps >= max_steps:
-            status = "step_limit"
+            status = EpisodeStatus.STEP_LIMIT
             break
-        decision = strategy.next_action(belief)
+        decision = chooser.next_action(belief)
         if isinstance(decision, GiveUp):
             status = decision.status
             break
@@ -107,18 +132,18 @@ def run_episode(
         try:
             belief, probability = update(model, belief, action, observation)
         except ImpossibleObservationError:
-            status = "impossible_observation"
+            status = EpisodeStatus.IMPOSSIBLE_OBSERVATION
             break
         record.steps += 1
         record.cost += action.cost
-        strategy.observed(decision, observation, belief)
+        chooser.observed(decision, observation, belief)
         step = StepRecord(
             decision,
             None if observation is None else action.observation.name(observation),
             probability,
             float(belief.max()),
             names.name(robot.state),
-            strategy.new_plan,
+            chooser.new_plan,
         )
         record.trace.append(step)
         if on_step is not None:
@@ -129,8 +154,8 @@ def run_episode(
     record.correct = state == robot.state
     record.status = status
     record.max_belief = probability
-    record.plan_seconds = list(strategy.plan_seconds)
-    record.replans = int(getattr(strategy, "replans", 0))
+    record.plan_seconds = list(chooser.plan_seconds)
+    record.replans = chooser.replans
     return record
 
 
@@ -152,7 +177,7 @@ def run_experiment(
     """Paired trials: in episode e every strategy starts from the same true state and meets the
     same seeded noise stream. ``start=None`` draws the true start per episode, from
     ``start_distribution`` (a probability per state) when given, else uniformly."""
-    evaluator = SuccessorEvaluator(model)
+    shared = SharedWork.for_model(model)
     belief = start_belief if start_belief is not None else np.full(model.n_states, 1.0 / model.n_states)
     records = []
     for e in range(episodes):
@@ -173,7 +198,7 @@ def run_experiment(
                 episode=e,
                 world=world,
                 settings=settings,
-                evaluator=evaluator,
+                shared=shared,
                 max_steps=max_steps,
                 on_step=on_step,
             )
@@ -183,28 +208,53 @@ def run_experiment(
     return records
 
 
-def summarize(records: Sequence[EpisodeRecord]) -> dict[str, dict[str, Any]]:
-    """Per strategy: localized correctly, plan time (Table I's metric: per episode the mean over its
-    plan calls, then mean and spread over episodes), replans, cost, steps and failures."""
-    out: dict[str, dict[str, Any]] = {}
+@dataclass(frozen=True)
+class StrategySummary:
+    """One strategy's episodes in numbers (the paper's Tables I and II)."""
+
+    episodes: int
+    localized: int
+    correct: int
+    """Episodes whose most likely state at the end is the robot's true state."""
+    failures: dict[str, int]
+    """Episodes per status other than localized, by the status's name."""
+    mean_plan_seconds: float | None
+    """Table I's metric: per episode the mean over its plan calls, then the mean over episodes."""
+    stdev_plan_seconds: float | None
+    mean_replans: float | None
+    mean_cost: float | None
+    """Over the localized episodes."""
+    stdev_cost: float | None
+    mean_steps: float | None
+    """Over the localized episodes."""
+
+    def as_json(self, *, timings: bool = True) -> dict[str, Any]:
+        data = asdict(self)
+        if not timings:
+            data.update({key: None for key in data if "seconds" in key})
+        return data
+
+
+def summarize(records: Sequence[EpisodeRecord]) -> dict[str, StrategySummary]:
+    """Per strategy, in the order the records name them: see :class:`StrategySummary`."""
+    out: dict[str, StrategySummary] = {}
     for name in dict.fromkeys(r.strategy for r in records):
         mine = [r for r in records if r.strategy == name]
-        localized = [r for r in mine if r.status == "localized"]
+        localized = [r for r in mine if r.status is EpisodeStatus.LOCALIZED]
         per_episode_plan = [statistics.fmean(r.plan_seconds) for r in mine if r.plan_seconds]
-        out[name] = {
-            "episodes": len(mine),
-            "localized": len(localized),
-            "correct": sum(r.correct for r in mine),
-            "failures": {
-                s: sum(r.status == s for r in mine) for s in sorted({r.status for r in mine}) if s != "localized"
-            },
-            "mean_plan_seconds": _mean(per_episode_plan),
-            "stdev_plan_seconds": _stdev(per_episode_plan),
-            "mean_replans": _mean([r.replans for r in mine]),
-            "mean_cost": _mean([r.cost for r in localized]),
-            "stdev_cost": _stdev([r.cost for r in localized]),
-            "mean_steps": _mean([r.steps for r in localized]),
-        }
+        failed = sorted({r.status.value for r in mine if r.status is not EpisodeStatus.LOCALIZED})
+        out[name] = StrategySummary(
+            episodes=len(mine),
+            localized=len(localized),
+            correct=sum(r.correct for r in mine),
+            failures={s: sum(r.status.value == s for r in mine) for s in failed},
+            mean_plan_seconds=_mean(per_episode_plan),
+            stdev_plan_seconds=_stdev(per_episode_plan),
+            mean_replans=_mean([r.replans for r in mine]),
+            mean_cost=_mean([r.cost for r in localized]),
+            stdev_cost=_stdev([r.cost for r in localized]),
+            mean_steps=_mean([r.steps for r in localized]),
+        )
     return out
 
 

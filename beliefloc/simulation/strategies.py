@@ -14,8 +14,8 @@
 
 from __future__ import annotations
 
+import enum
 import time
-import weakref
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Protocol
@@ -23,33 +23,56 @@ from typing import Protocol
 import numpy as np
 
 from beliefloc.model import Model
-from beliefloc.planning.best_first import (
+from beliefloc.planning.best_first import ClosedList, PlanResult, plan
+from beliefloc.planning.ec2 import PairContext, hypotheses, pair_context, select
+from beliefloc.planning.macros import MacroTable, build_macros, macro_candidates
+from beliefloc.planning.settings import (
     DEFAULT_MAX_EXPANSIONS,
+    DEFAULT_MAX_HYPOTHESES,
     DEFAULT_THRESHOLD,
     DEFAULT_TIME_LIMIT,
     DEFAULT_WEIGHT,
     Heuristic,
-    PlanResult,
-    SearchMemory,
-    plan,
 )
-from beliefloc.planning.ec2 import DEFAULT_MAX_HYPOTHESES, PairContext, hypotheses, pair_context, select
-from beliefloc.planning.macros import MacroTable, build_macros, macro_candidates
 from beliefloc.planning.successors import SuccessorEvaluator
+from beliefloc.simulation.settings import StrategyName
+
+
+class EpisodeStatus(enum.Enum):
+    """How an episode ended."""
+
+    LOCALIZED = "localized"
+    """One state holds at least the threshold."""
+    NO_PLAN = "no_plan"
+    """The planner searched every reachable belief and none reaches the threshold."""
+    BUDGET_EXCEEDED = "budget_exceeded"
+    """The planner's expansion or time budget ran out."""
+    STEP_LIMIT = "step_limit"
+    """The episode took its maximum number of actions."""
+    IMPOSSIBLE_OBSERVATION = "impossible_observation"
+    """The world gave an observation the robot's model says cannot happen (a world unlike the model)."""
 
 
 @dataclass(frozen=True)
 class GiveUp:
-    """A strategy's honest 'I cannot go on', with the reason as a status word."""
+    """A strategy's honest 'I cannot go on', with the reason."""
 
-    status: str
+    status: EpisodeStatus
 
 
 class Strategy(Protocol):
+    """What the episode loop reads from a strategy (:func:`beliefloc.simulation.episode.run_episode`)."""
+
     name: str
     plan_seconds: list[float]
+    """Seconds spent choosing each action (or planning), Table I's metric."""
     new_plan: PlanResult | None
     """The plan made while choosing the last action, if one was made."""
+
+    @property
+    def replans(self) -> int:
+        """How often the strategy dropped what it meant to do because the world surprised it."""
+        ...
 
     def next_action(self, belief: np.ndarray) -> str | GiveUp: ...
 
@@ -82,7 +105,7 @@ class PlanningStrategy:
     evaluator: SuccessorEvaluator
     plan_seconds: list[float] = field(default_factory=list)
     plans: list[PlanResult] = field(default_factory=list)
-    memory: SearchMemory = field(default_factory=SearchMemory)
+    memory: ClosedList = field(default_factory=ClosedList)
     new_plan: PlanResult | None = None
     _current: PlanResult | None = None
     _index: int = 0
@@ -106,7 +129,7 @@ class PlanningStrategy:
             self.plan_seconds.append(result.seconds)
             self.new_plan = result
             if not result.found or not result.steps:
-                return GiveUp(result.status.value)
+                return GiveUp(EpisodeStatus(result.status.value))
             self._current, self._index = result, 0
         return self._current.steps[self._index].action
 
@@ -207,60 +230,77 @@ class EC2Strategy:
             self._queue, self._expected = [], []
 
 
-_CONTEXTS: weakref.WeakKeyDictionary[Model, dict[tuple[str, float | None], object]] = weakref.WeakKeyDictionary()
-"""Per model, the pair context and the built macro table, shared by the episodes of an experiment."""
+@dataclass
+class SharedWork:
+    """What the episodes of one experiment share, computed once: the successor evaluator and, per
+    distinguishability threshold, EC2's pair context and the macro table built from it."""
+
+    model: Model
+    evaluator: SuccessorEvaluator
+    _contexts: dict[float | None, PairContext] = field(default_factory=dict)
+    _macros: dict[float | None, MacroTable] = field(default_factory=dict)
+
+    @classmethod
+    def for_model(cls, model: Model) -> SharedWork:
+        return cls(model, SuccessorEvaluator(model))
+
+    def pair_context(self, gamma: float | None) -> PairContext:
+        if gamma not in self._contexts:
+            self._contexts[gamma] = pair_context(self.model, gamma)
+        return self._contexts[gamma]
+
+    def macros(self, gamma: float | None) -> MacroTable:
+        if gamma not in self._macros:
+            self._macros[gamma] = build_macros(self.model, gamma, context=self.pair_context(gamma))
+        return self._macros[gamma]
 
 
-def _cached(model: Model, key: tuple[str, float | None], make: Callable[[], object]) -> object:
-    store = _CONTEXTS.setdefault(model, {})
-    if key not in store:
-        store[key] = make()
-    return store[key]
+StrategyFactory = Callable[[StrategyName, PlannerSettings, SharedWork, np.random.Generator], Strategy]
 
 
-def _ec2(name: str, with_macros: bool) -> StrategyFactory:
-    def make(
-        model: Model, settings: PlannerSettings, evaluator: SuccessorEvaluator, rng: np.random.Generator
-    ) -> Strategy:
+def _ec2(with_macros: bool) -> StrategyFactory:
+    def make(name: StrategyName, settings: PlannerSettings, shared: SharedWork, rng: np.random.Generator) -> Strategy:
         table = settings.macros
         gamma = table.gamma if table is not None else settings.gamma
-        context = _cached(model, ("context", gamma), lambda: pair_context(model, gamma))
-        assert isinstance(context, PairContext)
+        context = shared.pair_context(gamma)
         if with_macros and table is None:
-            built = _cached(model, ("macros", gamma), lambda: build_macros(model, gamma, context=context))
-            assert isinstance(built, MacroTable)
-            table = built
+            table = shared.macros(gamma)
         return EC2Strategy(
-            name, model, context, rng, table if with_macros else None, max_hypotheses=settings.max_hypotheses
+            name.value,
+            shared.model,
+            context,
+            rng,
+            table if with_macros else None,
+            max_hypotheses=settings.max_hypotheses,
         )
 
     return make
 
 
-StrategyFactory = Callable[[Model, PlannerSettings, SuccessorEvaluator, np.random.Generator], Strategy]
-
-
-def _planner(name: str, heuristic: Heuristic | None) -> StrategyFactory:
-    def make(
-        model: Model, settings: PlannerSettings, evaluator: SuccessorEvaluator, rng: np.random.Generator
-    ) -> Strategy:
+def _planner(heuristic: Heuristic | None) -> StrategyFactory:
+    def make(name: StrategyName, settings: PlannerSettings, shared: SharedWork, rng: np.random.Generator) -> Strategy:
         chosen = settings if heuristic is None else replace(settings, heuristic=heuristic)
-        return PlanningStrategy(name, model, chosen, evaluator)
+        return PlanningStrategy(name.value, shared.model, chosen, shared.evaluator)
 
     return make
 
 
-def _random(
-    model: Model, settings: PlannerSettings, evaluator: SuccessorEvaluator, rng: np.random.Generator
-) -> Strategy:
-    return RandomStrategy("random", model, rng)
+def _random(name: StrategyName, settings: PlannerSettings, shared: SharedWork, rng: np.random.Generator) -> Strategy:
+    return RandomStrategy(name.value, shared.model, rng)
 
 
-STRATEGIES: dict[str, StrategyFactory] = {
-    "bestfirst": _planner("bestfirst", None),
-    "uniform": _planner("uniform", Heuristic.ZERO),
-    "random": _random,
-    "ec2": _ec2("ec2", with_macros=False),
-    "ec2-macros": _ec2("ec2-macros", with_macros=True),
+STRATEGIES: dict[StrategyName, StrategyFactory] = {
+    StrategyName.BESTFIRST: _planner(None),
+    StrategyName.UNIFORM: _planner(Heuristic.ZERO),
+    StrategyName.RANDOM: _random,
+    StrategyName.EC2: _ec2(with_macros=False),
+    StrategyName.EC2_MACROS: _ec2(with_macros=True),
 }
-"""Every strategy ``simulate`` offers, by name."""
+"""Every strategy ``simulate`` offers, one per :class:`StrategyName`."""
+
+
+def make_strategy(
+    name: StrategyName, settings: PlannerSettings, shared: SharedWork, rng: np.random.Generator
+) -> Strategy:
+    """A fresh strategy for one episode."""
+    return STRATEGIES[name](name, settings, shared, rng)

@@ -1,0 +1,139 @@
+"""The options more than one command takes, defined once.
+
+Choices and defaults come from the library's vocabulary modules (``planning.settings``,
+``simulation.settings``), which import nothing numeric: building the command line loads neither
+numpy nor scipy nor clingo. A command imports what it computes with when it runs.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from beliefloc.cli.common import for_option
+from beliefloc.planning.settings import DEFAULT_WEIGHT, Heuristic, Planner, check_weight, heuristic_for
+
+# --- what a command reads --------------------------------------------------------------------------
+
+ModelArgument = Annotated[
+    Path,
+    typer.Argument(metavar="MAP|MODEL", help="A map (.yaml), a model (.npz) or a .pomdp file.", show_default=False),
+]
+BELIEF_HELP = (
+    "The belief to start from: 'uniform', a YAML/JSON file {state: probability} (the output of 'track --json' "
+    "works too), or prior:DOMAIN: where the domain's knowledge base says the robot is (its rooms must be the map's)."
+)
+BeliefOption = Annotated[str, typer.Option("--belief", metavar="uniform|FILE|prior:DOMAIN", help=BELIEF_HELP)]
+DomainArgument = Annotated[
+    Path, typer.Argument(metavar="DOMAIN", help="A domain file (domains/*.yaml).", show_default=False)
+]
+MacrosOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--macros",
+        help="A macro table from 'beliefloc macros build' (ec2-macros: default built for the model in memory).",
+        show_default=False,
+    ),
+]
+
+# --- how a command prints --------------------------------------------------------------------------
+
+JsonOption = Annotated[bool, typer.Option("--json", help="Print machine-readable JSON on stdout.")]
+TimingsOption = Annotated[
+    bool,
+    typer.Option("--timings/--no-timings", help="Include wall-clock seconds in --json (off: byte-identical reruns)."),
+]
+CompactOption = Annotated[
+    bool | None,
+    typer.Option(
+        "--compact/--full",
+        help="Force compact cells (2 characters: cell shade, arrow of the most likely heading) or full "
+        "cells (a pixel per heading). Default: full when it fits the terminal.",
+        show_default=False,
+    ),
+]
+TopOption = Annotated[int, typer.Option("--top", min=0, help="How many of the most likely states to list.")]
+
+# --- randomness --------------------------------------------------------------------------------------
+
+SeedOption = Annotated[int, typer.Option("--seed", min=0, help="Seeds every random number of the run.")]
+
+# --- planning (plan, simulate) ---------------------------------------------------------------------
+
+ThresholdOption = Annotated[
+    float, typer.Option("--threshold", min=0.0, max=1.0, help="Goal: one state holds at least this probability.")
+]
+HeuristicOption = Annotated[
+    Heuristic | None,
+    typer.Option(
+        "--heuristic",
+        help="h of best-first search: H(b)/(max(b)·p) (default), H(b)/p (the pseudocode), or zero.",
+        show_default=False,
+    ),
+]
+HWeightOption = Annotated[
+    float,
+    typer.Option(
+        "--h-weight",
+        help="Best-first ranks beliefs by g + W·h; 1 is the paper's. Below 1 the actions' costs count more: "
+        "cheaper plans from a longer search.",
+    ),
+]
+MaxExpansionsOption = Annotated[
+    int, typer.Option("--max-expansions", min=1, help="Give up after expanding this many beliefs.")
+]
+PlanTimeLimitOption = Annotated[
+    float, typer.Option("--time-limit", min=0.0, help="Give up after this many seconds of search.")
+]
+
+
+def resolve_heuristic(planner: Planner, heuristic: Heuristic | None, weight: float) -> Heuristic:
+    """The library's heuristic for ``--planner``, ``--heuristic`` and ``--h-weight``; an error names
+    the options that contradict each other."""
+    with for_option("--h-weight"):
+        check_weight(weight)
+    given = [f"--planner {planner.value}"]
+    given += [f"--heuristic {heuristic.value}"] if heuristic is not None else []
+    given += [f"--h-weight {weight:g}"] if weight != DEFAULT_WEIGHT else []
+    with for_option(" ".join(given)):
+        return heuristic_for(planner, heuristic, weight)
+
+
+GammaOption = Annotated[
+    float | None,
+    typer.Option(
+        "--gamma",
+        min=0.0,
+        max=1.0,
+        help="EC2: two states are distinguishable when their observation difference (Eq. 5) exceeds this. "
+        "Default: halfway between the largest difference of two states with equal noise-free readings "
+        "and the smallest of two with different ones.",
+        show_default=False,
+    ),
+]
+
+# --- knowledge bases (prior, kb, search) -----------------------------------------------------------
+
+TargetOption = Annotated[
+    str | None,
+    typer.Option("--target", "-t", help="The class searched for (default: the domain's `target`).", show_default=False),
+]
+KbOption = Annotated[
+    list[Path] | None,
+    typer.Option(
+        "--kb", help="An extra .lp file, added to kb/axioms.lp and the domain's own (repeatable).", show_default=False
+    ),
+]
+SeenOption = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--seen",
+        help="An observed fact OBJECT=ROOM (OBJECT:CLASS=ROOM for a new object), at the last step (repeatable).",
+        show_default=False,
+    ),
+]
+DefaultsOption = Annotated[
+    bool, typer.Option("--defaults/--no-defaults", help="Use the domain file's defaults (those in .lp files stay).")
+]

@@ -1,0 +1,89 @@
+"""The belief as words and numbers: the most likely states in a table, a one-line summary,
+a state described by its cell and heading, the header of a tracked step.
+
+Functions here only observe a belief; they return rich renderables and never print.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from rich.console import Group, RenderableType
+from rich.table import Table
+from rich.text import Text
+
+from beliefloc.belief import entropy, most_likely
+from beliefloc.model import Model
+from beliefloc.render.drawing import COMPASS, HIGHLIGHT, PALETTE
+
+
+def describe_state(model: Model, state: int) -> str:
+    """``row 1, col 0, facing E (window)`` on a grid; the state's name otherwise."""
+    grid = model.grid
+    if grid is None:
+        return model.states.name(state)
+    r, c, h = (int(x) for x in grid.cell_heading(state))
+    where = f"row {r}, col {c}"
+    if grid.headings > 1:
+        where += f", facing {COMPASS[grid.headings][h]}"
+    classes = sorted({cls for cls, lr, lc in grid.landmarks if (lr, lc) == (r, c)})
+    if classes:
+        where += f" ({', '.join(classes)})"
+    return where
+
+
+def top_states(belief: np.ndarray, top: int) -> np.ndarray:
+    """Indices of the ``top`` most likely states, most likely first (lower index first on ties)."""
+    return np.argsort(-belief, kind="stable")[:top]
+
+
+def top_states_table(model: Model, belief: np.ndarray, *, top: int = 10, color: bool = True) -> Table:
+    """The most likely states with their probabilities and a bar."""
+    table = Table(box=None, pad_edge=False, show_edge=False, header_style="bold")
+    table.add_column("#", justify="right")
+    table.add_column("state")
+    table.add_column("probability", justify="right")
+    table.add_column("", no_wrap=True)
+    if model.grid is not None:
+        table.add_column("where")
+    peak = float(np.max(belief))
+    for rank, state in enumerate(top_states(belief, top).tolist(), start=1):
+        p = float(belief[state])
+        bar_length = 0 if peak <= 0 else max(1, round(10 * p / peak)) if p > 0 else 0
+        bar = Text("█" * bar_length, style=HIGHLIGHT if rank == 1 and color else ("" if not color else PALETTE[-3]))
+        row: list[RenderableType] = [str(rank), model.states.name(state), f"{p:.4g}", bar]
+        if model.grid is not None:
+            row.append(describe_state(model, state))
+        table.add_row(*row)
+    return table
+
+
+def summary_line(model: Model, belief: np.ndarray) -> Text:
+    """``most likely 1,0  p = 0.4444 (tied with 1 other)   entropy 1.042 nats``."""
+    state, p = most_likely(belief)
+    ties = int(np.count_nonzero(np.isclose(belief, p, rtol=1e-9, atol=0.0))) - 1
+    h = entropy(belief)
+    text = Text("most likely ")
+    text.append(model.states.name(state), style="bold red")
+    tie = f" (tied with {ties} other{'s' if ties > 1 else ''})" if ties else ""
+    text.append(f"  p = {p:.4g}{tie}   entropy {h:.4g} nats")
+    return text
+
+
+def belief_summary(model: Model, belief: np.ndarray, *, top: int = 5, color: bool = True) -> Group:
+    """The most likely state, the entropy, and a table of the ``top`` most likely states."""
+    parts: list[RenderableType] = [summary_line(model, belief)]
+    if top > 0:
+        parts.append(top_states_table(model, belief, top=top, color=color))
+    return Group(*parts)
+
+
+def step_header(number: int, step: str, action: str, observation: str | None, probability: float | None) -> Text:
+    """``step 2: look=window_seen   p(window_seen | look, b) = 0.45``."""
+    text = Text()
+    text.append(f"step {number}: ", style="bold")
+    text.append(step, style="bold")
+    if observation is None or probability is None:
+        text.append("   nothing observed: prediction only")
+    else:
+        text.append(f"   p({observation} | {action}, b) = {probability:.4g}")
+    return text

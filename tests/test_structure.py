@@ -1,0 +1,75 @@
+"""The package's shape: layers that import downward only, no import cycle, a command line that
+starts without the numeric stack."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _loaded_after(statement: str) -> set[str]:
+    """The top-level modules a fresh interpreter has loaded after ``statement``."""
+    code = f"import sys, json\n{statement}\nprint(json.dumps(sorted({{m.split('.')[0] for m in sys.modules}})))"
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
+    return set(json.loads(result.stdout))
+
+
+def test_building_the_command_line_loads_no_numeric_stack():
+    """``beliefloc --help`` must answer at once: the CLI imports scipy and clingo only when a command
+    that needs them runs."""
+    loaded = _loaded_after("import beliefloc.cli.app")
+    assert "beliefloc" in loaded  # the probe itself works
+    assert not loaded & {"scipy", "clingo"}, sorted(loaded & {"scipy", "clingo"})
+
+
+def test_the_package_root_is_lazy():
+    """``import beliefloc`` loads nothing heavy; ``beliefloc.update`` still works when asked for."""
+    assert not _loaded_after("import beliefloc") & {"numpy", "scipy", "clingo", "pydantic"}
+    assert "scipy" in _loaded_after("import beliefloc; beliefloc.update")
+
+
+def _graph() -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, str(ROOT / "tools" / "import_graph.py"), "--modules"], capture_output=True, text=True
+    )
+
+
+def test_no_import_cycle_between_modules():
+    result = _graph()
+    assert "cycle:" not in result.stdout, result.stdout
+    assert result.returncode == 0
+
+
+def test_layers_import_downward_only():
+    """Nothing below the command line imports it, and only render/ and cli/ import rich."""
+    edges = [line.split(" -> ") for line in _graph().stdout.splitlines() if " -> " in line]
+    for source, targets in edges:
+        if not source.startswith("beliefloc.cli") and source != "beliefloc.__main__":
+            assert "beliefloc.cli" not in targets, source
+    for path in (ROOT / "beliefloc").rglob("*.py"):
+        relative = path.relative_to(ROOT / "beliefloc").parts
+        if relative[0] in ("cli", "render"):
+            continue
+        text = path.read_text(encoding="utf-8")
+        assert "import rich" not in text and "from rich" not in text, path
+        assert "import typer" not in text, path
+
+
+def test_the_graph_tool_finds_a_cycle(tmp_path: Path):
+    """The cycle check above can fail: two modules that import each other are reported."""
+    package = tmp_path / "beliefloc"
+    package.mkdir()
+    (package / "__init__.py").write_text("")
+    (package / "a.py").write_text("from beliefloc import b\n")
+    (package / "b.py").write_text("def f():\n    from beliefloc.a import x\n")
+    result = subprocess.run(
+        [sys.executable, str(ROOT / "tools" / "import_graph.py"), "--modules", "--root", str(tmp_path)],
+        capture_output=True,
+        text=True,
+    )
+    assert result.returncode == 1
+    assert "cycle: beliefloc.a <-> beliefloc.b" in result.stdout
