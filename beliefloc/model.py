@@ -22,11 +22,14 @@ import re
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.sparse as sp
 
 from beliefloc.errors import InvalidValueError
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
 
 NONE_OBSERVATION = "none"
 """The one observation of an action that senses nothing."""
@@ -205,6 +208,8 @@ class ObservationModel:
 
     def matrix(self) -> sp.csr_matrix:
         """The full ``|S| x |Omega|`` observation matrix, sparse (for export and comparison)."""
+        import scipy.sparse as sp  # here, not at import: reading a map needs no scipy
+
         if not self.parts:
             return sp.csr_matrix(np.ones((self.n_states, 1)))
         states = np.arange(self.n_states)

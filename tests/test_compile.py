@@ -560,3 +560,19 @@ def test_here_label_characters_must_be_names_without_a_legend():
     data = _map(1, 2, headings=1, sensors={"here": {"type": "here", "labels": "+a"}})
     with pytest.raises((ValidationError, FieldError)):
         SemanticMap.model_validate(data)
+
+
+@pytest.mark.parametrize("path", sorted(MAPS.glob("*.yaml")), ids=lambda p: p.stem)
+def test_describe_map_reports_what_compile_model_builds(path) -> None:
+    """validate reports a map from describe_map, which builds no transition matrix: its sizes must
+    be the compiled model's, action by action."""
+    from beliefloc.semantic_map import describe_map
+
+    smap = load_map(path)
+    summary, model = describe_map(smap), compile_model(smap)
+    assert summary.n_states == model.n_states
+    assert summary.action_names == [a.name for a in model.actions]
+    assert list(summary.actuation_actions) == [a.name for a in model.actuation_actions]
+    assert [a.observation.n_observations for a in summary.perception_actions] == [
+        a.observation.n_observations for a in model.perception_actions
+    ]

@@ -28,36 +28,37 @@ def validate(
 
     Example: beliefloc validate maps/*.yaml
     """
-    from beliefloc.semantic_map import compile_model, load_map
+    from beliefloc.semantic_map import describe_map, load_map
 
     results = []
     for path in maps:
         try:
             smap = load_map(path)
-            model = compile_model(smap)
+            summary = describe_map(smap)
         except BeliefLocError as exc:
             results.append({"file": str(path), "valid": False, "error": str(exc)})
             if not json_output:
                 report_error(exc)
             continue
-        sensors = [a for a in model.perception_actions]
         result = {
             "file": str(path),
             "valid": True,
             "error": None,
-            "name": model.name,
-            "states": model.n_states,
-            "actions": [a.name for a in model.actions],
+            "name": summary.name,
+            "states": summary.n_states,
+            "actions": summary.action_names,
             "rooms": {name: int(mask.sum()) for name, mask in smap.rooms.items()},
         }
         results.append(result)
         if not json_output:
-            grid = model.grid
-            where = f"{grid.rows}x{grid.cols} grid, " if grid else ""
-            observed = ", ".join(f"{a.name}: {a.observation.n_observations} observations" for a in sensors)
+            grid = summary.grid
+            where = f"{grid.rows}x{grid.cols} grid, "
+            observed = ", ".join(
+                f"{a.name}: {a.observation.n_observations} observations" for a in summary.perception_actions
+            )
             stdout_console().print(
-                f"[green]ok[/] {escape(str(path))}: {escape(model.name)}, {where}{model.n_states} states, "
-                f"{len(model.actuation_actions)} actuation actions"
+                f"[green]ok[/] {escape(str(path))}: {escape(summary.name)}, {where}{summary.n_states} states, "
+                f"{len(summary.actuation_actions)} actuation actions"
                 + (f", {escape(observed)}" if observed else "")
                 + escape(_rooms_summary(smap)),
                 soft_wrap=True,

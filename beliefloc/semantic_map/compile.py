@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Mapping
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -67,9 +68,7 @@ def compile_model(smap: SemanticMap, source: SourceInfo | None = None) -> Model:
     then a perception action per sensor offered as an action."""
     layout = layout_of(smap)
     n = layout.n_states
-    annotated = _annotated_states(smap, layout)
-    parts = {name: _sensor_parts(name, sensor, smap, layout, annotated) for name, sensor in smap.sensors.items()}
-    passive = tuple(p for name, sensor in smap.sensors.items() if sensor.passive for p in parts[name])
+    perception, passive = _sensor_actions(smap, layout)
     actions: list[Action] = []
     for name, spec in smap.actions.items():
         targets = geometry.motion_targets(layout, name)
@@ -82,16 +81,56 @@ def compile_model(smap: SemanticMap, source: SourceInfo | None = None) -> Model:
                 observation=ObservationModel(n, passive),
             )
         )
-    for name, sensor in smap.sensors.items():
-        if sensor.as_action:
-            actions.append(Action(name, ActionKind.PERCEPTION, sensor.cost, None, ObservationModel(n, parts[name])))
     return Model(
         name=smap.name,
         states=StateSpace(n, grid=layout),
-        actions=tuple(actions),
+        actions=(*actions, *perception),
         grid=layout,
         source=source if source is not None else smap.source,
     )
+
+
+@dataclass(frozen=True)
+class MapSummary:
+    """What ``validate`` reports of a map without building its transition matrices (they are the
+    only part of compiling that needs scipy, and a valid map always has them)."""
+
+    name: str
+    grid: GridLayout
+    actuation_actions: tuple[str, ...]
+    perception_actions: tuple[Action, ...]
+    """The sensors offered as actions, with their observation models, as :func:`compile_model` builds them."""
+
+    @property
+    def n_states(self) -> int:
+        return self.grid.n_states
+
+    @property
+    def action_names(self) -> list[str]:
+        """In the model's order: the actuation actions, then the perception actions."""
+        return [*self.actuation_actions, *(a.name for a in self.perception_actions)]
+
+
+def describe_map(smap: SemanticMap) -> MapSummary:
+    """The sizes of ``smap``'s model: its grid, states, actions and each sensor's observations."""
+    layout = layout_of(smap)
+    perception, _ = _sensor_actions(smap, layout)
+    return MapSummary(smap.name, layout, tuple(smap.actions), tuple(perception))
+
+
+def _sensor_actions(smap: SemanticMap, layout: GridLayout) -> tuple[list[Action], tuple[ObservationPart, ...]]:
+    """The perception actions (one per sensor offered as an action), and the observation parts of
+    the passive sensors, which every actuation action observes."""
+    n = layout.n_states
+    annotated = _annotated_states(smap, layout)
+    parts = {name: _sensor_parts(name, sensor, smap, layout, annotated) for name, sensor in smap.sensors.items()}
+    passive = tuple(p for name, sensor in smap.sensors.items() if sensor.passive for p in parts[name])
+    perception = [
+        Action(name, ActionKind.PERCEPTION, sensor.cost, None, ObservationModel(n, parts[name]))
+        for name, sensor in smap.sensors.items()
+        if sensor.as_action
+    ]
+    return perception, passive
 
 
 def _annotated_states(smap: SemanticMap, layout: GridLayout) -> list[tuple[np.ndarray, dict[str, object]]]:

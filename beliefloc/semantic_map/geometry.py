@@ -11,11 +11,14 @@ Conventions (also in ``docs/map-format.md``):
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
-import scipy.sparse as sp
 
 from beliefloc.model import GridLayout
+
+if TYPE_CHECKING:
+    import scipy.sparse as sp
 
 HEADING_VECTORS: dict[int, tuple[tuple[int, int], ...]] = {
     1: ((0, 0),),
@@ -68,6 +71,8 @@ def motion_targets(layout: GridLayout, motion: str) -> np.ndarray:
 
 def transition_matrix(targets: np.ndarray, failure: float) -> sp.csr_matrix:
     """``T[i, targets[i]] = 1 - failure`` and ``T[i, i] += failure``: a failed move stays put."""
+    import scipy.sparse as sp  # here, not at import: validating a map builds no matrix
+
     n = len(targets)
     stays = targets == np.arange(n)
     indptr = np.zeros(n + 1, dtype=np.int64)
