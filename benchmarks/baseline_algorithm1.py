@@ -1,6 +1,6 @@
 """A plain transcription of Colledanchise et al. 2020, Algorithm 1, function ``Plan`` (lines 16-52).
 
-The reference that ``bench_planning.py`` times :func:`beliefloc.planning.best_first.plan` against.
+The reference that ``benchmarks.planning`` times :func:`beliefloc.planning.best_first.plan` against.
 It does what the pseudocode says, the straightforward way, with no engineering:
 
 * a node stores its full belief vector ``node.b`` (line 31);

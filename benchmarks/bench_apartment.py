@@ -48,17 +48,20 @@ from typing import Any
 
 import numpy as np
 from machine import cpu_name  # benchmarks/machine.py (scripts run from benchmarks/ on sys.path)
+from stats import mean, mean_or_none, sd, win_counts  # benchmarks/stats.py
 
 from beliefloc import compile_model, load_map
-from beliefloc.knowledge import Domain, KnowledgeBase, load_domain, spread_over_states
-from beliefloc.knowledge.robot import DEFAULT_WEIGHT, prior_from_answer
+from beliefloc.knowledge import load_domain, robot_start_belief
 from beliefloc.model import Model
-from beliefloc.object_search.existence import ExistenceStrategy
+from beliefloc.object_search.domain_space import search_space
 from beliefloc.object_search.experiment import Arm, TrialRecord, TrialSettings, run_trials
-from beliefloc.object_search.world import SearchSpace, search_space
+from beliefloc.object_search.loop import Verdict
+from beliefloc.object_search.settings import Metareasoning
+from beliefloc.object_search.space import SearchSpace
 from beliefloc.planning.best_first import plan
 from beliefloc.semantic_map import room_states
 from beliefloc.simulation.episode import EpisodeRecord, run_experiment, summarize
+from beliefloc.simulation.strategies import EpisodeStatus
 
 ROOT = Path(__file__).resolve().parent.parent
 MAP = ROOT / "maps" / "apartment.yaml"
@@ -67,17 +70,6 @@ PLANE = ROOT / "tests" / "data" / "map-search" / "apartment-plane.yaml"
 RESULTS = ROOT / "benchmarks" / "results" / "apartment.md"
 KB_ROOM = "kitchen"
 """Where domains/apartment.yaml's knowledge base puts the robot (its dock)."""
-
-
-def kb_start_belief(model: Model, domain: Domain) -> np.ndarray:
-    """``--belief prior:DOMAIN`` without the CLI: the robot's room prior spread over the map's states."""
-    smap = domain.semantic_map
-    assert smap is not None and model.grid is not None
-    states = room_states(smap.rooms, model.grid)
-    weight = domain.robot.weight if domain.robot is not None else DEFAULT_WEIGHT
-    covered = sum(len(s) for s in states.values())
-    prior = prior_from_answer(KnowledgeBase(domain).answer(), weight=weight, outside=covered < model.n_states)
-    return spread_over_states(prior, states, model.n_states)
 
 
 def first_plan(model: Model, belief: np.ndarray, repeats: int) -> dict[str, Any]:
@@ -95,22 +87,18 @@ def first_plan(model: Model, belief: np.ndarray, repeats: int) -> dict[str, Any]
     }
 
 
-def _mean(values: Sequence[float]) -> float | None:
-    return statistics.fmean(values) if values else None
-
-
 def _pm(values: Sequence[float], digits: int = 1) -> str:
     if not values:
         return "-"
-    spread = f"±{statistics.stdev(values):.{digits}f}" if len(values) > 1 else ""
-    return f"{statistics.fmean(values):.{digits}f}{spread}"
+    spread = f"±{sd(values):.{digits}f}" if len(values) > 1 else ""
+    return f"{mean(values):.{digits}f}{spread}"
 
 
 def localization(episodes: int, seed: int, repeats: int) -> list[str]:
     smap = load_map(MAP)
     model = compile_model(smap)
     domain = load_domain(DOMAIN)
-    prior = kb_start_belief(model, domain)
+    prior = robot_start_belief(model, domain, smap).belief  # ``--belief prior:DOMAIN`` without the CLI
     uniform = np.full(model.n_states, 1.0 / model.n_states)
     assert model.grid is not None
     kitchen = set(room_states(smap.rooms, model.grid)[KB_ROOM].tolist())
@@ -133,23 +121,22 @@ def localization(episodes: int, seed: int, repeats: int) -> list[str]:
         )
         outcomes[name] = records
         summary = summarize(records)["bestfirst"]
-        localized = [r for r in records if r.status == "localized"]
+        localized = [r for r in records if r.status is EpisodeStatus.LOCALIZED]
         right = [r.cost for r in localized if model.states.index(r.start) in kitchen]
         wrong = [r.cost for r in localized if model.states.index(r.start) not in kitchen]
         plan_ms = [1000 * statistics.fmean(r.plan_seconds) for r in records if r.plan_seconds]
         lines.append(
             f"| {name} | {first['cost']:.0f} | {first['steps']} | {first['expanded']} | {1000 * first['seconds']:.1f} "
-            f"| {summary['localized']}/{episodes} | {summary['correct']}/{episodes} | {_pm(plan_ms)} "
-            f"| {_pm([r.cost for r in localized])} | {_mean([r.steps for r in localized]) or 0:.1f} "
-            f"| {summary['mean_replans'] or 0:.2f} | {_pm(right)} (n={len(right)}) | {_pm(wrong)} (n={len(wrong)}) |"
+            f"| {summary.localized}/{episodes} | {summary.correct}/{episodes} | {_pm(plan_ms)} "
+            f"| {_pm([r.cost for r in localized])} | {mean_or_none([r.steps for r in localized]) or 0:.1f} "
+            f"| {summary.mean_replans or 0:.2f} | {_pm(right)} (n={len(right)}) | {_pm(wrong)} (n={len(wrong)}) |"
         )
         print(lines[-1], flush=True)
     starts = [[r.start for r in outcomes[name]] for name in outcomes]
     assert starts[0] == starts[1], "paired episodes must share their true starts"
     prior_costs = [r.cost for r in outcomes["KB prior"]]
     uniform_costs = [r.cost for r in outcomes["uniform"]]
-    cheaper = sum(a < b for a, b in zip(prior_costs, uniform_costs, strict=True))
-    dearer = sum(a > b for a, b in zip(prior_costs, uniform_costs, strict=True))
+    cheaper, dearer = win_counts(zip(prior_costs, uniform_costs, strict=True))
     ratio = statistics.fmean(prior_costs) / statistics.fmean(uniform_costs)
     prior_ms = [statistics.fmean(r.plan_seconds) for r in outcomes["KB prior"] if r.plan_seconds]
     uniform_ms = [statistics.fmean(r.plan_seconds) for r in outcomes["uniform"] if r.plan_seconds]
@@ -169,6 +156,7 @@ def _arm_rows(label: str, space: SearchSpace, records: list[TrialRecord], trials
         mine = [(r, r.outcomes[index]) for r in records]
         assert all(o.arm == arm for _, o in mine)
         verdicts = [o.verdict for _, o in mine]
+        counts = "/".join(str(verdicts.count(v)) for v in (Verdict.FOUND, Verdict.NOT_FOUND, Verdict.TIME_LIMIT))
         errors, right_room = [], 0
         for r, o in mine:
             if o.reported_cell is not None and r.true_cell is not None:
@@ -176,8 +164,7 @@ def _arm_rows(label: str, space: SearchSpace, records: list[TrialRecord], trials
                 right_room += space.rooms[space.room_of_cell[o.reported_cell]] == r.true_room
         reported = sum(1 for r, o in mine if o.reported_cell is not None and r.true_cell is not None)
         rows.append(
-            f"| {label} | {arm.split('/')[0]} | {trials} | {verdicts.count('found')}/{verdicts.count('not-found')}/"
-            f"{verdicts.count('time-limit')} | {_pm([o.time for _, o in mine])} "
+            f"| {label} | {arm.split('/')[0]} | {trials} | {counts} | {_pm([o.time for _, o in mine])} "
             f"| {statistics.fmean(o.accuracy for _, o in mine):.3f} | {_pm(errors, 2)} "
             f"| {right_room}/{reported} | {statistics.fmean(o.steps for _, o in mine):.1f} "
             f"| {1000 * statistics.fmean(r.seconds for r in records):.1f} |"
@@ -209,7 +196,7 @@ def object_search(trials: int, seed: int) -> list[str]:
         "| reported in the target's room | steps | ms per trial (all arms) |",
         "| --- | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
-    arms = [Arm(policy, ExistenceStrategy.EXPECTATION) for policy in ("pomdp", "greedy", "pomdp-only")]
+    arms = [Arm(policy, Metareasoning.EXPECTATION) for policy in ("pomdp", "greedy", "pomdp-only")]
     settings: dict[str, tuple[list[Arm], TrialSettings]] = {
         "present": (arms, TrialSettings()),
         "half absent": (arms[:1], TrialSettings(absent_fraction=0.5)),

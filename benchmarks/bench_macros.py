@@ -35,6 +35,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+from stats import mean_or_none  # benchmarks/stats.py (scripts run from benchmarks/ on sys.path)
+
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "benchmarks" / "results" / "macros.md"
 PAPER = {"ec2-macros": (1.0, 25.61), "ec2": (0.862, 79.13)}
@@ -133,7 +135,7 @@ def tables(map_path: str, macros_path: str, trials: int, seed: int, max_actions:
     from beliefloc.macro_file import load_macros
     from beliefloc.planning.ec2 import pair_context
     from beliefloc.simulation.episode import run_episode
-    from beliefloc.simulation.strategies import PlannerSettings
+    from beliefloc.simulation.strategies import EpisodeStatus, PlannerSettings
 
     model = compile_model(load_map(map_path))
     table = load_macros(macros_path, model)
@@ -150,17 +152,15 @@ def tables(map_path: str, macros_path: str, trials: int, seed: int, max_actions:
             records[name].append(
                 run_episode(model, name, start, belief, seed=seed, episode=e, settings=settings, max_steps=max_actions)
             )
-    both = [e for e in range(trials) if all(records[n][e].status == "localized" for n in records)]
+    both = [e for e in range(trials) if all(records[n][e].status is EpisodeStatus.LOCALIZED for n in records)]
     out: dict[str, Any] = {"states": model.n_states, "eligible": len(eligible), "trials": trials, "both": len(both)}
     for name, recs in records.items():
         decisions = [t for r in recs for t in r.plan_seconds]
         out[name] = {
-            "localized": sum(r.status == "localized" for r in recs) / trials,
+            "localized": sum(r.status is EpisodeStatus.LOCALIZED for r in recs) / trials,
             "correct": sum(r.correct for r in recs) / trials,
-            "mean_actions_both": statistics.fmean(recs[e].steps for e in both) if both else None,
-            "mean_actions_own": statistics.fmean(r.steps for r in recs if r.status == "localized")
-            if any(r.status == "localized" for r in recs)
-            else None,
+            "mean_actions_both": mean_or_none([recs[e].steps for e in both]),
+            "mean_actions_own": mean_or_none([r.steps for r in recs if r.status is EpisodeStatus.LOCALIZED]),
             "mean_decision_ms": 1000 * statistics.fmean(decisions) if decisions else None,
             "max_decision_ms": 1000 * max(decisions) if decisions else None,
         }

@@ -43,12 +43,14 @@ import numpy as np
 from machine import cpu_name  # benchmarks/machine.py (scripts run from benchmarks/ on sys.path)
 
 from beliefloc.knowledge import Domain, domain_prior, load_domain
-from beliefloc.object_search.existence import ExistenceBelief, ExistenceStrategy, detection_likelihoods
+from beliefloc.object_search.domain_space import search_space
+from beliefloc.object_search.existence import ExistenceBelief, detection_likelihoods
 from beliefloc.object_search.experiment import Arm, TrialSettings, run_trials
 from beliefloc.object_search.loop import cell_prior
 from beliefloc.object_search.policy import POLICIES, _expected_entropy, _xlogx
-from beliefloc.object_search.posterior import CellBelief, Revision
-from beliefloc.object_search.world import SearchSpace, search_space
+from beliefloc.object_search.posterior import CellBelief
+from beliefloc.object_search.settings import Metareasoning, Revision
+from beliefloc.object_search.space import SearchSpace
 
 ROOT = Path(__file__).resolve().parent.parent
 DOMAIN = ROOT / "domains" / "home.yaml"
@@ -99,9 +101,9 @@ def step_timings(
     present = rng.random(repeats + 1) < 0.2
     detector = space.detector
     out: dict[str, float] = {}
-    for strategy in (ExistenceStrategy.EXPECTATION, ExistenceStrategy.UPPER_BOUND, ExistenceStrategy.SAMPLING):
+    for metareasoning in (Metareasoning.EXPECTATION, Metareasoning.UPPER_BOUND, Metareasoning.SAMPLING):
         cells = CellBelief.start(cell_prior(space, room_prior))
-        existence = ExistenceBelief(6, 2, strategy, rng=np.random.default_rng(1))
+        existence = ExistenceBelief(6, 2, metareasoning, rng=np.random.default_rng(1))
         existence.theta  # noqa: B018 -- the upper bound's quantile is computed once, before timing
         state = {"cells": cells}
 
@@ -116,10 +118,10 @@ def step_timings(
             existence.probability_exists()
             int(np.argmax(state["cells"].posterior))
 
-        out[f"update+meta {strategy.value}"] = median_us(step, repeats)
+        out[f"update+meta {metareasoning.value}"] = median_us(step, repeats)
     cells = CellBelief.start(cell_prior(space, room_prior))
     dense_state = {"cells": cells}
-    existence = ExistenceBelief(6, 2, ExistenceStrategy.EXPECTATION)
+    existence = ExistenceBelief(6, 2, Metareasoning.EXPECTATION)
 
     def dense_step(i: int) -> None:  # the first version: a boolean mask and a likelihood over all cells
         belief = dense_state["cells"].posterior
@@ -269,7 +271,7 @@ def main(argv: list[str] | None = None) -> int:
         "| ms per trial |",
         "| --- | ---: | ---: | ---: | ---: | ---: | ---: |",
     ]
-    default_arm = [Arm("pomdp", ExistenceStrategy.EXPECTATION)]
+    default_arm = [Arm("pomdp", Metareasoning.EXPECTATION)]
     total, searches, rest = trial_timings(home, trials, default_arm)
     lines.append(
         f"| `run_trials`, search simulate's defaults | {trials} | 1 | {total:.1f} | {searches:.1f} | {rest:.1f} "
@@ -282,9 +284,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     print(lines[-1], flush=True)
     h2 = [
-        Arm("pomdp", ExistenceStrategy.NONE),
-        Arm("pomdp", ExistenceStrategy.NONE, dynamic_kb=True),
-        Arm("pomdp", ExistenceStrategy.NONE, Revision.TRUST),
+        Arm("pomdp", Metareasoning.NONE),
+        Arm("pomdp", Metareasoning.NONE, dynamic_kb=True),
+        Arm("pomdp", Metareasoning.NONE, Revision.TRUST),
     ]
     h2_trials = max(10, trials // 5)
     total_h2, searches_h2, rest_h2 = trial_timings(home, h2_trials, h2)

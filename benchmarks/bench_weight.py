@@ -1,5 +1,5 @@
 """Weighted best-first search: what ``--h-weight`` (f = g + w·h) buys in executed cost, and what it
-costs in planning time, on the worlds of ``bench_planning.py``.
+costs in planning time, on the worlds of ``python -m benchmarks.planning``.
 
 Run by hand from the repository root (not part of the test suite)::
 
@@ -7,7 +7,7 @@ Run by hand from the repository root (not part of the test suite)::
     python benchmarks/bench_weight.py --quick            # 5 episodes at 10^2 and 10^3 (~10 s)
     python benchmarks/bench_weight.py --sizes 1e4 --episodes 30 --weights 1 0.1 --output /tmp/w.md
 
-Episode ``e`` is exactly ``bench_planning.py``'s: the same world seed, true start, noise and step
+Episode ``e`` is exactly ``benchmarks.planning``'s: the same world seed, true start, noise and step
 limit, so the ``w = 1`` rows repeat its bestfirst rows. Every weight meets the same episodes (paired
 trials) with the planner's default budget (200,000 expansions, 60 s per plan call). One process,
 ``OPENBLAS_NUM_THREADS=1``; the table goes to ``benchmarks/results/planning-weight.md``
@@ -25,10 +25,12 @@ import time
 from pathlib import Path
 from typing import Any
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the repository root: import benchmarks.*
 
-from bench_planning import THRESHOLD, _say, _single_threaded, build_model, paired_means, world_seed
-from machine import cpu_name
+from benchmarks.machine import cpu_name
+from benchmarks.planning.settings import THRESHOLD, say, single_threaded
+from benchmarks.planning.worlds import build_model, world_seed
+from benchmarks.stats import fmt, mean_or_none, median_or_none, paired_means
 
 RESULTS = Path(__file__).resolve().parent / "results" / "planning-weight.md"
 TARGET_STATES = 10_000
@@ -47,9 +49,8 @@ def run(
 ) -> list[dict[str, Any]]:
     """One row per (size, weight, episode): the bestfirst episode with that weight."""
     from beliefloc.belief import uniform
-    from beliefloc.planning.successors import SuccessorEvaluator
     from beliefloc.simulation.episode import episode_rngs, run_episode
-    from beliefloc.simulation.strategies import PlannerSettings
+    from beliefloc.simulation.strategies import PlannerSettings, SharedWork
 
     rows = []
     with tempfile.TemporaryDirectory(prefix="bench-weight-") as tmp:
@@ -58,7 +59,7 @@ def run(
             for e in range(episodes):
                 wseed = world_seed(seed, e)
                 model = build_model(states, wseed, Path(tmp), rotation_failure)
-                evaluator = SuccessorEvaluator(model)
+                shared = SharedWork.for_model(model)  # one successor evaluator for every weight
                 start_rng, _, _ = episode_rngs(wseed, 0)  # as run_experiment draws episode 0's start
                 start = int(start_rng.integers(model.n_states))
                 parts = []
@@ -70,7 +71,7 @@ def run(
                         uniform(model.n_states),
                         seed=wseed,
                         settings=PlannerSettings(weight=weight),
-                        evaluator=evaluator,
+                        shared=shared,
                         max_steps=max_steps,
                     )
                     rows.append(
@@ -78,21 +79,17 @@ def run(
                             "states": states,
                             "weight": weight,
                             "episode": e,
-                            "status": record.status,
+                            "status": record.status.value,
                             "correct": record.correct,
                             "cost": record.cost,
                             "replans": record.replans,
                             "plan_seconds": record.plan_seconds,
                         }
                     )
-                    parts.append(f"w={weight:g} {record.status} cost {record.cost:g}")
+                    parts.append(f"w={weight:g} {record.status.value} cost {record.cost:g}")
                 elapsed = time.perf_counter() - started
-                _say(f"  [{states:,}] episode {e + 1}/{episodes} ({elapsed:.0f} s): " + " | ".join(parts))
+                say(f"  [{states:,}] episode {e + 1}/{episodes} ({elapsed:.0f} s): " + " | ".join(parts))
     return rows
-
-
-def _fmt(value: float | None, digits: int) -> str:
-    return "—" if value is None else f"{value:.{digits}f}"
 
 
 def summarize(rows: list[dict[str, Any]], states: int, weight: float) -> dict[str, Any]:
@@ -107,12 +104,12 @@ def summarize(rows: list[dict[str, Any]], states: int, weight: float) -> dict[st
         "localized": len(localized),
         "correct": sum(r["correct"] for r in mine),
         "failures": len(mine) - len(localized),
-        "cost": statistics.fmean(costs) if costs else None,
-        "median_cost": statistics.median(costs) if costs else None,
-        "plan_seconds": statistics.fmean(per_episode) if per_episode else None,
-        "first": statistics.fmean(first) if first else None,
-        "later": statistics.fmean(later) if later else None,
-        "replans": statistics.fmean(r["replans"] for r in mine) if mine else None,
+        "cost": mean_or_none(costs),
+        "median_cost": median_or_none(costs),
+        "plan_seconds": mean_or_none(per_episode),
+        "first": mean_or_none(first),
+        "later": mean_or_none(later),
+        "replans": mean_or_none([r["replans"] for r in mine]),
     }
 
 
@@ -163,7 +160,7 @@ def report(args: argparse.Namespace, rows: list[dict[str, Any]], total: float) -
         f"{args.load_start:.2f} at the start and {os.getloadavg()[0]:.2f} at the end.",
         "",
         "`beliefloc plan|simulate --h-weight W` ranks beliefs by `f = g + W·h` with the default heuristic "
-        "`h = H(b) / (max(b) p)`; `W = 1` is the paper's search. The episodes are `bench_planning.py`'s "
+        "`h = H(b) / (max(b) p)`; `W = 1` is the paper's search. The episodes are `benchmarks.planning`'s "
         f"(world seed `SeedSequence([{args.seed}, episode]).generate_state(1)[0]`, a uniform true start, the "
         f"uniform belief, threshold {THRESHOLD}, step limit {args.max_steps}); every weight meets the same "
         "world, start and noise, with the default budget (200,000 expansions, 60 s per plan call). "
@@ -187,9 +184,9 @@ def report(args: argparse.Namespace, rows: list[dict[str, Any]], total: float) -
             s = summarize(rows, states, weight)
             lines.append(
                 f"| {states:,} | {weight:g} | {s['episodes']} | {s['localized']} | {s['correct']} | "
-                f"{_fmt(s['cost'], 2)} | {_fmt(s['median_cost'], 1)} | {paired(rows, states, weight, reference)} | "
-                f"{_fmt(s['plan_seconds'], 4)} s | {_fmt(s['first'], 4)} s | {_fmt(s['later'], 4)} s | "
-                f"{_fmt(s['replans'], 2)} |"
+                f"{fmt(s['cost'], 2)} | {fmt(s['median_cost'], 1)} | {paired(rows, states, weight, reference)} | "
+                f"{fmt(s['plan_seconds'], 4)} s | {fmt(s['first'], 4)} s | {fmt(s['later'], 4)} s | "
+                f"{fmt(s['replans'], 2)} |"
             )
     if TARGET_STATES in args.sizes:
         lines += [
@@ -204,8 +201,8 @@ def report(args: argparse.Namespace, rows: list[dict[str, Any]], total: float) -
             time_ok = s["plan_seconds"] is not None and s["plan_seconds"] <= TARGET_SECONDS
             verdict = "met" if cost_ok and time_ok else "NOT MET"
             lines.append(
-                f"- weight {weight:g}: cost {_fmt(s['cost'], 2)} ({s['failures']} not localized), plan time "
-                f"{_fmt(s['plan_seconds'], 4)} s: {verdict}"
+                f"- weight {weight:g}: cost {fmt(s['cost'], 2)} ({s['failures']} not localized), plan time "
+                f"{fmt(s['plan_seconds'], 4)} s: {verdict}"
             )
     if args.rotation_failure is None:
         lines += ["", "## Notes", "", *(f"- {note}" for note in NOTES)]
@@ -218,7 +215,7 @@ def report(args: argparse.Namespace, rows: list[dict[str, Any]], total: float) -
 
 
 def main(argv: list[str] | None = None) -> int:
-    _single_threaded()
+    single_threaded()
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--sizes", nargs="*", type=float, default=[1e2, 1e3, 1e4])
     parser.add_argument("--weights", nargs="*", type=float, default=[1.0, 0.3, 0.1, 0.05])
