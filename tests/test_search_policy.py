@@ -1,6 +1,6 @@
 """The greedy baseline of Zhang et al. Table I (policy.py): the view that would most raise the belief in
 the most likely cell, were the target there -- against a plain loop, and run to a verdict. And what
-``benchmarks/bench_search_paper.py`` needs of experiment.py: arms with their own search parameters,
+``python -m benchmarks.search_paper`` needs of experiment.py: arms with their own search parameters,
 the room accuracy of ASP alone (H1)."""
 
 from __future__ import annotations

@@ -33,7 +33,7 @@ Each record gives its JSON form (``as_json``). An arm may set its own time limit
 and trust factors (``Arm("pomdp", Metareasoning.NONE, time_limit=60)``), so arms differing only
 in them share a trial's knowledge base; ``TrialSettings(world_detector=...)`` makes the world
 noisier than the robot's model; :func:`room_hit` and :func:`trial_world` serve the paper benchmark
-(``benchmarks/bench_search_paper.py``).
+(``python -m benchmarks.search_paper``).
 """
 
 from __future__ import annotations
