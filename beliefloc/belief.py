@@ -23,6 +23,12 @@ def uniform(n_states: int) -> np.ndarray:
     return np.full(n_states, 1.0 / n_states)
 
 
+def by_state_name(model: Model, belief: np.ndarray) -> dict[str, float]:
+    """Every state's name with its probability, in state order (the shape belief files and
+    ``--json`` outputs use)."""
+    return {name: float(p) for name, p in zip(model.states.names, belief.tolist(), strict=True)}
+
+
 def point(n_states: int, state: int) -> np.ndarray:
     """All the mass on one state."""
     belief = np.zeros(n_states)

@@ -10,10 +10,11 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
-from beliefloc.belief import update
+from beliefloc.belief import by_state_name, update
 from beliefloc.errors import ImpossibleObservationError, InvalidValueError
 from beliefloc.model import Action, Model
 
@@ -82,6 +83,16 @@ class Tracked:
     """``p(o | a, b)`` before the step; None when nothing was observed."""
     belief: np.ndarray
     """The belief after the step."""
+
+    def as_json(self, model: Model) -> dict[str, Any]:
+        """What ``track --json`` prints for the step: as written, and the belief after it by state name."""
+        return {
+            "step": self.step.text,
+            "action": self.step.action.name,
+            "observation": self.step.observation,
+            "probability": self.probability,
+            "belief": by_state_name(model, self.belief),
+        }
 
 
 def track_beliefs(model: Model, belief: np.ndarray, steps: Sequence[Step]) -> Iterator[Tracked]:

@@ -117,8 +117,3 @@ def warn_if_too_wide(grid: GridLayout | None, compact: bool | None, width: int, 
 def print_json(data: Any) -> None:
     """Plain JSON on stdout, no decoration: the stable interface for scripts."""
     sys.stdout.write(json.dumps(data, indent=2, allow_nan=False) + "\n")
-
-
-def belief_dict(model: Model, belief: np.ndarray) -> dict[str, float]:
-    """Every state with its probability, in state order."""
-    return {name: float(p) for name, p in zip(model.states.names, belief.tolist(), strict=True)}

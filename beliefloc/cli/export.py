@@ -37,14 +37,7 @@ def export(
     model = open_model(source)
     summary = write_pomdp(model, output)
     if json_output:
-        print_json(
-            {
-                "output": summary.output,
-                "states": summary.states,
-                "actions": summary.actions,
-                "observations": summary.observations,
-            }
-        )
+        print_json(summary.as_json())
     else:
         stdout_console().print(
             f"wrote {escape(summary.output)}: {summary.states} states, {summary.actions} actions, "

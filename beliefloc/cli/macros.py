@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.markup import escape
@@ -14,8 +14,7 @@ from beliefloc.errors import EXIT_NEGATIVE, UsageError
 from beliefloc.render import stderr_console, stdout_console
 
 if TYPE_CHECKING:
-    from beliefloc.model import Model
-    from beliefloc.planning.macros import MacroTable
+    pass
 
 macros_app = typer.Typer(
     name="macros",
@@ -99,6 +98,7 @@ def show(
     """
     from beliefloc.macro_file import load_macros, read_header
     from beliefloc.model_sources import open_model
+    from beliefloc.planning.macros import explain_pair, longest_macros
     from beliefloc.render.ec2 import longest_macros_table, macro_path_table, macro_summary_table
 
     header, _ = read_header(macros)
@@ -111,7 +111,7 @@ def show(
     out = stdout_console()
     if pair is None:
         summary = table.summary()
-        longest = _longest(model, table)
+        longest = longest_macros(model, table)
         if json_output:
             print_json({**summary, "longest": longest})
             return
@@ -119,79 +119,18 @@ def show(
         if longest:
             out.print(longest_macros_table(longest))
         return
-    i, j = (model.states.index(name) for name in pair)
-    data = _pair(model, table, i, j)
+    with for_option("--pair"):
+        i, j = (model.states.index(name) for name in pair)
+        explained = explain_pair(model, table, i, j)
     if json_output:
-        print_json(data)
+        print_json(explained.as_json())
     else:
-        out.print(escape(data["verdict"]))
-        if data["steps"]:
-            title = f"macro of ({pair[0]}, {pair[1]}): {' '.join(data['actions'])}, cost {data['cost']:g}"
-            out.print(macro_path_table(title, data["steps"]))
-    if data["cost"] is None:
+        out.print(escape(explained.verdict))
+        if explained.steps:
+            title = f"macro of ({pair[0]}, {pair[1]}): {' '.join(explained.actions)}, cost {explained.cost:g}"
+            out.print(macro_path_table(title, list(explained.steps)))
+    if explained.cost is None:
         raise typer.Exit(EXIT_NEGATIVE)
-
-
-def _longest(model: Model, table: MacroTable, count: int = 10) -> list[dict[str, Any]]:
-    import numpy as np
-
-    ok = np.flatnonzero(np.isfinite(table.cost))
-    order = ok[np.lexsort((ok, -table.length[ok]))][:count]
-    return [
-        {
-            "s_i": model.states.name(int(table.pair_i[p])),
-            "s_j": model.states.name(int(table.pair_j[p])),
-            "cost": float(table.cost[p]),
-            "actions": [table.action_names[a] for a in table.pair_sequence(int(p))],
-        }
-        for p in order.tolist()
-    ]
-
-
-def _pair(model: Model, table: MacroTable, i: int, j: int) -> dict[str, Any]:
-    import numpy as np
-
-    from beliefloc.planning.ec2 import pair_context
-    from beliefloc.planning.macros import expected_path
-
-    names = model.states
-    base: dict[str, Any] = {"s_i": names.name(i), "s_j": names.name(j), "actions": [], "cost": 0.0, "steps": []}
-    if i == j:
-        raise UsageError("--pair names the same state twice")
-    p = int(table.find(i, j))
-    if p < 0:
-        return {
-            **base,
-            "verdict": f"{names.name(i)} and {names.name(j)} are distinguishable where they stand: no macro is needed",
-        }
-    if not np.isfinite(table.cost[p]):
-        return {**base, "cost": None, "verdict": f"{names.name(i)} and {names.name(j)} can never be told apart"}
-    ctx = pair_context(model, table.gamma)
-    actions = table.pair_sequence(p)
-    path_i, path_j = expected_path(ctx, i, actions), expected_path(ctx, j, actions)
-    steps = []
-    for k, (a, b) in enumerate(zip(path_i, path_j, strict=True)):
-        act = model.actions[actions[k - 1]] if k else None
-        read_i = act.observation.name(act.observation.true_observation(a)) if act else "-"
-        read_j = act.observation.name(act.observation.true_observation(b)) if act else "-"
-        steps.append(
-            {
-                "action": act.name if act else "(start)",
-                "at_i": names.name(a),
-                "reads_i": read_i,
-                "at_j": names.name(b),
-                "reads_j": read_j,
-            }
-        )
-    return {
-        **base,
-        "actions": [model.actions[a].name for a in actions],
-        "cost": float(table.cost[p]),
-        "steps": steps,
-        "verdict": f"{names.name(i)} and {names.name(j)} look alike; {len(actions)} "
-        + ("action tells" if len(actions) == 1 else "actions tell")
-        + " them apart",
-    }
 
 
 def register(app: typer.Typer) -> None:

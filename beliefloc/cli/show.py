@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 
 import typer
 
-from beliefloc.cli.common import PRIOR_PREFIX, belief_dict, boundary, initial_belief, print_json, warn_if_too_wide
+from beliefloc.cli.common import PRIOR_PREFIX, boundary, initial_belief, print_json, warn_if_too_wide
 from beliefloc.cli.options import BeliefOption, CompactOption, JsonOption, ModelArgument, TopOption
 from beliefloc.render import stdout_console
 
@@ -33,7 +33,7 @@ def show(
     Example: beliefloc show maps/window-2x2.yaml --compact
     Example: beliefloc show maps/apartment.yaml --belief prior:domains/apartment.yaml
     """
-    from beliefloc.belief import entropy, most_likely
+    from beliefloc.belief import by_state_name, entropy, most_likely
     from beliefloc.render.belief_grid import belief_view
     from beliefloc.render.drawing import uses_color
     from beliefloc.render.room_plan import room_legend, room_plan
@@ -44,7 +44,7 @@ def show(
     if json_output:
         state, p = most_likely(belief)
         data: dict[str, object] = {
-            "belief": belief_dict(model, belief),
+            "belief": by_state_name(model, belief),
             "most_likely": {"state": model.states.name(state), "probability": p},
             "entropy": entropy(belief),
         }

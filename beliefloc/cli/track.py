@@ -2,17 +2,16 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from beliefloc.cli.common import belief_dict, boundary, initial_belief, print_json, warn_if_too_wide
+from beliefloc.cli.common import boundary, initial_belief, print_json, warn_if_too_wide
 from beliefloc.cli.options import BeliefOption, CompactOption, JsonOption, ModelArgument, TopOption
 from beliefloc.render import stdout_console
 
 if TYPE_CHECKING:
-    from beliefloc.model import Model
-    from beliefloc.tracking import Tracked
+    pass
 
 
 StepsArgument = Annotated[
@@ -44,6 +43,7 @@ def track(
 
     Example: beliefloc track maps/window-2x2.yaml look=window_seen right
     """
+    from beliefloc.belief import by_state_name
     from beliefloc.model_sources import open_model
     from beliefloc.render.belief_grid import belief_view
     from beliefloc.render.drawing import uses_color
@@ -57,8 +57,8 @@ def track(
         tracked = list(track_beliefs(model, belief, resolved))
         print_json(
             {
-                "steps": [_step_json(model, t) for t in tracked],
-                "belief": belief_dict(model, tracked[-1].belief),
+                "steps": [t.as_json(model) for t in tracked],
+                "belief": by_state_name(model, tracked[-1].belief),
             }
         )
         return
@@ -80,16 +80,6 @@ def track(
         else:
             view = belief_view(model, t.belief, compact=compact, width=width, color=color, top=0, legend=False)
             console.print(view, crop=False)
-
-
-def _step_json(model: Model, tracked: Tracked) -> dict[str, Any]:
-    return {
-        "step": tracked.step.text,
-        "action": tracked.step.action.name,
-        "observation": tracked.step.observation,
-        "probability": tracked.probability,
-        "belief": belief_dict(model, tracked.belief),
-    }
 
 
 def register(app: typer.Typer) -> None:

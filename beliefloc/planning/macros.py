@@ -32,6 +32,7 @@ import heapq
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -358,3 +359,80 @@ def macro_candidates(
             if len(chosen) >= limit:
                 break
     return [table.sequence(m) for m in chosen]
+
+
+@dataclass(frozen=True)
+class PairExplanation:
+    """Why two states do or do not need a macro (``macros show --pair``): the macro's actions and
+    cost, and the path each state is expected to take along it with what it reads at every step
+    (``steps`` rows: action, state and reading from ``s_i``, state and reading from ``s_j``)."""
+
+    s_i: str
+    s_j: str
+    verdict: str
+    actions: tuple[str, ...] = ()
+    cost: float | None = 0.0
+    """None when no sequence of actions ever tells the two apart."""
+    steps: tuple[dict[str, str], ...] = ()
+
+    def as_json(self) -> dict[str, Any]:
+        return {
+            "s_i": self.s_i,
+            "s_j": self.s_j,
+            "actions": list(self.actions),
+            "cost": self.cost,
+            "steps": list(self.steps),
+            "verdict": self.verdict,
+        }
+
+
+def explain_pair(model: Model, table: MacroTable, i: int, j: int) -> PairExplanation:
+    """The macro of states ``i`` and ``j`` with both expected paths (Eq. 12), or why there is none."""
+    names = model.states
+    if i == j:
+        raise InvalidValueError(f"a pair needs two states, got {names.name(i)} twice")
+    s_i, s_j = names.name(i), names.name(j)
+    p = int(table.find(i, j))
+    if p < 0:
+        return PairExplanation(s_i, s_j, f"{s_i} and {s_j} are distinguishable where they stand: no macro is needed")
+    if not np.isfinite(table.cost[p]):
+        return PairExplanation(s_i, s_j, f"{s_i} and {s_j} can never be told apart", cost=None)
+    ctx = pair_context(model, table.gamma)
+    actions = table.pair_sequence(p)
+    path_i, path_j = expected_path(ctx, i, actions), expected_path(ctx, j, actions)
+    steps = []
+    for k, (a, b) in enumerate(zip(path_i, path_j, strict=True)):
+        act = model.actions[actions[k - 1]] if k else None
+        steps.append(
+            {
+                "action": act.name if act else "(start)",
+                "at_i": names.name(a),
+                "reads_i": act.observation.name(act.observation.true_observation(a)) if act else "-",
+                "at_j": names.name(b),
+                "reads_j": act.observation.name(act.observation.true_observation(b)) if act else "-",
+            }
+        )
+    told = "action tells" if len(actions) == 1 else "actions tell"
+    return PairExplanation(
+        s_i,
+        s_j,
+        f"{s_i} and {s_j} look alike; {len(actions)} {told} them apart",
+        tuple(model.actions[a].name for a in actions),
+        float(table.cost[p]),
+        tuple(steps),
+    )
+
+
+def longest_macros(model: Model, table: MacroTable, count: int = 10) -> list[dict[str, Any]]:
+    """The ``count`` longest macros (longest first, then by pair), each with its pair and cost."""
+    ok = np.flatnonzero(np.isfinite(table.cost))
+    order = ok[np.lexsort((ok, -table.length[ok]))][:count]
+    return [
+        {
+            "s_i": model.states.name(int(table.pair_i[p])),
+            "s_j": model.states.name(int(table.pair_j[p])),
+            "cost": float(table.cost[p]),
+            "actions": [table.action_names[a] for a in table.pair_sequence(int(p))],
+        }
+        for p in order.tolist()
+    ]

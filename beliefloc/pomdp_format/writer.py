@@ -72,6 +72,15 @@ class ExportSummary:
     actions: int
     observations: int
 
+    def as_json(self) -> dict[str, str | int]:
+        """What ``export --json`` prints."""
+        return {
+            "output": self.output,
+            "states": self.states,
+            "actions": self.actions,
+            "observations": self.observations,
+        }
+
 
 def pomdp_blocks(model: Model) -> Iterator[str]:
     """The text of ``model`` in Cassandra's format, in blocks of whole lines (see module docs)."""
