@@ -7,8 +7,9 @@ Run from the project root::
 
 Every ``import`` counts, wherever it stands (module level, inside a function, under
 ``TYPE_CHECKING``): a lazy import is still a dependency a reader must know about. Edges that only
-exist under ``TYPE_CHECKING`` are marked ``(types)``. A cycle between modules is listed at the end
-with the exit code 1, so the script can guard the layering in a test.
+exist under ``TYPE_CHECKING`` are marked ``(types)``, edges made only inside functions (loaded when
+the function first runs) ``(lazy)``. A cycle between modules is listed at the end with the exit
+code 1, so the script can guard the layering in a test.
 """
 
 from __future__ import annotations
@@ -29,21 +30,41 @@ def module_name(path: Path, root: Path) -> str:
     return ".".join(parts)
 
 
+def _lines(node: ast.stmt) -> range:
+    return range(node.lineno, (node.end_lineno or node.lineno) + 1)
+
+
 def _type_checking_lines(tree: ast.Module) -> set[int]:
-    lines: set[int] = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test):
-            for child in node.body:
-                lines.update(range(child.lineno, (child.end_lineno or child.lineno) + 1))
-    return lines
+    """The lines under ``if TYPE_CHECKING:``."""
+    return {
+        line
+        for node in ast.walk(tree)
+        if isinstance(node, ast.If) and "TYPE_CHECKING" in ast.unparse(node.test)
+        for line in _lines(node)
+    }
 
 
-def imports_of(path: Path, name: str, known: set[str]) -> dict[str, bool]:
-    """The package modules ``name`` imports, each with True when the import is for types only."""
+def _function_lines(tree: ast.Module) -> set[int]:
+    """The lines inside function bodies: what they import is loaded when the function first runs."""
+    return {
+        line
+        for node in ast.walk(tree)
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef))
+        for line in _lines(node)
+    }
+
+
+TYPES, LAZY, EAGER = "types", "lazy", ""
+
+
+def imports_of(path: Path, name: str, known: set[str]) -> dict[str, str]:
+    """The package modules ``name`` imports, each with how: ``types`` (only under TYPE_CHECKING),
+    ``lazy`` (only inside functions) or eager (at module level)."""
     tree = ast.parse(path.read_text(encoding="utf-8"))
     typing_only = _type_checking_lines(tree)
+    in_functions = _function_lines(tree)
     is_package = path.name == "__init__.py"
-    found: dict[str, bool] = {}
+    found: dict[str, str] = {}
     for node in ast.walk(tree):
         targets: list[str] = []
         if isinstance(node, ast.Import):
@@ -60,9 +81,15 @@ def imports_of(path: Path, name: str, known: set[str]) -> dict[str, bool]:
             while target and target not in known:
                 target = target.rpartition(".")[0]
             if target and target != name and target.startswith(PACKAGE):
-                types = node.lineno in typing_only
-                found[target] = found.get(target, True) and types
+                how = TYPES if node.lineno in typing_only else LAZY if node.lineno in in_functions else EAGER
+                found[target] = _strongest(found.get(target, TYPES), how)
     return found
+
+
+def _strongest(a: str, b: str) -> str:
+    """Of two ways one module imports another, the one that loads it soonest."""
+    order = (EAGER, LAZY, TYPES)
+    return min(a, b, key=order.index)
 
 
 def part(module: str) -> str:
@@ -127,18 +154,18 @@ def main(argv: list[str] | None = None) -> int:
     files = {module_name(p, args.root): p for p in sorted((args.root / PACKAGE).rglob("*.py"))}
     known = set(files)
     graph: dict[str, set[str]] = {}
-    edges: dict[tuple[str, str], bool] = {}
+    edges: dict[tuple[str, str], str] = {}
     for name, path in files.items():
         found = imports_of(path, name, known)
         # a package's own __init__ re-exports are not a dependency of the package on itself
         graph[name] = {t for t in found if not (name and t.startswith(name + "."))}
-        for target, types in found.items():
+        for target, how in found.items():
             key = (name, target) if args.modules else (part(name), part(target))
             if key[0] != key[1]:
-                edges[key] = edges.get(key, True) and types
+                edges[key] = _strongest(edges.get(key, TYPES), how)
     by_source: dict[str, list[str]] = defaultdict(list)
-    for (source, target), types in sorted(edges.items()):
-        by_source[source].append(target + (" (types)" if types else ""))
+    for (source, target), how in sorted(edges.items()):
+        by_source[source].append(target + (f" ({how})" if how else ""))
     for source in sorted(by_source):
         print(f"{source} -> {', '.join(by_source[source])}")
     cycles = find_cycles(graph)
