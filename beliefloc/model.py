@@ -243,9 +243,44 @@ class Action:
         return None if self.transition is None else self.transition.T.tocsr()
 
 
+@dataclass(frozen=True)
+class MapFrame:
+    """The pose of a grid's lower-left corner in the map frame (ROS ``map``): metres and a yaw in
+    radians, counter-clockwise. An occupancy map's ``origin`` [x, y, yaw] is exactly this."""
+
+    x: float = 0.0
+    y: float = 0.0
+    yaw: float = 0.0
+
+    @property
+    def is_identity(self) -> bool:
+        return self.x == 0.0 and self.y == 0.0 and self.yaw == 0.0
+
+    def to_map(self, gx: np.ndarray | float, gy: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+        """Grid-frame metres -> map-frame metres (rotate by yaw, then translate)."""
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        gx, gy = np.asarray(gx, dtype=np.float64), np.asarray(gy, dtype=np.float64)
+        return self.x + c * gx - s * gy, self.y + s * gx + c * gy
+
+    def to_grid(self, x: np.ndarray | float, y: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+        """Map-frame metres -> grid-frame metres (the inverse of :meth:`to_map`)."""
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        dx, dy = np.asarray(x, dtype=np.float64) - self.x, np.asarray(y, dtype=np.float64) - self.y
+        return c * dx + s * dy, -s * dx + c * dy
+
+    def as_json(self) -> dict[str, float]:
+        return {"x": self.x, "y": self.y, "yaw": self.yaw}
+
+
 @dataclass(frozen=True, eq=False)
 class GridLayout:
-    """Where the states are on the map, for drawing and for naming states ``"row,col,heading"``."""
+    """Where the states are on the map, for drawing and for naming states ``"row,col,heading"``.
+
+    The grid's own frame has its origin at the lower-left corner of cell ``(rows - 1, 0)``, x along
+    the columns, y up the rows (row 0 is the top): cell ``(r, c)`` covers
+    ``c·s <= x < (c+1)·s`` and ``(rows-1-r)·s <= y < (rows-r)·s`` with ``s = cell_size``. Heading 0
+    points up (+y, north), clockwise. :attr:`frame` places that frame in the map frame (ROS ``map``).
+    """
 
     rows: int
     cols: int
@@ -254,6 +289,32 @@ class GridLayout:
     free: np.ndarray
     """``free[r, c]``; states are the free cells in row-major order, times headings."""
     landmarks: tuple[tuple[str, int, int], ...] = ()
+    frame: MapFrame = field(default_factory=lambda: MapFrame())
+    """Where the grid's lower-left corner is in the map frame (the identity for a hand-written grid)."""
+
+    def cell_centre(self, row: np.ndarray | int, col: np.ndarray | int) -> tuple[np.ndarray, np.ndarray]:
+        """Map-frame metres of the centre of cell ``(row, col)`` (one or many)."""
+        s = self.cell_size
+        gx = (np.asarray(col, dtype=np.float64) + 0.5) * s
+        gy = (self.rows - np.asarray(row, dtype=np.float64) - 0.5) * s
+        return self.frame.to_map(gx, gy)
+
+    def cell_at(self, x: np.ndarray | float, y: np.ndarray | float) -> tuple[np.ndarray, np.ndarray]:
+        """The ``(row, col)`` of the cell holding map-frame point ``(x, y)`` (may be off the grid)."""
+        gx, gy = self.frame.to_grid(x, y)
+        col = np.floor(gx / self.cell_size).astype(np.int64)
+        row = self.rows - 1 - np.floor(gy / self.cell_size).astype(np.int64)
+        return row, col
+
+    def heading_yaw(self, heading: np.ndarray | int) -> np.ndarray:
+        """Map-frame yaw (radians, counter-clockwise from +x, in (-pi, pi]) of heading ``h`` (0 =
+        up the grid, clockwise). With one heading the yaw is unknown: 0 is returned."""
+        h = np.asarray(heading, dtype=np.float64)
+        if self.headings == 1:
+            return np.zeros_like(h)
+        yaw = self.frame.yaw + math.pi / 2 - 2 * math.pi * h / self.headings
+        wrapped: np.ndarray = math.pi - np.mod(math.pi - yaw, 2 * math.pi)
+        return wrapped
 
     @cached_property
     def free_cells(self) -> np.ndarray:
@@ -265,8 +326,17 @@ class GridLayout:
         return len(self.free_cells) * self.headings
 
     def describe(self) -> dict[str, object]:
-        """Size and scale as plain data (for summaries and file headers)."""
-        return {"rows": self.rows, "cols": self.cols, "headings": self.headings, "cell_size": self.cell_size}
+        """Size and scale as plain data (for summaries and file headers); the frame when it is not
+        the identity."""
+        data: dict[str, object] = {
+            "rows": self.rows,
+            "cols": self.cols,
+            "headings": self.headings,
+            "cell_size": self.cell_size,
+        }
+        if not self.frame.is_identity:
+            data["frame"] = self.frame.as_json()
+        return data
 
     def cell_heading(self, state: int | np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(row, col, heading) of one or many states."""

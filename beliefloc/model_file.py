@@ -25,6 +25,7 @@ from beliefloc.model import (
     Action,
     ActionKind,
     GridLayout,
+    MapFrame,
     Model,
     ObservationModel,
     ObservationPart,
@@ -204,6 +205,7 @@ def _from_header(header: dict[str, Any], arrays: dict[str, np.ndarray]) -> Model
             g["cell_size"],
             arrays["grid_free"].astype(bool),
             tuple((str(c), int(r), int(k)) for c, r, k in g["landmarks"]),
+            MapFrame(**{k: float(v) for k, v in g.get("frame", {}).items()}),
         )
     states = StateSpace(n, grid=grid, names=header["state_names"])
     source = None if header["source"] is None else SourceInfo(**header["source"])
