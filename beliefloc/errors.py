@@ -32,6 +32,11 @@ class MapError(InputFileError):
     """A semantic map file is invalid."""
 
 
+class OccupancyMapError(MapError):
+    """A ROS/Nav2 occupancy map (map YAML + image) or region mask cannot be read; the message names
+    the YAML file, the line and the field (for an image problem: the image file and the ``image`` line)."""
+
+
 class BeliefFileError(InputFileError):
     """A belief file is invalid."""
 
@@ -56,6 +61,11 @@ class InvalidValueError(BeliefLocError, ValueError):
 
 class UsageError(BeliefLocError):
     """A command-line argument is wrong; raised by the CLI only, with the option's name."""
+
+
+class ReplyError(BeliefLocError):
+    """A robot's reply to an action (``beliefloc localize``'s line protocol) is malformed, out of
+    order, missing or cannot be binned; the message names the reply."""
 
 
 class ImpossibleObservationError(BeliefLocError):
