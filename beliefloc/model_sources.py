@@ -6,6 +6,7 @@ to the map it was compiled from (its rooms, its layout), checking that the map h
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -20,13 +21,14 @@ POMDP_SUFFIX = ".pomdp"
 MODEL_SUFFIX = ".npz"
 
 
-def open_model(path: Path) -> Model:
-    """A model from a map (``.yaml``), a compiled model (``.npz``) or a Cassandra ``.pomdp`` file."""
+def open_model(path: Path, *, on_warning: Callable[[str], None] | None = None) -> Model:
+    """A model from a map (``.yaml``), a compiled model (``.npz``) or a Cassandra ``.pomdp`` file;
+    what reading a map has to say goes to ``on_warning``."""
     suffix = path.suffix.lower()
     if suffix in MAP_SUFFIXES:
         from beliefloc.semantic_map import compile_model, load_map
 
-        return compile_model(load_map(path))
+        return compile_model(load_map(path, on_warning=on_warning))
     if suffix == MODEL_SUFFIX:
         from beliefloc.model_file import load_model
 

@@ -10,6 +10,10 @@ from typer.testing import CliRunner
 ROOT = Path(__file__).resolve().parent.parent
 MAPS = ROOT / "maps"
 DATA = Path(__file__).resolve().parent / "data"
+SMALL_MODEL_STATES = 1000
+"""The most states of a bundled map that a test checks against a plain Python loop over every state
+(an oracle) or a full text round trip; the occupancy maps (tens of thousands of states) are covered
+by the vectorised checks of test_bundled_maps.py."""
 
 TWINS = {
     "name": "twins",

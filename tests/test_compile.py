@@ -20,7 +20,7 @@ from beliefloc.errors import FieldError
 from beliefloc.model import Model, ObservationModel
 from beliefloc.semantic_map import SemanticMap, geometry, layout_of
 
-from .conftest import MAPS
+from .conftest import MAPS, SMALL_MODEL_STATES
 
 INF = math.inf
 
@@ -101,7 +101,8 @@ def ref_update(model: Model, belief: np.ndarray, action: str, o: int) -> tuple[n
 
 
 def _oracle_models() -> list[tuple[str, Model]]:
-    models = [(p.stem, compile_model(load_map(p))) for p in sorted(MAPS.glob("*.yaml"))]
+    bundled = [(p.stem, compile_model(load_map(p))) for p in sorted(MAPS.glob("*.yaml"))]
+    models = [(name, model) for name, model in bundled if model.n_states <= SMALL_MODEL_STATES]
     # blocked cells, 8 headings, a passive Look with angle bins and a Scan, noisy moves
     hand = _map(
         3,

@@ -48,7 +48,7 @@ CASES = [
         1,
         "sensor",
         r"unknown key 'sensor'; expected one of: actions, annotations, description, grid, landmarks, layout, name, "
-        r"rooms, sensors$",
+        r"occupancy, occupancy_rule, rooms, sensors$",
     ),
     Case("unknown_sensor_key.yaml", 10, 5, "sensors.look.rnage", r"unknown key 'rnage'"),
     Case("missing_grid.yaml", 2, 1, None, r"required key 'grid' is missing"),
@@ -171,7 +171,8 @@ CASES = [
         9,
         10,
         "rooms.legnd",
-        r"unknown key 'legnd'; expected one of: layout, legend \(a letter per cell\) or rectangles",
+        r"unknown key 'legnd'; expected one of: layout, legend \(a letter per cell\), rectangles, mask with labels, "
+        r"or polygons",
     ),
     Case("rooms_capital_name.yaml", 9, 15, "rooms.legend.K", r"should match pattern .*got 'Kitchen'"),
     Case(
@@ -179,7 +180,7 @@ CASES = [
         11,
         5,
         "rooms.rectangles",
-        r"give either layout with a legend or rectangles, not both",
+        r"give one way of drawing rooms, not layout and rectangles",
     ),
     Case("rooms_rectangle_outside.yaml", 9, 31, "rooms.rectangles.study.to", r"cell \[3, 2\] is outside the 3x3 grid"),
     Case(

@@ -101,6 +101,14 @@ def initial_belief(model: Model, spec: str, smap: SemanticMap | None = None) -> 
     return belief
 
 
+def open_model(path: Path) -> Model:
+    """A map, model or .pomdp file (:func:`beliefloc.model_sources.open_model`), with what reading
+    the map has to say (an occupancy map's unknown grey, say) printed as warnings."""
+    from beliefloc.model_sources import open_model as open_any
+
+    return open_any(path, on_warning=warn)
+
+
 def warn_if_too_wide(grid: GridLayout | None, compact: bool | None, width: int, color: bool) -> None:
     """A warning when even the chosen form of the belief grid is wider than the terminal."""
     from beliefloc.render.belief_grid import grid_width, resolve_compact

@@ -8,7 +8,7 @@ from typing import Annotated
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import boundary, print_json
+from beliefloc.cli.common import boundary, open_model, print_json
 from beliefloc.cli.options import JsonOption, ModelArgument
 from beliefloc.errors import UsageError
 from beliefloc.model_sources import POMDP_SUFFIX
@@ -31,7 +31,6 @@ def export(
     """
     if output.suffix.lower() != POMDP_SUFFIX:
         raise UsageError(f"{output}: the exported file must end in {POMDP_SUFFIX}")
-    from beliefloc.model_sources import open_model
     from beliefloc.pomdp_format import write_pomdp
 
     model = open_model(source)

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import boundary, for_option, print_json
+from beliefloc.cli.common import boundary, for_option, open_model, print_json
 from beliefloc.cli.options import GammaOption, JsonOption, ModelArgument
 from beliefloc.errors import EXIT_NEGATIVE, UsageError
 from beliefloc.render import stderr_console, stdout_console
@@ -41,7 +41,6 @@ def build(
     Example: beliefloc macros build maps/corridors.yaml -o corridors-macros.npz
     """
     from beliefloc.macro_file import save_macros
-    from beliefloc.model_sources import open_model
     from beliefloc.planning.macros import build_macros
     from beliefloc.render.ec2 import classes_table, macro_summary_table
     from beliefloc.render.progress import progress_bar
@@ -97,7 +96,6 @@ def show(
     Example: beliefloc macros show corridors-macros.npz --pair 1,2,1 1,12,1
     """
     from beliefloc.macro_file import load_macros, read_header
-    from beliefloc.model_sources import open_model
     from beliefloc.planning.macros import explain_pair, longest_macros
     from beliefloc.render.ec2 import longest_macros_table, macro_path_table, macro_summary_table
 

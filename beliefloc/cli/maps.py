@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import boundary, print_json, report_error
+from beliefloc.cli.common import boundary, open_model, print_json, report_error, warn
 from beliefloc.cli.options import JsonOption, ModelArgument
 from beliefloc.errors import EXIT_BAD_INPUT, BeliefLocError, UsageError
 from beliefloc.model_sources import MODEL_SUFFIX
@@ -33,7 +33,7 @@ def validate(
     results = []
     for path in maps:
         try:
-            smap = load_map(path)
+            smap = load_map(path, on_warning=warn)
             summary = describe_map(smap)
         except BeliefLocError as exc:
             results.append({"file": str(path), "valid": False, "error": str(exc)})
@@ -96,7 +96,6 @@ def build(
     """
     from beliefloc.model import model_summary
     from beliefloc.model_file import save_model
-    from beliefloc.model_sources import open_model
     from beliefloc.render.tables import model_table
 
     if output.suffix.lower() != MODEL_SUFFIX:
@@ -124,7 +123,6 @@ def inspect(
     Example: beliefloc inspect maps/kitchen.yaml
     """
     from beliefloc.model import model_summary
-    from beliefloc.model_sources import open_model
     from beliefloc.render.tables import model_table
 
     start = time.perf_counter()

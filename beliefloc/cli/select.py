@@ -6,7 +6,7 @@ from typing import Annotated, Any
 
 import typer
 
-from beliefloc.cli.common import boundary, initial_belief, print_json
+from beliefloc.cli.common import boundary, initial_belief, open_model, print_json
 from beliefloc.cli.options import BeliefOption, GammaOption, JsonOption, MacrosOption, ModelArgument
 from beliefloc.errors import EXIT_NEGATIVE
 from beliefloc.planning.settings import DEFAULT_MAX_HYPOTHESES, SelectionRule
@@ -39,7 +39,6 @@ def select_command(
 
     Example: beliefloc select maps/khalvati-example1.yaml --belief s1-s4.json --explain
     """
-    from beliefloc.model_sources import open_model
     from beliefloc.planning.ec2 import edges, pair_context, select
     from beliefloc.planning.macros import macro_candidates
     from beliefloc.render.ec2 import edges_table, weights_table

@@ -22,7 +22,7 @@ from beliefloc.model import (
     SourceInfo,
     StateSpace,
 )
-from beliefloc.semantic_map import geometry
+from beliefloc.semantic_map import geometry, pixel_geometry
 from beliefloc.semantic_map.schema import (
     HereSensor,
     LookSensor,
@@ -37,7 +37,7 @@ from beliefloc.semantic_map.schema import (
 def layout_of(smap: SemanticMap) -> GridLayout:
     g = smap.grid
     landmarks = tuple((lm.class_, lm.cell[0], lm.cell[1]) for lm in smap.landmarks)
-    return GridLayout(g.rows, g.cols, g.headings, g.cell_size, smap.free.copy(), landmarks)
+    return GridLayout(g.rows, g.cols, g.headings, g.cell_size, smap.free.copy(), landmarks, smap.frame)
 
 
 def room_states(rooms: Mapping[str, np.ndarray], layout: GridLayout) -> dict[str, np.ndarray]:
@@ -197,11 +197,30 @@ def _sensor_parts(
     layout: GridLayout,
     annotated: list[tuple[np.ndarray, dict[str, object]]],
 ) -> tuple[ObservationPart, ...]:
+    pixels = _Pixels.of(smap)
     if isinstance(sensor, LookSensor):
-        return _look_parts(name, sensor, layout, annotated)
+        return _look_parts(name, sensor, smap, layout, annotated, pixels)
     if isinstance(sensor, ScanSensor):
-        return _scan_parts(name, sensor, layout, annotated)
+        return _scan_parts(name, sensor, layout, annotated, pixels)
     return (_here_part(name, sensor, smap, layout, annotated),)
+
+
+@dataclass(frozen=True, eq=False)
+class _Pixels:
+    """An occupancy map's pixels, which Look and Scan see through instead of the cells."""
+
+    blocked: np.ndarray
+    """Occupied or unknown, row 0 at the top of the image."""
+    resolution: float
+    key: str
+    """The map's content hash, for the ray-cast cache."""
+
+    @classmethod
+    def of(cls, smap: SemanticMap) -> _Pixels | None:
+        occupancy = smap.occupancy_map
+        if occupancy is None:
+            return None
+        return cls(occupancy.blocked(), occupancy.resolution, occupancy.sha256)
 
 
 def _noise(n_values: int, error: float) -> np.ndarray:
@@ -216,9 +235,14 @@ def _noise(n_values: int, error: float) -> np.ndarray:
 def _look_parts(
     name: str,
     sensor: LookSensor,
+    smap: SemanticMap,
     layout: GridLayout,
     annotated: list[tuple[np.ndarray, dict[str, object]]],
+    pixels: _Pixels | None,
 ) -> tuple[ObservationPart, ...]:
+    """One part per class. On a hand-drawn grid a landmark stands at its cell's centre and blocked
+    cells hide it; on an occupancy map it stands where the file puts it (``x``, ``y``, else its
+    cell's centre) and the pixels hide it."""
     n = layout.n_states
     fov = sensor.effective_fov(layout.headings)
     bins = np.array(sensor.angle_bins) if sensor.angle_bins else None
@@ -229,9 +253,15 @@ def _look_parts(
     parts = []
     for cls in sensor.classes:
         best = np.full(n, np.inf)  # smallest viewing angle of any landmark of this class
-        if cls in cells_by_class:
+        if cls in cells_by_class and pixels is None:
             cells = np.array(cells_by_class[cls], dtype=np.int64)
             states, angles, _ = geometry.viewing_angles_many(layout, cells, sensor.range, fov, sensor.occlusion)
+            np.minimum.at(best, states, angles)
+        elif cls in cells_by_class and pixels is not None:
+            xy = _landmarks_xy(smap, layout, cls)
+            states, angles, _ = pixel_geometry.viewing_angles_metric(
+                layout, pixels.blocked, pixels.resolution, xy, sensor.range, fov, sensor.occlusion
+            )
             np.minimum.at(best, states, angles)
         for states, readings in annotated:
             if name in readings:
@@ -252,6 +282,22 @@ def _look_parts(
             aliases = {f"{cls}_not_seen": 0}
         parts.append(ObservationPart(f"{name}.{cls}", values, truth, confusion, aliases))
     return tuple(parts)
+
+
+def _landmarks_xy(smap: SemanticMap, layout: GridLayout, cls: str) -> np.ndarray:
+    """Grid-frame metres of the landmarks of class ``cls``: where the file put them, or the centre
+    of their cell."""
+    out = []
+    for landmark in smap.landmarks:
+        if landmark.class_ != cls:
+            continue
+        if landmark.position is not None:
+            gx, gy = smap.frame.to_grid(*landmark.position)
+            out.append((float(gx), float(gy)))
+        else:
+            r, c = landmark.cell
+            out.append(((c + 0.5) * layout.cell_size, (layout.rows - r - 0.5) * layout.cell_size))
+    return np.array(out, dtype=np.float64).reshape(-1, 2)
 
 
 def _annotated_angle(reading: object, cls: str) -> float:
@@ -277,13 +323,19 @@ def _scan_parts(
     sensor: ScanSensor,
     layout: GridLayout,
     annotated: list[tuple[np.ndarray, dict[str, object]]],
+    pixels: _Pixels | None,
 ) -> tuple[ObservationPart, ...]:
     """One independent part per beam. A single beam straight ahead (the default) is the part
     ``name`` with readings ``wall_0-0.2``, ...; with several beams each is ``name@angle`` and its
     readings are suffixed ``@angle`` (``wall_0-0.2@-90``), so joint names stay unambiguous."""
     names = sensor.observation_names()
     bins = np.array(sensor.bins)
-    distance = geometry.wall_distances(layout, sensor.bins[-1])
+    if pixels is None:
+        distance = geometry.wall_distances(layout, sensor.bins[-1])
+    else:  # rays cast over the pixels: unknown space and the map's edge stop them, as AMCL's do
+        distance = pixel_geometry.ray_distances(
+            pixels.blocked, pixels.resolution, layout, sensor.bins[-1], key=pixels.key
+        )
     parts = []
     for k, angle in enumerate(sensor.beams):
         offset = round(angle / (360.0 / layout.headings))

@@ -1,20 +1,74 @@
-"""Reading map files: YAML -> validated :class:`SemanticMap`, with file:line errors."""
+"""Reading map files: YAML -> validated :class:`SemanticMap`, with file:line errors.
+
+A map with ``occupancy:`` names a ROS/Nav2 occupancy map (and ``rooms: {mask: ...}`` a region mask)
+beside it: those files are read first, relative to the map's folder, and handed to validation, which
+takes the grid's size, free cells and frame from them.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from beliefloc.errors import MapError
 from beliefloc.model import SourceInfo
 from beliefloc.semantic_map.schema import SemanticMap
-from beliefloc.source import read_source, validate_source
+from beliefloc.source import Source, read_source, validate_source
+
+Warn = Callable[[str], None]
 
 
-def load_map(path: str | Path) -> SemanticMap:
-    """Read and validate a semantic map; raises :class:`MapError` naming file, line and field."""
+def load_map(path: str | Path, *, on_warning: Warn | None = None) -> SemanticMap:
+    """Read and validate a semantic map; raises :class:`MapError` naming file, line and field.
+
+    What the occupancy map's reading has to say (unknown grey counted as unknown, a NaN yaw) goes
+    to ``on_warning``, prefixed with the occupancy map's file."""
     source = read_source(path, MapError)
     if not isinstance(source.data, dict):
         raise MapError(f"{source.path}:1:1: a map file is a YAML mapping (name:, grid:, actions:, ...)")
-    smap = validate_source(source, SemanticMap, MapError)
+    context = _files_named(source)
+    smap = validate_source(source, SemanticMap, MapError, context=context)
     smap._source = SourceInfo(str(source.path), source.sha256)
+    occupancy = smap.occupancy_map
+    if occupancy is not None and on_warning is not None:
+        for message in occupancy.warnings:
+            on_warning(f"{occupancy.yaml_path}: {message}")
     return smap
+
+
+def _files_named(source: Source) -> dict[str, Any]:
+    """The occupancy map and region mask the map file names, read (validation needs their pixels)."""
+    from beliefloc.occupancy import OccupancyRule, load_occupancy, load_region_mask
+
+    data = source.data
+    assert isinstance(data, dict)
+    named = data.get("occupancy")
+    if named is None:
+        return {}
+    target = _beside(source, ("occupancy",), named, "a ROS map YAML file (map_saver's), e.g. depot.yaml")
+    rule_text = data.get("occupancy_rule", OccupancyRule.BELIEFLOC.value)
+    try:
+        rule = OccupancyRule(rule_text)
+    except ValueError:
+        choices = ", ".join(r.value for r in OccupancyRule)
+        raise MapError(source.format(("occupancy_rule",), f"should be one of: {choices}; got {rule_text!r}")) from None
+    occupancy = load_occupancy(target, rule=rule)
+    context: dict[str, Any] = {"occupancy": occupancy}
+    rooms = data.get("rooms")
+    if isinstance(rooms, dict) and rooms.get("mask") is not None:
+        mask = _beside(source, ("rooms", "mask"), rooms["mask"], "a region-mask YAML file beside the map")
+        context["region_mask"] = load_region_mask(mask, like=occupancy)
+    return context
+
+
+def _beside(source: Source, where: tuple[str, ...], named: object, what: str) -> Path:
+    """The file ``named`` at ``where`` in the map, relative to the map's folder; refused at its line
+    when it is not a path or not a file."""
+    if not isinstance(named, str) or not named.strip():
+        raise MapError(source.format(where, f"should be the path of {what}"))
+    target = (source.path.parent / named).resolve()
+    if not target.is_file():
+        problem = "is a folder, not a file" if target.is_dir() else "does not exist"
+        raise MapError(source.format(where, f"{named}: {target} {problem}"))
+    return target

@@ -12,14 +12,18 @@ import itertools
 import math
 import re
 from functools import cached_property
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationInfo, field_validator, model_validator
 
 from beliefloc.errors import FieldError
-from beliefloc.model import SourceInfo
+from beliefloc.model import MapFrame, SourceInfo
+from beliefloc.semantic_map.occupancy_grid import free_cells, grid_shape, rooms_from_mask, rooms_from_polygons
 from beliefloc.source import refuse_field_name
+
+if TYPE_CHECKING:
+    from beliefloc.occupancy import OccupancyMap
 
 Probability = Annotated[float, Field(ge=0.0, le=1.0)]
 Cost = Annotated[float, Field(ge=0.0, allow_inf_nan=False)]
@@ -44,18 +48,32 @@ class _Strict(BaseModel):
 
 class Grid(_Strict):
     rows: int = Field(ge=1, le=100_000)
+    """On a map with ``occupancy:``, rows and cols come from the image (the loader fills them in)."""
     cols: int = Field(ge=1, le=100_000)
     cell_size: float = Field(default=1.0, gt=0.0, allow_inf_nan=False)
     """Side of a cell in meters; ranges and scan bins are in meters too."""
     headings: Literal[1, 4, 8] = 4
     """1: no orientation, compass moves; 4 or 8: a triangle per heading, 0 = north, clockwise."""
+    robot_radius: float | None = Field(default=None, ge=0.0, allow_inf_nan=False)
+    """Occupancy maps: a cell is a state only when a disc of this radius on its centre touches no
+    occupied or unknown pixel (:mod:`beliefloc.semantic_map.occupancy_grid`). Default 0."""
 
 
 class Landmark(_Strict):
+    """An object of a class the robot recognises: at a ``cell`` ``[row, col]``, or at ``x``, ``y`` in
+    map-frame metres (what RViz's Publish Point gives; the loader fills in its cell)."""
+
     class_: Name = Field(alias="class")
     cell: tuple[int, int]
+    x: float | None = Field(default=None, allow_inf_nan=False)
+    y: float | None = Field(default=None, allow_inf_nan=False)
     name: str | None = None
     """Optional label for humans (shown by ``beliefloc show``)."""
+
+    @property
+    def position(self) -> tuple[float, float] | None:
+        """Map-frame metres, when the file gave them."""
+        return None if self.x is None or self.y is None else (self.x, self.y)
 
 
 class ActionSpec(_Strict):
@@ -205,6 +223,15 @@ class Rooms(_Strict):
     """Letter -> room name: ``{K: kitchen}``."""
     rectangles: dict[RoomName, RoomRectangle | list[RoomRectangle]] | None = None
     """Room name -> a rectangle, or a list of them (an L-shaped room)."""
+    mask: str | None = None
+    """Occupancy maps: a region mask in the Nav2 costmap-filter style -- a second map YAML and image
+    with the map's size, resolution and origin, where pixel value k means region k -- relative to
+    this file; ``labels`` names the regions. A cell is in the room its centre's pixel says."""
+    labels: dict[int, RoomName] | None = None
+    """``{1: aisle_a, 2: dock}``: the room of each pixel value of ``mask``."""
+    polygons: dict[RoomName, list[tuple[float, float]]] | None = None
+    """Room name -> its outline, ``[[x, y], ...]`` in map-frame metres (at least three corners). A
+    cell is in the room when its centre is inside."""
 
     @field_validator("legend", mode="before")
     @classmethod
@@ -241,6 +268,12 @@ class Annotation(BaseModel):
 class SemanticMap(_Strict):
     name: Name
     description: str | None = None
+    occupancy: str | None = None
+    """A ROS/Nav2 occupancy map (its YAML file, relative to this one) instead of a ``layout``: the
+    grid's rows, columns, free cells and frame come from it (:mod:`beliefloc.occupancy`)."""
+    occupancy_rule: Literal["beliefloc", "nav2"] = "beliefloc"
+    """``beliefloc``: the saver's unknown grey is unknown even where Nav2's ``free_thresh`` would call
+    it free; ``nav2``: Nav2's reading exactly."""
     grid: Grid
     layout: str | None = None
     landmarks: list[Landmark] = Field(default_factory=list)
@@ -250,6 +283,18 @@ class SemanticMap(_Strict):
     room_spec: Rooms | None = Field(default=None, alias="rooms")
     """The ``rooms:`` section as written; :attr:`rooms` gives each room's cells."""
     _source: SourceInfo | None = PrivateAttr(default=None)
+    _occupancy: OccupancyMap | None = PrivateAttr(default=None)
+    _region_mask: np.ndarray | None = PrivateAttr(default=None)
+
+    @property
+    def occupancy_map(self) -> OccupancyMap | None:
+        """The occupancy map named by ``occupancy:`` (set by ``load_map``)."""
+        return self._occupancy
+
+    @property
+    def frame(self) -> MapFrame:
+        """Where the grid sits in the map frame: the occupancy map's origin, else the identity."""
+        return self._occupancy.frame if self._occupancy is not None else MapFrame()
 
     @property
     def source(self) -> SourceInfo | None:
@@ -258,14 +303,25 @@ class SemanticMap(_Strict):
 
     @model_validator(mode="before")
     @classmethod
-    def _no_internal_names(cls, data: Any) -> Any:
+    def _no_internal_names(cls, data: Any, info: ValidationInfo) -> Any:
         refuse_field_name(cls, data, "room_spec")  # files write ``rooms:``
-        return data
+        if not isinstance(data, dict):
+            return data
+        context = info.context or {}
+        occupancy: OccupancyMap | None = context.get("occupancy")
+        if occupancy is not None:
+            data = _grid_from_occupancy(data, occupancy)
+        return _landmark_cells(data, occupancy)
 
     # --- derived geometry -----------------------------------------------------------------------
     @cached_property
     def free(self) -> np.ndarray:
-        """``free[r, c]`` is True where the robot can be (the layout's '.')."""
+        """``free[r, c]`` is True where the robot can be (the layout's '.'; on an occupancy map the
+        cells :func:`~beliefloc.semantic_map.occupancy_grid.free_cells` admits)."""
+        if self._occupancy is not None:
+            occ = self._occupancy
+            radius = self.grid.robot_radius or 0.0
+            return free_cells(occ.blocked(), occ.resolution, self.grid.cell_size, radius)
         if self.layout is None:
             return np.ones((self.grid.rows, self.grid.cols), dtype=bool)
         lines = _grid_lines(self.layout)
@@ -279,6 +335,12 @@ class SemanticMap(_Strict):
         shape = (self.grid.rows, self.grid.cols)
         if spec is None:
             return {}
+        if spec.mask is not None and spec.labels is not None and self._region_mask is not None:
+            assert self._occupancy is not None  # a mask needs the map: checked at validation
+            resolution = self._occupancy.resolution
+            return rooms_from_mask(self._region_mask, spec.labels, resolution, self.grid.cell_size, self.free)
+        if spec.polygons is not None:
+            return rooms_from_polygons(spec.polygons, self.frame, self.grid.cell_size, self.free)
         if spec.rectangles is not None:
             masks = {}
             for name, rectangles in spec.rectangles.items():
@@ -322,9 +384,20 @@ class SemanticMap(_Strict):
 
     # --- cross-reference checks -----------------------------------------------------------------
     @model_validator(mode="after")
-    def _check(self) -> SemanticMap:
+    def _check(self, info: ValidationInfo) -> SemanticMap:
+        context = info.context or {}
+        self._occupancy = context.get("occupancy")
+        self._region_mask = context.get("region_mask")
+        self._check_occupancy()
         self._check_layout()
         if not self.free.any():
+            if self._occupancy is not None:
+                radius = self.grid.robot_radius or 0.0
+                raise FieldError(
+                    ("grid", "cell_size"),
+                    f"no cell of {self.grid.cell_size:g} m has only free pixels and room for a robot of radius "
+                    f"{radius:g} m: the map has no states; try a smaller cell_size or robot_radius",
+                )
             raise FieldError(("layout",), "every cell is blocked: the map has no states")
         self._check_landmarks()
         self._check_actions()
@@ -332,6 +405,18 @@ class SemanticMap(_Strict):
         self._check_annotations()
         self._check_rooms()
         return self
+
+    def _check_occupancy(self) -> None:
+        if self.occupancy is None:
+            if self.grid.robot_radius is not None:
+                raise FieldError(
+                    ("grid", "robot_radius"), "applies to a map with occupancy: (a hand-drawn layout has no pixels)"
+                )
+            return
+        if self._occupancy is None:
+            raise FieldError(("occupancy",), "the occupancy map was not read: load the map file with load_map")
+        if self.layout is not None:
+            raise FieldError(("layout",), "a map with occupancy: takes its free cells from the image; drop layout")
 
     def _check_layout(self) -> None:
         if self.layout is None:
@@ -358,7 +443,7 @@ class SemanticMap(_Strict):
             r, c = lm.cell
             if not (0 <= r < g.rows and 0 <= c < g.cols):
                 raise FieldError(("landmarks", i, "cell"), f"cell [{r}, {c}] is outside the {g.rows}x{g.cols} grid")
-            if not self.free[r, c]:
+            if self._occupancy is None and not self.free[r, c]:
                 raise FieldError(("landmarks", i, "cell"), f"cell [{r}, {c}] is blocked in the layout")
 
     def _check_actions(self) -> None:
@@ -462,21 +547,81 @@ class SemanticMap(_Strict):
             key = next(iter(spec.model_extra))
             raise FieldError(
                 ("rooms", key),
-                f"unknown key {key!r}; expected one of: layout, legend (a letter per cell) or rectangles",
+                f"unknown key {key!r}; expected one of: layout, legend (a letter per cell), rectangles, "
+                "mask with labels, or polygons",
             )
         letters = spec.layout is not None or spec.legend is not None
-        if letters and spec.rectangles is not None:
-            raise FieldError(("rooms", "rectangles"), "give either layout with a legend or rectangles, not both")
+        region = spec.mask is not None or spec.labels is not None
+        given = [
+            name
+            for name, on in (
+                ("layout", letters),
+                ("rectangles", spec.rectangles is not None),
+                ("mask", region),
+                ("polygons", spec.polygons is not None),
+            )
+            if on
+        ]
+        if len(given) > 1:
+            raise FieldError(("rooms", given[1]), f"give one way of drawing rooms, not {' and '.join(given)}")
         if spec.rectangles is not None:
             self._check_room_rectangles(spec.rectangles)
+        elif region:
+            self._check_room_mask()
+        elif spec.polygons is not None:
+            self._check_room_polygons(spec.polygons)
         elif not letters:
-            raise FieldError(("rooms",), "give layout with a legend (a letter per cell) or rectangles")
+            raise FieldError(("rooms",), "give layout with a legend (a letter per cell), rectangles, mask or polygons")
         elif spec.layout is None or spec.legend is None:
             missing = "legend" if spec.legend is None else "layout"
             example = "{K: kitchen}" if missing == "legend" else "a letter per cell, like the map's layout"
             raise FieldError(("rooms",), f"a room layout needs a {missing} ({example}); or give rectangles")
         else:
             self._check_room_layout(spec.layout, spec.legend)
+
+    def _check_room_mask(self) -> None:
+        spec = self.room_spec
+        assert spec is not None
+        if spec.mask is None or spec.labels is None:
+            missing = "mask (a region map YAML beside this file)" if spec.mask is None else "labels ({1: aisle_a})"
+            raise FieldError(("rooms",), f"a region mask needs both mask and labels; {missing} is missing")
+        if self._occupancy is None:
+            raise FieldError(("rooms", "mask"), "a region mask belongs to a map with occupancy:; use rectangles")
+        if self._region_mask is None:
+            raise FieldError(("rooms", "mask"), "the region mask was not read: load the map file with load_map")
+        names: dict[str, int] = {}
+        for value, name in spec.labels.items():
+            if name in names:
+                raise FieldError(("rooms", "labels", value), f"room {name!r} already has the value {names[name]}")
+            names[name] = value
+        for name, mask in self.rooms.items():
+            if not mask.any():
+                value = names[name]
+                raise FieldError(
+                    ("rooms", "labels", value),
+                    f"no cell of the map has its centre on a pixel of value {value} in {spec.mask}: room {name!r} "
+                    "would be empty",
+                )
+
+    def _check_room_polygons(self, polygons: dict[str, list[tuple[float, float]]]) -> None:
+        if not polygons:
+            raise FieldError(("rooms", "polygons"), "no rooms; e.g. dock: [[0, 0], [4, 0], [4, 3], [0, 3]]")
+        for name, vertices in polygons.items():
+            if len(vertices) < 3:
+                raise FieldError(("rooms", "polygons", name), f"room {name!r} needs at least three corners [x, y]")
+            if not all(math.isfinite(v) for corner in vertices for v in corner):
+                raise FieldError(("rooms", "polygons", name), f"room {name!r} has a corner that is not a number")
+        owner = np.full(self.free.shape, "", dtype=object)
+        for name, mask in self.rooms.items():
+            if not mask.any():
+                raise FieldError(("rooms", "polygons", name), f"no free cell has its centre inside room {name!r}")
+            taken = np.argwhere(mask & (owner != ""))
+            if len(taken):
+                r, c = (int(v) for v in taken[0])
+                raise FieldError(
+                    ("rooms", "polygons", name), f"room {name!r} overlaps room {owner[r, c]!r} at cell [{r}, {c}]"
+                )
+            owner[mask] = name
 
     def _check_room_rectangles(self, rooms: dict[str, RoomRectangle | list[RoomRectangle]]) -> None:
         g = self.grid
@@ -610,6 +755,81 @@ def _check_reading(
             raise FieldError(
                 path, f"unknown class {value!r}; this sensor reads: {', '.join(here_classes(sensor, smap))}"
             )
+
+
+def _grid_from_occupancy(data: dict[str, Any], occupancy: OccupancyMap) -> dict[str, Any]:
+    """The grid's rows and cols of a map with ``occupancy:``: as many cells of ``cell_size`` as it
+    takes to cover the image. The file must not give them."""
+    grid = data.get("grid")
+    if not isinstance(grid, dict):
+        return data  # the field validator says what is wrong
+    for key in ("rows", "cols"):
+        if key in grid:
+            raise FieldError(("grid", key), f"comes from the occupancy image ({data.get('occupancy')}); drop it")
+    cell_size = grid.get("cell_size")
+    if not isinstance(cell_size, (int, float)) or isinstance(cell_size, bool) or not cell_size > 0:
+        return data
+    height, width = occupancy.pixels.shape
+    rows, cols = grid_shape(height, width, occupancy.resolution, float(cell_size))
+    return {**data, "grid": {**grid, "rows": rows, "cols": cols}}
+
+
+def _landmark_cells(data: dict[str, Any], occupancy: OccupancyMap | None) -> dict[str, Any]:
+    """The cell of every landmark written as ``x``, ``y`` in map-frame metres; a landmark off the map
+    or (on an occupancy map) on an occupied pixel is refused where it was written."""
+    landmarks, grid = data.get("landmarks"), data.get("grid")
+    if not isinstance(landmarks, list) or not isinstance(grid, dict):
+        return data
+    rows, cols, size = (
+        _number(grid.get(key, default)) for key, default in (("rows", None), ("cols", None), ("cell_size", 1.0))
+    )
+    if rows is None or cols is None or size is None or size <= 0:
+        return data
+    frame = occupancy.frame if occupancy is not None else MapFrame()
+    filled = []
+    for i, landmark in enumerate(landmarks):
+        if not isinstance(landmark, dict) or ("x" not in landmark and "y" not in landmark):
+            filled.append(landmark)
+            continue
+        if "cell" in landmark:
+            raise FieldError(("landmarks", i, "cell"), "give a landmark's cell or its x and y, not both")
+        if "x" not in landmark or "y" not in landmark:
+            missing = "y" if "y" not in landmark else "x"
+            raise FieldError(
+                ("landmarks", i), f"has {'x' if missing == 'y' else 'y'} but no {missing}: give both, in metres"
+            )
+        x, y = _number(landmark["x"]), _number(landmark["y"])
+        if x is None or y is None:
+            filled.append(landmark)  # the field validator says what is wrong
+            continue
+        gx, gy = frame.to_grid(x, y)
+        if occupancy is not None:
+            height, width = occupancy.pixels.shape
+            j, i_px = (
+                math.floor(float(gx) / occupancy.resolution),
+                height - 1 - math.floor(float(gy) / occupancy.resolution),
+            )
+            if not (0 <= i_px < height and 0 <= j < width):
+                raise FieldError(("landmarks", i, "x"), f"({x:g}, {y:g}) is off the map {data.get('occupancy')}")
+            if occupancy.blocked()[i_px, j]:
+                raise FieldError(
+                    ("landmarks", i, "x"),
+                    f"({x:g}, {y:g}) is on an occupied or unknown pixel of {data.get('occupancy')}: put the object "
+                    "on the free pixel in front of it, where the robot sees it from",
+                )
+        row = int(rows) - 1 - math.floor(float(gy) / size)  # rows and cols are whole: checked by the grid
+        col = math.floor(float(gx) / size)
+        if not (0 <= row < rows and 0 <= col < cols):
+            raise FieldError(("landmarks", i, "x"), f"({x:g}, {y:g}) is off the {rows}x{cols} grid of {size:g} m cells")
+        filled.append({**landmark, "cell": [row, col]})
+    return {**data, "landmarks": filled}
+
+
+def _number(value: Any) -> float | None:
+    """``value`` as a finite float, or None when it is not a number (booleans are not numbers)."""
+    if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
+        return float(value)
+    return None
 
 
 def here_classes(sensor: HereSensor, smap: SemanticMap) -> list[str]:
