@@ -243,6 +243,12 @@ class Action:
         return None if self.transition is None else self.transition.T.tocsr()
 
 
+def wrap_angle(angle: np.ndarray | float) -> np.ndarray:
+    """``angle`` (radians) wrapped to (-pi, pi]."""
+    wrapped: np.ndarray = math.pi - np.mod(math.pi - np.asarray(angle, dtype=np.float64), 2 * math.pi)
+    return wrapped
+
+
 @dataclass(frozen=True)
 class MapFrame:
     """The pose of a grid's lower-left corner in the map frame (ROS ``map``): metres and a yaw in
@@ -312,9 +318,7 @@ class GridLayout:
         h = np.asarray(heading, dtype=np.float64)
         if self.headings == 1:
             return np.zeros_like(h)
-        yaw = self.frame.yaw + math.pi / 2 - 2 * math.pi * h / self.headings
-        wrapped: np.ndarray = math.pi - np.mod(math.pi - yaw, 2 * math.pi)
-        return wrapped
+        return wrap_angle(self.frame.yaw + math.pi / 2 - 2 * math.pi * h / self.headings)
 
     @cached_property
     def free_cells(self) -> np.ndarray:

@@ -184,7 +184,10 @@ def test_track_json_feeds_show(runner: CliRunner, tmp_path: Path) -> None:
     belief.write_text(tracked.stdout)
     result = runner.invoke(app, ["show", WINDOW, "--belief", str(belief), "--json"])
     assert result.exit_code == 0, result.output
-    assert json_of(result)["most_likely"] == {"state": "1,1", "probability": pytest.approx(0.8)}
+    most_likely = json_of(result)["most_likely"]
+    assert isinstance(most_likely, dict)
+    assert most_likely["pose"]["x"] == 1.5 and most_likely["pose"]["y"] == 0.5  # cell 1,1's centre
+    assert most_likely == {"state": "1,1", "probability": pytest.approx(0.8), "pose": most_likely["pose"]}
 
 
 # --- show --------------------------------------------------------------------------------------
@@ -208,7 +211,10 @@ def test_show_json(runner: CliRunner) -> None:
     belief = data["belief"]
     assert isinstance(belief, dict)
     assert sum(belief.values()) == pytest.approx(1.0)
-    assert data["most_likely"] == {"state": "0,0", "probability": 0.25}
+    third, yaw = pytest.approx(1 / 3), pytest.approx(3.28986813369645)  # 1/4 + 1/12 (cell); pi²/3 (one heading)
+    covariance = [third, 0.0, 0, 0, 0, 0, 0.0, third, *[0] * 27, yaw]
+    pose = {"x": 0.5, "y": 1.5, "yaw": 0.0, "covariance": covariance}
+    assert data["most_likely"] == {"state": "0,0", "probability": 0.25, "pose": pose}
     assert data["entropy"] == pytest.approx(1.3862943611)
 
 
@@ -274,7 +280,7 @@ def test_show_and_track_a_model_without_grid(runner: CliRunner, monkeypatch: pyt
 
     from .test_render import rooms_model
 
-    monkeypatch.setattr(model_sources, "open_model", lambda path: rooms_model())
+    monkeypatch.setattr(model_sources, "open_model", lambda path, on_warning=None: rooms_model())
     result = runner.invoke(app, ["show", "rooms.pomdp"])
     assert result.exit_code == 0, result.output
     assert "most likely kitchen  p = 0.3333 (tied with 2 others)" in result.stdout

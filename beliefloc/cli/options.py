@@ -65,6 +65,14 @@ SeedOption = Annotated[int, typer.Option("--seed", min=0, help="Seeds every rand
 ThresholdOption = Annotated[
     float, typer.Option("--threshold", min=0.0, max=1.0, help="Goal: one state holds at least this probability.")
 ]
+PlannerOption = Annotated[
+    Planner,
+    typer.Option(
+        "--planner",
+        "--search",
+        help="Best-first (with a heuristic) or uniform-cost search (--search is the old name).",
+    ),
+]
 HeuristicOption = Annotated[
     Heuristic | None,
     typer.Option(

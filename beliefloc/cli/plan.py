@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-from typing import Annotated
-
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import boundary, initial_belief, print_json
+from beliefloc.cli.common import boundary, initial_belief, open_model, print_json
 from beliefloc.cli.options import (
     BeliefOption,
     HeuristicOption,
@@ -15,6 +13,7 @@ from beliefloc.cli.options import (
     JsonOption,
     MaxExpansionsOption,
     ModelArgument,
+    PlannerOption,
     PlanTimeLimitOption,
     ThresholdOption,
     resolve_heuristic,
@@ -35,14 +34,7 @@ def plan_command(
     source: ModelArgument,
     belief: BeliefOption = "uniform",
     threshold: ThresholdOption = DEFAULT_THRESHOLD,
-    planner: Annotated[
-        Planner,
-        typer.Option(
-            "--planner",
-            "--search",
-            help="Best-first (with a heuristic) or uniform-cost search (--search is the old name).",
-        ),
-    ] = Planner.BESTFIRST,
+    planner: PlannerOption = Planner.BESTFIRST,
     heuristic: HeuristicOption = None,
     h_weight: HWeightOption = DEFAULT_WEIGHT,
     max_expansions: MaxExpansionsOption = DEFAULT_MAX_EXPANSIONS,
@@ -56,7 +48,6 @@ def plan_command(
     Example: beliefloc plan maps/kitchen.yaml --threshold 0.95
     Example: beliefloc plan maps/apartment.yaml --belief prior:domains/apartment.yaml
     """
-    from beliefloc.model_sources import open_model
     from beliefloc.planning.best_first import PlanStatus, plan
     from beliefloc.render.plan import effort_line, plan_table
 
@@ -73,7 +64,7 @@ def plan_command(
         weight=h_weight,
     )
     if json_output:
-        print_json(result.as_json())
+        print_json(result.as_json(model))
     else:
         out = stdout_console()
         if result.found:

@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 
 import typer
 
-from beliefloc.cli.common import PRIOR_PREFIX, boundary, initial_belief, print_json, warn_if_too_wide
+from beliefloc.cli.common import PRIOR_PREFIX, boundary, initial_belief, open_model, print_json, warn, warn_if_too_wide
 from beliefloc.cli.options import BeliefOption, CompactOption, JsonOption, ModelArgument, TopOption
 from beliefloc.render import stdout_console
 
@@ -34,6 +34,7 @@ def show(
     Example: beliefloc show maps/apartment.yaml --belief prior:domains/apartment.yaml
     """
     from beliefloc.belief import by_state_name, entropy, most_likely
+    from beliefloc.pose import pose_json
     from beliefloc.render.belief_grid import belief_view
     from beliefloc.render.drawing import uses_color
     from beliefloc.render.room_plan import room_legend, room_plan
@@ -45,7 +46,7 @@ def show(
         state, p = most_likely(belief)
         data: dict[str, object] = {
             "belief": by_state_name(model, belief),
-            "most_likely": {"state": model.states.name(state), "probability": p},
+            "most_likely": {"state": model.states.name(state), "probability": p, "pose": pose_json(model, belief)},
             "entropy": entropy(belief),
         }
         if rooms and model.grid is not None:
@@ -77,12 +78,12 @@ def show(
 def _open(source: Path) -> tuple[Model, SemanticMap | None]:
     """The model, and the map it comes from when there is one (to draw its rooms)."""
     from beliefloc.errors import BeliefLocError
-    from beliefloc.model_sources import MAP_SUFFIXES, open_model, source_map
+    from beliefloc.model_sources import MAP_SUFFIXES, source_map
 
     if source.suffix.lower() in MAP_SUFFIXES:
         from beliefloc.semantic_map import compile_model, load_map
 
-        smap = load_map(source)
+        smap = load_map(source, on_warning=warn)
         return compile_model(smap), smap
     model = open_model(source)
     if model.grid is None or model.source is None:

@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import boundary, initial_belief, print_json, warn_if_too_wide
+from beliefloc.cli.common import boundary, initial_belief, open_model, print_json, warn_if_too_wide
 from beliefloc.cli.options import (
     BeliefOption,
     CompactOption,
@@ -98,7 +98,6 @@ def simulate(
     Example: beliefloc simulate maps/corridors.yaml -n 20 -s ec2-macros -s ec2 --max-actions 500
     Example: beliefloc simulate maps/apartment.yaml -n 20 --belief prior:domains/apartment.yaml --start prior
     """
-    from beliefloc.model_sources import open_model
     from beliefloc.render.belief_grid import belief_view
     from beliefloc.render.drawing import uses_color
     from beliefloc.render.plan import plan_table, summary_table
@@ -191,7 +190,6 @@ def simulate(
 
 
 def _world(path: Path, model: Model) -> Model:
-    from beliefloc.model_sources import open_model
 
     world = open_model(path)
     if world.states.names != model.states.names:

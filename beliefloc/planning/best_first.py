@@ -108,9 +108,14 @@ class PlanResult:
     def cost(self) -> float:
         return self.steps[-1].cost if self.steps else 0.0
 
-    def as_json(self) -> dict[str, Any]:
+    def as_json(self, model: Model) -> dict[str, Any]:
         """What ``plan --json`` prints: the status, the steps with their expected observations, the
-        search's effort."""
+        search's effort, and ``"pose"``: the pose of the most likely state of the belief the plan is
+        expected to reach (:attr:`belief`) with that belief's covariance
+        (:meth:`beliefloc.pose.PoseEstimate.as_json`); null without a plan or for a model without
+        a grid."""
+        from beliefloc.pose import pose_json
+
         return {
             "found": self.found,
             "status": self.status.value,
@@ -119,6 +124,7 @@ class PlanResult:
                 {"action": s.action, "observation": s.observation, "max_belief": s.max_belief, "cost": s.cost}
                 for s in self.steps
             ],
+            "pose": None if self.belief is None else pose_json(model, self.belief),
             "expanded": self.expanded,
             "generated": self.generated,
             "seconds": self.seconds,

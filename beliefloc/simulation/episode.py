@@ -19,6 +19,7 @@ from beliefloc.belief import most_likely, update
 from beliefloc.errors import ImpossibleObservationError, InvalidValueError
 from beliefloc.model import Model
 from beliefloc.planning.best_first import PlanResult
+from beliefloc.pose import PoseEstimate, belief_pose
 from beliefloc.simulation.robot import SimulatedRobot
 from beliefloc.simulation.settings import DEFAULT_MAX_STEPS, StrategyName
 from beliefloc.simulation.strategies import EpisodeStatus, GiveUp, PlannerSettings, SharedWork, make_strategy
@@ -52,12 +53,17 @@ class EpisodeRecord:
     plan_seconds: list[float]
     max_belief: float
     trace: list[StepRecord] = field(default_factory=list)
+    pose: PoseEstimate | None = None
+    """The final belief as a pose: its most likely state's (:attr:`final`) and its covariance;
+    None for a model without a grid."""
 
     def as_json(self, *, timings: bool = True) -> dict[str, Any]:
-        """What ``simulate --json`` prints per episode; without ``timings`` no clock value."""
+        """What ``simulate --json`` prints per episode; without ``timings`` no clock value.
+        ``"pose"`` is :meth:`PoseEstimate.as_json` of the final belief (null without a grid)."""
         data = asdict(self)
         data.pop("trace")
         data["status"] = self.status.value
+        data["pose"] = None if self.pose is None else self.pose.as_json()
         if not timings:
             data["plan_seconds"] = None
         return data
@@ -154,6 +160,7 @@ def run_episode(
     record.correct = state == robot.state
     record.status = status
     record.max_belief = probability
+    record.pose = None if model.grid is None else belief_pose(model, belief)
     record.plan_seconds = list(chooser.plan_seconds)
     record.replans = chooser.replans
     return record
