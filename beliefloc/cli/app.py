@@ -5,7 +5,22 @@ from __future__ import annotations
 import typer
 
 from beliefloc import __version__
-from beliefloc.cli import export, generate, kb, macros, maps, plan, prior, search, select, show, simulate, track
+from beliefloc.cli import (
+    export,
+    generate,
+    kb,
+    localize,
+    macros,
+    maps,
+    plan,
+    pose,
+    prior,
+    search,
+    select,
+    show,
+    simulate,
+    track,
+)
 
 app = typer.Typer(
     name="beliefloc",
@@ -34,7 +49,7 @@ def _root(
     """beliefloc."""
 
 
-for module in (maps, track, show, plan, simulate, select, macros, prior, kb, search, export, generate):
+for module in (maps, track, show, pose, plan, simulate, localize, select, macros, prior, kb, search, export, generate):
     module.register(app)
 
 

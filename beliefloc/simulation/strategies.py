@@ -23,7 +23,7 @@ from typing import Protocol
 import numpy as np
 
 from beliefloc.model import Model
-from beliefloc.planning.best_first import ClosedList, PlanResult, plan
+from beliefloc.planning.best_first import ClosedList, PlanResult, PlanStep, plan
 from beliefloc.planning.ec2 import PairContext, hypotheses, pair_context, select
 from beliefloc.planning.macros import MacroTable, build_macros, macro_candidates
 from beliefloc.planning.settings import (
@@ -133,9 +133,18 @@ class PlanningStrategy:
             self._current, self._index = result, 0
         return self._current.steps[self._index].action
 
+    @property
+    def current_step(self) -> PlanStep | None:
+        """The plan step whose action :meth:`next_action` returned (with the observation the plan
+        expects after it); None before the first plan or once the plan is used up."""
+        if self._current is None or self._index >= len(self._current.steps):
+            return None
+        return self._current.steps[self._index]
+
     def observed(self, action: str, observation: int | None, belief: np.ndarray) -> None:
-        assert self._current is not None
-        expected = self._current.steps[self._index].observation_index
+        step = self.current_step
+        assert step is not None
+        expected = step.observation_index
         self._index += 1
         if observation != expected:
             self._current = None  # the belief differs from the one the plan expected: replan

@@ -1,0 +1,214 @@
+"""``localize``: act, perceive and replan with a real robot over a line protocol on stdin/stdout."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated
+
+import typer
+from rich.markup import escape
+
+from beliefloc.cli.common import boundary, initial_belief, warn
+from beliefloc.cli.options import (
+    BeliefOption,
+    HeuristicOption,
+    HWeightOption,
+    MaxExpansionsOption,
+    PlannerOption,
+    PlanTimeLimitOption,
+    ThresholdOption,
+    resolve_heuristic,
+)
+from beliefloc.errors import EXIT_NEGATIVE, BeliefLocError, ReplyError, UsageError
+from beliefloc.planning.settings import (
+    DEFAULT_MAX_EXPANSIONS,
+    DEFAULT_THRESHOLD,
+    DEFAULT_TIME_LIMIT,
+    DEFAULT_WEIGHT,
+    Planner,
+)
+from beliefloc.render import stderr_console
+from beliefloc.simulation.settings import DEFAULT_MAX_STEPS
+
+if TYPE_CHECKING:
+    import numpy as np
+
+    from beliefloc.line_protocol import LineRobot
+    from beliefloc.localize import LocalizeStep
+    from beliefloc.model import Model
+    from beliefloc.semantic_map import SemanticMap
+
+MapArgument = Annotated[
+    Path,
+    typer.Argument(
+        metavar="MAP",
+        help="A map (.yaml): its sensors' specifications bin the robot's raw readings. A model built from it "
+        "(.npz) works too while the map is unchanged; a .pomdp file has no sensor specifications.",
+        show_default=False,
+    ),
+]
+
+
+@boundary
+def localize(
+    map_file: MapArgument,
+    belief: BeliefOption = "uniform",
+    threshold: ThresholdOption = DEFAULT_THRESHOLD,
+    planner: PlannerOption = Planner.BESTFIRST,
+    heuristic: HeuristicOption = None,
+    h_weight: HWeightOption = DEFAULT_WEIGHT,
+    max_expansions: MaxExpansionsOption = DEFAULT_MAX_EXPANSIONS,
+    time_limit: PlanTimeLimitOption = DEFAULT_TIME_LIMIT,
+    max_steps: Annotated[
+        int, typer.Option("--max-steps", min=1, help="Stop after this many actions.")
+    ] = DEFAULT_MAX_STEPS,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
+    belief_out: Annotated[
+        Path | None,
+        typer.Option(
+            "--belief-out",
+            metavar="FILE",
+            help="Also write the final belief there ({state: probability}, as 'track --json' gives it): "
+            "'beliefloc pose MAP --belief FILE --format ros' turns it into AMCL's initial pose.",
+            show_default=False,
+        ),
+    ] = None,
+) -> None:
+    """Localize a real robot: plan, send it an action, read what it sensed, update, replan when surprised.
+
+    The robot's program talks to beliefloc over a line protocol, one JSON object per line
+    (docs/localize-protocol.md). beliefloc writes each action on stdout -- what to do, the sensors to
+    read, the readings the plan expects -- and reads one reply per action on stdin,
+    {"seq": N, "readings": {SENSOR: RAW}}, with raw readings: a scan's ranges in metres, the classes a
+    look detected, the class a here sensor reads. beliefloc bins them with the map's sensor model. The
+    last line is the result: the most likely state and its map-frame pose when localized. Progress goes
+    to stderr; stdout carries only protocol lines.
+
+    Exit code 0 localized; 1 not localized (no plan, gave up, step limit, an impossible observation);
+    2 a bad map or option, or a reply that is not valid (the message names the line).
+
+    Example: beliefloc localize maps/kitchen.yaml   (started by the robot's program, stdin and stdout piped)
+
+    Example: beliefloc localize maps/hallway.yaml --threshold 0.9 --max-steps 50 --quiet
+
+    Example: beliefloc localize maps/depot.yaml --belief-out belief.json
+    """
+    from beliefloc.line_protocol import LineRobot, error_message
+    from beliefloc.localize import localize as run
+    from beliefloc.readings import ReadingBinner
+    from beliefloc.simulation.strategies import EpisodeStatus, PlannerSettings
+
+    chosen = resolve_heuristic(planner, heuristic, h_weight)
+    if belief_out is not None:
+        if not belief_out.parent.is_dir():
+            raise UsageError(f"--belief-out {belief_out}: the folder {belief_out.parent} does not exist")
+        if belief_out.resolve() == map_file.resolve() or belief_out.is_dir():
+            raise UsageError(f"--belief-out {belief_out}: would write over the map or a folder; name a new file")
+    smap, model = _open_map(map_file)
+    binner = ReadingBinner(smap, model)
+    start = initial_belief(model, belief, smap)
+    settings = PlannerSettings(threshold, chosen, max_expansions, time_limit, weight=h_weight)
+    robot = LineRobot(binner, sys.stdin.readline, _write_line, source="stdin")
+    err = stderr_console()
+
+    def on_step(step: LocalizeStep) -> None:
+        if quiet:
+            return
+        command = step.command
+        action = command.action
+        if command.plan is not None:
+            what = "plan" if command.seq == 1 else "replan"
+            err.print(
+                f"{what}: {len(command.plan.steps)} actions, cost {command.plan.cost:g} ({command.plan.seconds:.2f} s)"
+            )
+        seen = ""
+        if step.observation is not None:
+            seen = f" → {escape(action.observation.name(step.observation))} (p = {step.probability:.3g})"
+            if step.surprised and command.expected is not None:
+                seen += f", expected {escape(action.observation.name(command.expected))}"
+        err.print(f"{command.seq}. {escape(action.name)}{seen}; max b = {step.belief.max():.3f}", highlight=False)
+
+    try:
+        outcome = run(model, start, robot, binner, settings=settings, max_steps=max_steps, on_step=on_step)
+    except ReplyError as exc:
+        _try_send(robot, error_message(str(exc)))
+        raise
+    robot.finish(outcome)
+    if belief_out is not None:
+        _write_belief(belief_out, model, outcome.belief)
+    if outcome.localized:
+        if not quiet:
+            data = outcome.as_json(model)
+            err.print(f"localized: {data['state']} (p = {data['probability']:.3f}) after {outcome.steps} actions")
+        return
+    status = outcome.status.value.replace("_", " ")
+    hint = {
+        EpisodeStatus.BUDGET_EXCEEDED: "; raise --max-expansions or --time-limit, or lower --threshold",
+        EpisodeStatus.STEP_LIMIT: "; raise --max-steps",
+    }.get(outcome.status, "")
+    reason = f": {outcome.reason}{hint}" if outcome.reason else ""
+    err.print(f"[bold]not localized, {status}[/]{escape(reason)} (max b = {outcome.belief.max():.3f})")
+    raise typer.Exit(EXIT_NEGATIVE)
+
+
+def _write_belief(path: Path, model: Model, belief: np.ndarray) -> None:
+    """The final belief as a belief file, written whole or not at all."""
+    from beliefloc.belief import by_state_name
+    from beliefloc.model_file import write_atomically
+
+    text = json.dumps({"belief": by_state_name(model, belief)}, indent=2, allow_nan=False) + "\n"
+    write_atomically(path, lambda handle: handle.write(text.encode()))
+
+
+def _open_map(path: Path) -> tuple[SemanticMap, Model]:
+    """The map and its model: from the map itself, or from a model built from it (checked unchanged)."""
+    from beliefloc.model_sources import MAP_SUFFIXES, MODEL_SUFFIX, source_map
+    from beliefloc.semantic_map import compile_model, load_map
+
+    suffix = path.suffix.lower()
+    if suffix in MAP_SUFFIXES:
+        smap = load_map(path, on_warning=warn)
+        return smap, compile_model(smap)
+    if suffix == MODEL_SUFFIX:
+        from beliefloc.model_file import load_model
+
+        model = load_model(path)
+        return source_map(model), model
+    raise UsageError(
+        f"MAP {path}: localize needs a map (.yaml), whose sensors' specifications bin the robot's raw readings "
+        "(or a model built from one, .npz); a .pomdp file has none"
+    )
+
+
+def _write_line(text: str) -> None:
+    """One protocol line on stdout, flushed at once; a closed pipe is the robot side gone."""
+    try:
+        sys.stdout.write(text + "\n")
+        sys.stdout.flush()
+    except BrokenPipeError:
+        _silence_stdout()
+        raise ReplyError("the robot side closed beliefloc's stdout before localization ended") from None
+
+
+def _try_send(robot: LineRobot, message: dict[str, object]) -> None:
+    """The error line for the robot side, when it is still listening."""
+    with contextlib.suppress(BeliefLocError):
+        robot.send(message)
+
+
+def _silence_stdout() -> None:
+    """After a broken pipe, point stdout at /dev/null so that the interpreter's last flush is quiet
+    (the recipe of Python's signal documentation)."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):  # not a real file (under a test runner)
+        pass
+
+
+def register(app: typer.Typer) -> None:
+    app.command()(localize)

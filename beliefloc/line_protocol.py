@@ -1,0 +1,171 @@
+"""``beliefloc localize``'s line protocol: one JSON object per line each way.
+
+beliefloc writes an ``action`` message (:func:`action_message`), the robot executes the action and
+answers with one line, ``{"seq": N, "readings": {SENSOR: RAW, ...}}``; at the end beliefloc writes
+a ``result`` message (or an ``error`` message when a reply cannot be used). Every message is
+described, with examples, in ``docs/localize-protocol.md``; the raw readings are binned by
+:mod:`beliefloc.readings`.
+
+:class:`LineRobot` is the :class:`~beliefloc.localize.ReadingRobot` on the other end of two line
+streams. It reads exactly one line per action (never ahead) and checks it before anything else
+uses it: JSON, an object with the right sequence number, no unknown key; a line that is not is a
+:class:`~beliefloc.errors.ReplyError` naming the line.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from beliefloc.errors import ReplyError
+from beliefloc.localize import Command, Localization
+from beliefloc.model import Action, GridLayout, Model
+from beliefloc.readings import RawReading, ReadingBinner
+
+PROTOCOL_VERSION = 1
+MAX_LINE_CHARS = 1 << 20
+"""A reply longer than this (1 MiB) is refused: no reading needs it."""
+REPLY_KEYS = ("seq", "readings")
+
+ReadLine = Callable[[int], str]
+"""``readline(limit)`` of a text stream: one line with its newline, at most ``limit`` characters,
+``""`` at the end of input."""
+WriteLine = Callable[[str], None]
+"""Writes one line (the newline is added) and flushes it."""
+
+
+def motion(grid: GridLayout | None, action: Action) -> dict[str, float] | None:
+    """What an actuation action asks the robot to do, in metres and radians (counter-clockwise
+    positive): ``{"turn": θ}`` for a rotation (``2π/headings``), ``{"advance": ±s}`` for forward and
+    backward (one cell of ``s`` metres along the heading; ``s·√2`` on a diagonal heading of an
+    8-heading grid), ``{"x": dx, "y": dy}`` for a compass move (map-frame metres). None for a
+    perception action or a model without a grid."""
+    if grid is None or not action.is_actuation:
+        return None
+    step = grid.cell_size
+    if action.name in ("rotate_cw", "rotate_ccw"):
+        turn = 2 * math.pi / grid.headings
+        return {"turn": turn if action.name == "rotate_ccw" else -turn}
+    if action.name in ("forward", "backward"):
+        return {"advance": step if action.name == "forward" else -step}
+    grid_step = {"up": (0.0, step), "down": (0.0, -step), "left": (-step, 0.0), "right": (step, 0.0)}.get(action.name)
+    if grid_step is None:
+        return None
+    yaw = grid.frame.yaw
+    dx, dy = grid_step
+    return {"x": math.cos(yaw) * dx - math.sin(yaw) * dy, "y": math.sin(yaw) * dx + math.cos(yaw) * dy}
+
+
+def action_message(command: Command, binner: ReadingBinner) -> dict[str, Any]:
+    """The ``action`` message: the action, what it asks the robot to do, the sensors to read and the
+    readings the plan expects (raw, in the middle of the expected bins)."""
+    action = command.action
+    expected = None
+    if command.expected is not None:
+        expected = {
+            "observation": action.observation.name(command.expected),
+            "readings": binner.example(action, command.expected),
+        }
+    return {
+        "message": "action",
+        "protocol": PROTOCOL_VERSION,
+        "seq": command.seq,
+        "action": action.name,
+        "kind": action.kind.value,
+        "motion": motion(binner.model.grid, action),
+        "sensors": binner.describe(action),
+        "expected": expected,
+        "planned": command.plan is not None,
+    }
+
+
+def result_message(outcome: Localization, model: Model) -> dict[str, Any]:
+    """The last line when the loop ends: :meth:`Localization.as_json`."""
+    return {"message": "result", "protocol": PROTOCOL_VERSION, **outcome.as_json(model)}
+
+
+def error_message(text: str) -> dict[str, Any]:
+    """The last line when a reply cannot be used (the same paragraph goes to stderr)."""
+    return {"message": "error", "protocol": PROTOCOL_VERSION, "error": text}
+
+
+def _constant(name: str) -> float:
+    """JSON's non-standard constants as Python writes them: ``Infinity`` is a range with no wall;
+    NaN is no reading at all."""
+    if name == "NaN":
+        raise ValueError("NaN is not a reading")
+    return math.inf if name == "Infinity" else -math.inf
+
+
+class LineRobot:
+    """A robot on the other end of two line streams (see the module)."""
+
+    def __init__(
+        self, binner: ReadingBinner, read_line: ReadLine, write_line: WriteLine, *, source: str = "stdin"
+    ) -> None:
+        self.binner = binner
+        self.read_line = read_line
+        self.write_line = write_line
+        self.source = source
+        self.lines_read = 0
+
+    def send(self, message: Mapping[str, Any]) -> None:
+        self.write_line(json.dumps(message, allow_nan=False))
+
+    def act(self, command: Command) -> Mapping[str, RawReading]:
+        self.send(action_message(command, self.binner))
+        return self.reply(command)
+
+    def finish(self, outcome: Localization) -> None:
+        self.send(result_message(outcome, self.binner.model))
+
+    def reply(self, command: Command) -> Mapping[str, RawReading]:
+        """Read and check the one line that answers ``command``: its readings, by sensor name."""
+        what = f"the reply to action {command.seq} ({command.action.name})"
+        try:
+            line = self.read_line(MAX_LINE_CHARS + 1)
+        except UnicodeDecodeError as exc:
+            raise ReplyError(
+                f"{self.source} line {self.lines_read + 1}, {what}: not UTF-8 text ({exc.reason})"
+            ) from None
+        if line == "":
+            raise ReplyError(f"{self.source} ended before {what}")
+        self.lines_read += 1
+        where = f"{self.source} line {self.lines_read}, {what}"
+        if len(line) > MAX_LINE_CHARS:
+            raise ReplyError(f"{where}: longer than {MAX_LINE_CHARS} characters")
+        text = line.strip()
+        example = f'{{"seq": {command.seq}, "readings": {{...}}}}'
+        if not text:
+            raise ReplyError(f"{where}: an empty line; expected one JSON object such as {example}")
+        try:
+            data = json.loads(text, parse_constant=_constant)
+        except ValueError as exc:
+            raise ReplyError(f"{where}: not JSON ({exc}); expected one JSON object such as {example}") from None
+        except RecursionError:
+            raise ReplyError(f"{where}: JSON nested too deeply") from None
+        if not isinstance(data, dict):
+            raise ReplyError(f"{where}: a JSON object such as {example} was expected, got {_kind(data)}")
+        unknown = [key for key in data if key not in REPLY_KEYS]
+        if unknown:
+            raise ReplyError(f"{where}: unknown key {unknown[0]!r}; a reply has {' and '.join(map(repr, REPLY_KEYS))}")
+        seq = data.get("seq")
+        if isinstance(seq, bool) or not isinstance(seq, int):
+            raise ReplyError(f"{where}: 'seq' should be the action's sequence number {command.seq}, got {seq!r}")
+        if seq != command.seq:
+            raise ReplyError(
+                f"{where}: out of order: 'seq' is {seq}, but the action waiting for a reply is {command.seq}"
+            )
+        readings = data.get("readings", {})
+        if not isinstance(readings, dict):
+            raise ReplyError(
+                f"{where}: 'readings' should map each sensor's name to its raw reading, got {_kind(readings)}"
+            )
+        return readings
+
+
+def _kind(value: object) -> str:
+    names = {list: "a list", str: "a string", int: "a number", float: "a number", bool: "a boolean", dict: "an object"}
+    return "null" if value is None else names.get(type(value), type(value).__name__)

@@ -1,0 +1,181 @@
+"""Localizing a robot that acts and perceives: Colledanchise et al.'s Algorithm 1, ``Main``.
+
+::
+
+    b <- the start belief
+    while max(b) < threshold:
+        if there is no plan: plan with best-first search from b (the closed list is kept)
+        send the plan's next action a; the robot executes it and answers with raw readings
+        o <- the readings binned into an observation of a (beliefloc.readings)
+        b <- update(b, a, o)                     b'(s_j) ∝ O_a[j, o] Σ_i T_a[i, j] b(s_i)
+        if o differs from the observation the plan expected: drop the plan (replan next time)
+
+The planning is :class:`~beliefloc.simulation.strategies.PlanningStrategy`'s, exactly as in a
+simulated episode; the robot is anything with ``act(command) -> raw readings``
+(:class:`ReadingRobot`): a real one over ``beliefloc localize``'s line protocol
+(:class:`beliefloc.line_protocol.LineRobot`), or a simulated one (:class:`SimulatedReadingRobot`).
+The loop ends with an honest :class:`~beliefloc.simulation.strategies.EpisodeStatus`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+import numpy as np
+
+from beliefloc.belief import most_likely, update
+from beliefloc.errors import ImpossibleObservationError, InvalidValueError, ReplyError
+from beliefloc.model import Action, Model
+from beliefloc.planning.best_first import PlanResult
+from beliefloc.planning.successors import SuccessorEvaluator
+from beliefloc.pose import pose_json
+from beliefloc.readings import RawReading, ReadingBinner
+from beliefloc.simulation.robot import SimulatedRobot
+from beliefloc.simulation.settings import DEFAULT_MAX_STEPS, StrategyName
+from beliefloc.simulation.strategies import EpisodeStatus, GiveUp, PlannerSettings, PlanningStrategy
+
+
+@dataclass(frozen=True)
+class Command:
+    """What the loop asks the robot to do next."""
+
+    seq: int
+    """1 for the first action, then 2, 3, ...; the robot's reply carries it back."""
+    action: Action
+    expected: int | None
+    """The observation the plan expects after the action; None when the action reads no sensor."""
+    plan: PlanResult | None
+    """The plan made just before this action (the first plan or a replan); None when the action
+    continues the current plan."""
+
+
+class ReadingRobot(Protocol):
+    """A robot that executes an action and answers with the raw readings of the sensors the action
+    reads, by sensor name (:meth:`beliefloc.readings.ReadingBinner.sensors`; empty when it reads none)."""
+
+    def act(self, command: Command) -> Mapping[str, RawReading]: ...
+
+
+@dataclass(frozen=True)
+class LocalizeStep:
+    """One action done: what was asked, what was observed, the belief after it."""
+
+    command: Command
+    observation: int | None
+    probability: float
+    """``p(o | a, b)`` before the update (1 when nothing was observed)."""
+    belief: np.ndarray
+
+    @property
+    def surprised(self) -> bool:
+        """The observation differs from the one the plan expected: the plan is dropped."""
+        return self.observation != self.command.expected
+
+
+@dataclass(frozen=True)
+class Localization:
+    """How localization ended, with the final belief."""
+
+    status: EpisodeStatus
+    belief: np.ndarray
+    steps: int
+    cost: float
+    replans: int
+    plan_seconds: tuple[float, ...]
+    reason: str = ""
+    """Why the loop stopped short, in words (empty when localized)."""
+
+    @property
+    def localized(self) -> bool:
+        return self.status is EpisodeStatus.LOCALIZED
+
+    def as_json(self, model: Model) -> dict[str, Any]:
+        """The outcome as plain data: the most likely state, its probability and its pose
+        (:func:`beliefloc.pose.pose_json`) when localized, else null; ``max_belief`` either way."""
+        state, probability = most_likely(self.belief)
+        done = self.localized
+        return {
+            "status": self.status.value,
+            "localized": done,
+            "state": model.states.name(state) if done else None,
+            "probability": probability if done else None,
+            "pose": pose_json(model, self.belief) if done else None,
+            "max_belief": probability,
+            "steps": self.steps,
+            "cost": self.cost,
+            "replans": self.replans,
+        }
+
+
+OnStep = Callable[[LocalizeStep], None]
+_GIVE_UP_REASONS = {
+    EpisodeStatus.NO_PLAN: "every belief reachable from here was searched and none reaches the threshold: "
+    "some states cannot be told apart",
+    EpisodeStatus.BUDGET_EXCEEDED: "the planner's budget (expansions or seconds) ran out before it found a plan",
+}
+
+
+def localize(
+    model: Model,
+    belief: np.ndarray,
+    robot: ReadingRobot,
+    binner: ReadingBinner,
+    *,
+    settings: PlannerSettings | None = None,
+    max_steps: int = DEFAULT_MAX_STEPS,
+    evaluator: SuccessorEvaluator | None = None,
+    on_step: OnStep | None = None,
+) -> Localization:
+    """Plan, act, perceive and replan until one state holds ``settings.threshold`` (see the module).
+
+    A reply the binner cannot use raises :class:`ReplyError` naming the action; an observation the
+    model says cannot happen ends the loop with ``IMPOSSIBLE_OBSERVATION`` (the belief before it is
+    kept), as do no plan, a planner out of budget and ``max_steps`` actions, each with its status.
+    """
+    settings = settings or PlannerSettings()
+    strategy = PlanningStrategy(StrategyName.BESTFIRST.value, model, settings, evaluator or SuccessorEvaluator(model))
+    steps, cost, reason = 0, 0.0, ""
+    status = EpisodeStatus.LOCALIZED
+    while belief.max() < settings.threshold:
+        if steps >= max_steps:
+            status, reason = EpisodeStatus.STEP_LIMIT, f"{steps} actions done, the most allowed"
+            break
+        decision = strategy.next_action(belief)
+        if isinstance(decision, GiveUp):
+            status, reason = decision.status, _GIVE_UP_REASONS.get(decision.status, "")
+            break
+        planned = strategy.current_step
+        assert planned is not None
+        action = model.action(decision)
+        command = Command(steps + 1, action, planned.observation_index, strategy.new_plan)
+        readings = robot.act(command)
+        try:
+            observation = binner.observation(action, readings)
+        except InvalidValueError as exc:
+            raise ReplyError(f"the reply to action {command.seq} ({action.name}): {exc}") from None
+        try:
+            belief, probability = update(model, belief, action, observation)
+        except ImpossibleObservationError as exc:
+            status, reason = EpisodeStatus.IMPOSSIBLE_OBSERVATION, f"action {command.seq}: {exc}"
+            break
+        steps += 1
+        cost += action.cost
+        strategy.observed(decision, observation, belief)
+        if on_step is not None:
+            on_step(LocalizeStep(command, observation, probability, belief))
+    return Localization(status, belief, steps, cost, strategy.replans, tuple(strategy.plan_seconds), reason)
+
+
+class SimulatedReadingRobot:
+    """A :class:`SimulatedRobot` that answers with raw readings: for each sampled observation, the
+    readings in the middle of its bins (:meth:`ReadingBinner.example`)."""
+
+    def __init__(self, robot: SimulatedRobot, binner: ReadingBinner) -> None:
+        self.robot = robot
+        self.binner = binner
+
+    def act(self, command: Command) -> Mapping[str, RawReading]:
+        observation = self.robot.act(command.action.name)
+        return self.binner.example(command.action, observation)

@@ -1,0 +1,436 @@
+"""``beliefloc localize``: the act-perceive-replan loop (:mod:`beliefloc.localize`), its line protocol
+(:mod:`beliefloc.line_protocol`) and the command, end to end with a robot in another process."""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+import re
+import subprocess
+import sys
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+from typer.testing import CliRunner
+
+from beliefloc import compile_model, load_map, uniform
+from beliefloc.cli.app import app
+from beliefloc.errors import EXIT_BAD_INPUT, EXIT_NEGATIVE, ReplyError
+from beliefloc.line_protocol import MAX_LINE_CHARS, LineRobot, action_message
+from beliefloc.localize import Command, SimulatedReadingRobot, localize
+from beliefloc.model import Model
+from beliefloc.pose import state_pose
+from beliefloc.readings import RawReading, ReadingBinner
+from beliefloc.semantic_map import SemanticMap
+from beliefloc.simulation.robot import SimulatedRobot
+from beliefloc.simulation.strategies import EpisodeStatus, PlannerSettings
+
+from .conftest import MAPS, ROOT, TWINS
+
+KITCHEN = str(MAPS / "kitchen.yaml")
+LAMP = {
+    "name": "lamp",
+    "grid": {"rows": 1, "cols": 2, "headings": 1},
+    "landmarks": [{"class": "door", "cell": [0, 1]}],
+    "actions": {"up": {"cost": 1}},
+    "sensors": {"look": {"type": "look", "classes": ["door", "lamp"], "range": 0}},
+}
+"""Two cells told apart by a perfect look for a door; no lamp anywhere, so seeing one is impossible."""
+
+
+@pytest.fixture(scope="module")
+def kitchen() -> tuple[Model, ReadingBinner]:
+    smap = load_map(KITCHEN)
+    model = compile_model(smap)
+    return model, ReadingBinner(smap, model)
+
+
+def _of(data: dict[str, Any]) -> tuple[Model, ReadingBinner]:
+    smap = SemanticMap.model_validate(data)
+    model = compile_model(smap)
+    return model, ReadingBinner(smap, model)
+
+
+class Scripted:
+    """A robot that answers every perception action with the same reading of its sensor, and
+    every actuation action with an acknowledgement."""
+
+    def __init__(self, readings: Mapping[str, RawReading]) -> None:
+        self.readings = readings
+        self.commands: list[Command] = []
+
+    def act(self, command: Command) -> Mapping[str, RawReading]:
+        self.commands.append(command)
+        action = command.action
+        return {} if action.is_actuation else {action.name: self.readings[action.name]}
+
+
+# --- the loop ------------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_a_simulated_robot_answering_raw_readings_is_localized(kitchen: Any, seed: int) -> None:
+    model, binner = kitchen
+    start = model.states.index("1,1,1")
+    world = SimulatedRobot(model, start, np.random.default_rng(seed))
+    seen: list[int] = []
+    outcome = localize(
+        model,
+        uniform(model.n_states),
+        SimulatedReadingRobot(world, binner),
+        binner,
+        on_step=lambda step: seen.append(step.command.seq),
+    )
+    assert outcome.status is EpisodeStatus.LOCALIZED
+    assert int(np.argmax(outcome.belief)) == world.state
+    assert seen == list(range(1, outcome.steps + 1))
+    data = outcome.as_json(model)
+    assert data["state"] == model.states.name(world.state)
+    assert data["pose"]["x"] == state_pose(model.grid, world.state).x  # type: ignore[arg-type]
+
+
+def test_the_first_command_carries_the_plan_and_its_expectation(kitchen: Any) -> None:
+    model, binner = kitchen
+    robot = SimulatedReadingRobot(SimulatedRobot(model, 0, np.random.default_rng(0)), binner)
+    commands: list[Command] = []
+    localize(model, uniform(model.n_states), robot, binner, on_step=lambda step: commands.append(step.command))
+    first = commands[0]
+    assert first.plan is not None and first.plan.found
+    assert first.plan.steps[0].action == first.action.name
+    assert first.expected == first.plan.steps[0].observation_index
+    surprises = [c for c in commands[1:] if c.plan is not None]
+    assert all(c.seq > 1 for c in surprises)  # a later plan is a replan
+
+
+def test_an_already_localized_belief_needs_no_action(kitchen: Any) -> None:
+    model, binner = kitchen
+    belief = np.zeros(model.n_states)
+    belief[3] = 1.0
+    robot = Scripted({})
+    outcome = localize(model, belief, robot, binner)
+    assert outcome.localized and outcome.steps == 0 and robot.commands == []
+
+
+@pytest.mark.parametrize(
+    ("data", "readings", "max_steps", "status"),
+    [
+        (TWINS, {"look": []}, 10, EpisodeStatus.NO_PLAN),
+        (LAMP, {"look": ["lamp"]}, 10, EpisodeStatus.IMPOSSIBLE_OBSERVATION),
+        (None, {"look": [], "scan": 0.6}, 1, EpisodeStatus.STEP_LIMIT),
+    ],
+)
+def test_the_loop_ends_with_an_honest_status(
+    kitchen: Any, data: dict[str, Any] | None, readings: dict[str, Any], max_steps: int, status: EpisodeStatus
+) -> None:
+    model, binner = kitchen if data is None else _of(data)
+    robot = Scripted(readings)
+    outcome = localize(model, uniform(model.n_states), robot, binner, max_steps=max_steps)
+    assert outcome.status is status
+    assert not outcome.localized
+    data_out = outcome.as_json(model)
+    assert data_out["status"] == status.value and data_out["state"] is None and data_out["pose"] is None
+    if status is EpisodeStatus.IMPOSSIBLE_OBSERVATION:
+        assert outcome.reason.startswith("action 1: observation 'lamp' after 'look' has probability 0")
+
+
+def test_a_reading_the_binner_refuses_is_a_reply_error() -> None:
+    model, binner = _of(LAMP)
+    with pytest.raises(ReplyError, match=r"^the reply to action 1 \(look\): look: 'sofa': not a class this sensor"):
+        localize(model, uniform(model.n_states), Scripted({"look": ["sofa"]}), binner)
+
+
+def test_the_planner_settings_reach_the_planner(kitchen: Any) -> None:
+    model, binner = kitchen
+    robot = Scripted({})
+    outcome = localize(model, uniform(model.n_states), robot, binner, settings=PlannerSettings(max_expansions=1))
+    assert outcome.status is EpisodeStatus.BUDGET_EXCEEDED and robot.commands == []
+
+
+# --- the line protocol ---------------------------------------------------------------------------
+
+
+def _command(model: Model, action: str, observation: str | None = None, seq: int = 1) -> Command:
+    act = model.action(action)
+    return Command(seq, act, None if observation is None else act.observation.index(observation), None)
+
+
+def test_an_action_message_tells_the_robot_everything(kitchen: Any) -> None:
+    model, binner = kitchen
+    message = action_message(_command(model, "scan", "no_wall", seq=3), binner)
+    assert message == {
+        "message": "action",
+        "protocol": 1,
+        "seq": 3,
+        "action": "scan",
+        "kind": "perception",
+        "motion": None,
+        "sensors": [{"name": "scan", "type": "scan", "beams": [0.0], "bins": [0.2, 0.8, 1.1, 1.5]}],
+        "expected": {"observation": "no_wall", "readings": {"scan": [None]}},
+        "planned": False,
+    }
+    assert action_message(_command(model, "look", "chair"), binner)["expected"]["readings"] == {"look": ["chair"]}
+    turn = action_message(_command(model, "rotate_cw"), binner)
+    assert turn["motion"] == {"turn": pytest.approx(-math.pi / 2)}
+    assert turn["sensors"] == [] and turn["expected"] is None and turn["kind"] == "actuation"
+    assert action_message(_command(model, "backward"), binner)["motion"] == {"advance": -1.2}
+
+
+def test_a_compass_move_is_a_map_frame_step() -> None:
+    smap = load_map(MAPS / "khalvati-example1.yaml")
+    model = compile_model(smap)
+    message = action_message(_command(model, "up", "1"), ReadingBinner(smap, model))
+    assert message["motion"] == {"x": 0.0, "y": 1.0}
+    assert message["expected"] == {"observation": "1", "readings": {"here": "1"}}
+
+
+def _robot(binner: ReadingBinner, replies: str) -> tuple[LineRobot, list[str]]:
+    written: list[str] = []
+    return LineRobot(binner, io.StringIO(replies).readline, written.append), written
+
+
+def test_a_reply_is_read_one_line_at_a_time(kitchen: Any) -> None:
+    model, binner = kitchen
+    robot, written = _robot(binner, '{"seq": 1, "readings": {"scan": Infinity}}\n{"seq": 2}\nnot read yet\n')
+    assert robot.act(_command(model, "scan", "no_wall")) == {"scan": math.inf}
+    assert robot.act(_command(model, "forward", seq=2)) == {}
+    assert [json.loads(line)["seq"] for line in written] == [1, 2]
+    assert robot.lines_read == 2
+
+
+@pytest.mark.parametrize(
+    ("reply", "message"),
+    [
+        ("", r"^stdin ended before the reply to action 1 \(scan\)$"),
+        ("\n", r"^stdin line 1, the reply to action 1 \(scan\): an empty line; expected one JSON object such as"),
+        ("hello\n", r"^stdin line 1, the reply to action 1 \(scan\): not JSON \(Expecting value"),
+        ("[1]\n", r": a JSON object such as \{\"seq\": 1, \"readings\": \{\.\.\.\}\} was expected, got a list$"),
+        ('{"seq": 1, "reading": {}}\n', r": unknown key 'reading'; a reply has 'seq' and 'readings'$"),
+        ('{"readings": {}}\n', r": 'seq' should be the action's sequence number 1, got None$"),
+        ('{"seq": true}\n', r": 'seq' should be the action's sequence number 1, got True$"),
+        ('{"seq": 2}\n', r": out of order: 'seq' is 2, but the action waiting for a reply is 1$"),
+        (
+            '{"seq": 1, "readings": [0.5]}\n',
+            r": 'readings' should map each sensor's name to its raw reading, got a list$",
+        ),
+        ('{"seq": 1, "readings": {"scan": NaN}}\n', r": not JSON \(NaN is not a reading\)"),
+        ('{"seq": 1, "readings": ' + "[" * 100_000 + "\n", r": (JSON nested too deeply|not JSON)"),
+        ("x" * (MAX_LINE_CHARS + 10) + "\n", rf": longer than {MAX_LINE_CHARS} characters$"),
+    ],
+)
+def test_a_bad_reply_names_its_line(kitchen: Any, reply: str, message: str) -> None:
+    model, binner = kitchen
+    robot, _ = _robot(binner, reply)
+    with pytest.raises(ReplyError, match=message):
+        robot.act(_command(model, "scan", "no_wall"))
+
+
+def test_a_reply_that_is_not_utf8_names_its_line(kitchen: Any) -> None:
+    model, binner = kitchen
+
+    def read_line(limit: int) -> str:
+        raise UnicodeDecodeError("utf-8", b"\xff", 0, 1, "invalid start byte")
+
+    robot = LineRobot(binner, read_line, lambda line: None)
+    with pytest.raises(ReplyError, match=r"^stdin line 1, the reply to action 1 \(scan\): not UTF-8 text"):
+        robot.act(_command(model, "scan", "no_wall"))
+
+
+# --- the command, in process ---------------------------------------------------------------------
+
+
+def _lines(stdout: str) -> list[dict[str, Any]]:
+    return [json.loads(line) for line in stdout.splitlines()]
+
+
+def test_help_reads_well(runner: CliRunner) -> None:
+    result = runner.invoke(app, ["localize", "--help"])
+    assert result.exit_code == 0
+    text = " ".join(result.stdout.split())
+    assert "Example: beliefloc localize maps/kitchen.yaml" in text
+    assert "docs/localize-protocol.md" in text
+    for option in ("--belief", "--threshold", "--planner", "--heuristic", "--h-weight", "--max-expansions"):
+        assert option in text
+    assert "--time-limit" in text and "--max-steps" in text
+
+
+def test_a_pomdp_file_is_refused(runner: CliRunner, tmp_path: Path) -> None:
+    result = runner.invoke(app, ["localize", str(tmp_path / "rooms.pomdp")])
+    assert result.exit_code == EXIT_BAD_INPUT
+    assert "localize needs a map (.yaml)" in " ".join(result.stderr.split())
+    assert result.stdout == ""
+
+
+def test_a_built_model_works_while_its_map_is_unchanged(runner: CliRunner, tmp_path: Path) -> None:
+    model_file = tmp_path / "kitchen.npz"
+    assert runner.invoke(app, ["build", KITCHEN, "-o", str(model_file)]).exit_code == 0
+    result = runner.invoke(app, ["localize", str(model_file)], input="")
+    assert result.exit_code == EXIT_BAD_INPUT  # it got as far as the first action
+    assert _lines(result.stdout)[0]["message"] == "action"
+
+
+@pytest.mark.parametrize(
+    ("data", "reply", "status"),
+    [(TWINS, "", "no_plan"), (LAMP, '{"seq": 1, "readings": {"look": ["lamp"]}}\n', "impossible_observation")],
+)
+def test_not_localized_is_exit_1_with_a_result_line(
+    runner: CliRunner, tmp_path: Path, data: dict[str, Any], reply: str, status: str
+) -> None:
+    path = tmp_path / "map.yaml"
+    path.write_text(yaml.safe_dump(data))
+    result = runner.invoke(app, ["localize", str(path)], input=reply)
+    assert result.exit_code == EXIT_NEGATIVE, result.output
+    last = _lines(result.stdout)[-1]
+    assert last["message"] == "result" and last["status"] == status and last["localized"] is False
+    assert last["state"] is None and last["pose"] is None
+    assert f"not localized, {status.replace('_', ' ')}" in " ".join(result.stderr.split())
+
+
+def test_a_bad_reading_is_exit_2_with_an_error_line(runner: CliRunner, tmp_path: Path) -> None:
+    path = tmp_path / "map.yaml"
+    path.write_text(yaml.safe_dump(LAMP))
+    result = runner.invoke(app, ["localize", str(path)], input='{"seq": 1, "readings": {"look": ["sofa"]}}\n')
+    assert result.exit_code == EXIT_BAD_INPUT
+    message = "the reply to action 1 (look): look: 'sofa': not a class this sensor looks for (door, lamp)"
+    assert message in " ".join(result.stderr.split())
+    assert _lines(result.stdout)[-1] == {"message": "error", "protocol": 1, "error": message}
+
+
+# --- end to end: a robot in another process -------------------------------------------------------
+
+ROBOT = r"""
+import json, subprocess, sys
+
+from beliefloc import compile_model, load_map
+from beliefloc.semantic_map import geometry, pixel_geometry
+
+map_path, start, *options = sys.argv[1:]
+smap = load_map(map_path)
+model = compile_model(smap)
+grid = model.grid
+state = model.states.index(start)  # the robot's secret
+occupancy = smap.occupancy_map
+if occupancy is None:  # metres to the wall, beyond the last bin too
+    ahead = geometry.wall_distances(grid, 100.0)
+else:  # a laser's ray over the pixels
+    ahead = pixel_geometry.ray_distances(occupancy.blocked(), occupancy.resolution, grid, 100.0)
+moves = {a.name: geometry.motion_targets(grid, a.name) for a in model.actuation_actions}
+looks = {a.name: a.observation.parts for a in model.perception_actions}
+
+beliefloc = subprocess.Popen(
+    [sys.executable, "-m", "beliefloc", "localize", map_path, *options],
+    stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+)
+messages = []
+while True:
+    line = beliefloc.stdout.readline()
+    if not line:
+        break
+    message = json.loads(line)
+    messages.append(message)
+    if message["message"] != "action":
+        break
+    if message["kind"] == "actuation":
+        state = int(moves[message["action"]][state])  # a real robot's move succeeds
+    readings = {}
+    for sensor in message["sensors"]:
+        if sensor["type"] == "scan":  # the true distance in metres, e.g. 1.8 (no_wall)
+            readings[sensor["name"]] = [float(ahead[state])]
+        else:  # the classes in view
+            parts = looks[sensor["name"]]
+            readings[sensor["name"]] = [c for c, p in zip(sensor["classes"], parts) if p.truth[state]]
+    beliefloc.stdin.write(json.dumps({"seq": message["seq"], "readings": readings}) + "\n")
+    beliefloc.stdin.flush()
+_, stderr = beliefloc.communicate(timeout=60)
+json.dump({"code": beliefloc.returncode, "true_state": model.states.name(state), "messages": messages,
+           "stderr": stderr}, sys.stdout)
+"""
+
+
+@pytest.mark.parametrize("start", ["1,1,1", "2,2,3"])
+def test_a_robot_in_another_process_is_localized(start: str) -> None:
+    played = subprocess.run(
+        [sys.executable, "-c", ROBOT, KITCHEN, start], capture_output=True, text=True, timeout=120, cwd=ROOT
+    )
+    assert played.returncode == 0, played.stderr
+    run = json.loads(played.stdout)
+    assert run["code"] == 0, run["stderr"]
+    *actions, result = run["messages"]
+    assert [a["seq"] for a in actions] == list(range(1, len(actions) + 1))
+    assert all(a["message"] == "action" for a in actions) and actions[0]["planned"] is True
+    assert result["message"] == "result" and result["status"] == "localized"
+    assert result["state"] == run["true_state"]
+    model = compile_model(load_map(KITCHEN))
+    assert model.grid is not None
+    pose = state_pose(model.grid, model.states.index(run["true_state"]))
+    assert (result["pose"]["x"], result["pose"]["y"], result["pose"]["yaw"]) == pytest.approx(
+        (pose.x, pose.y, pose.yaw)
+    )
+    assert len(result["pose"]["covariance"]) == 36
+    assert result["steps"] == len(actions)
+    assert "localized:" in run["stderr"]
+
+
+def test_a_robot_on_the_depot_gets_an_initial_pose_for_amcl(tmp_path: Path) -> None:
+    """The README's path from a SLAM map to AMCL: localize with --belief-out on Nav2's depot (a robot
+    in another process answering laser ranges cast over the pixels), then 'pose --format ros'."""
+    depot, belief = str(ROOT / "maps" / "depot.yaml"), tmp_path / "belief.json"
+    played = subprocess.run(
+        [sys.executable, "-c", ROBOT, depot, "30,60,2", "--belief-out", str(belief), "--quiet"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        cwd=ROOT,
+    )
+    assert played.returncode == 0, played.stderr
+    run = json.loads(played.stdout)
+    assert run["code"] == 0, run["stderr"]
+    result = run["messages"][-1]
+    assert result["status"] == "localized" and result["state"] == run["true_state"]
+    ros = subprocess.run(
+        [sys.executable, "-m", "beliefloc", "pose", depot, "--belief", str(belief), "--format", "ros"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        cwd=ROOT,
+    )
+    assert ros.returncode == 0, ros.stderr
+    message = yaml.safe_load(ros.stdout)
+    assert message["header"]["frame_id"] == "map"
+    position = message["pose"]["pose"]["position"]
+    assert (position["x"], position["y"]) == pytest.approx((result["pose"]["x"], result["pose"]["y"]))
+    assert message["pose"]["covariance"] == pytest.approx(result["pose"]["covariance"])
+
+
+def _localize(stdin: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "beliefloc", "localize", KITCHEN],
+        input=stdin,
+        capture_output=True,
+        text=True,
+        timeout=30,
+        cwd=ROOT,
+    )
+
+
+@pytest.mark.parametrize(
+    ("stdin", "message"),
+    [
+        ("garbage\n", r"stdin line 1, the reply to action 1 \(\w+\): not JSON"),
+        ('{"seq": 2}\n', r"stdin line 1, the reply to action 1 \(\w+\): out of order: 'seq' is 2"),
+        ("", r"stdin ended before the reply to action 1 \(\w+\)"),
+    ],
+)
+def test_a_bad_or_missing_reply_ends_the_process_with_exit_2(stdin: str, message: str) -> None:
+    result = _localize(stdin)
+    assert result.returncode == EXIT_BAD_INPUT
+    stderr = " ".join(result.stderr.split())
+    assert stderr.startswith("error: ") and "Traceback" not in stderr
+    assert re.search(message, stderr), stderr
+    first, last = _lines(result.stdout)
+    assert first["message"] == "action" and first["seq"] == 1
+    assert last["message"] == "error"
