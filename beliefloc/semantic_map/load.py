@@ -39,13 +39,12 @@ def load_map(path: str | Path, *, on_warning: Warn | None = None) -> SemanticMap
 
 def _files_named(source: Source) -> dict[str, Any]:
     """The occupancy map and region mask the map file names, read (validation needs their pixels)."""
-    from beliefloc.occupancy import OccupancyRule, load_occupancy, load_region_mask
-
     data = source.data
     assert isinstance(data, dict)
     named = data.get("occupancy")
     if named is None:
         return {}
+    from beliefloc.occupancy import OccupancyRule, load_occupancy, load_region_mask  # Pillow: only for these maps
     target = _beside(source, ("occupancy",), named, "a ROS map YAML file (map_saver's), e.g. depot.yaml")
     rule_text = data.get("occupancy_rule", OccupancyRule.BELIEFLOC.value)
     try:
