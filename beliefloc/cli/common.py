@@ -109,6 +109,21 @@ def open_model(path: Path) -> Model:
     return open_any(path, on_warning=warn)
 
 
+def check_output(option: str, path: Path, suffixes: tuple[str, ...], inputs: tuple[Path, ...] = ()) -> None:
+    """An output file a command is about to write: a known suffix, an existing folder, not one of the
+    command's inputs and not a folder. Checked before any work, so that nothing is half written."""
+    if path.suffix.lower() not in suffixes:
+        raise UsageError(f"{option} {path}: unknown kind of file; expected one of: {', '.join(suffixes)}")
+    if not path.parent.is_dir():
+        raise UsageError(f"{option} {path}: the folder {path.parent} does not exist")
+    if path.is_dir():
+        raise UsageError(f"{option} {path}: is a folder; name a file in it")
+    resolved = path.resolve()
+    for source in inputs:
+        if resolved == source.resolve():
+            raise UsageError(f"{option} {path}: is an input of the command; name another file")
+
+
 def warn_if_too_wide(grid: GridLayout | None, compact: bool | None, width: int, color: bool) -> None:
     """A warning when even the chosen form of the belief grid is wider than the terminal."""
     from beliefloc.render.belief_grid import grid_width, resolve_compact
