@@ -23,7 +23,7 @@ def test_building_the_command_line_loads_no_numeric_stack():
     that needs them runs."""
     loaded = _loaded_after("import beliefloc.cli.app")
     assert "beliefloc" in loaded  # the probe itself works
-    assert not loaded & {"scipy", "clingo"}, sorted(loaded & {"scipy", "clingo"})
+    assert not loaded & {"scipy", "clingo", "matplotlib"}, sorted(loaded & {"scipy", "clingo", "matplotlib"})
 
 
 def test_reading_and_validating_a_map_needs_no_scipy():

@@ -124,6 +124,42 @@ def check_output(option: str, path: Path, suffixes: tuple[str, ...], inputs: tup
             raise UsageError(f"{option} {path}: is an input of the command; name another file")
 
 
+def positive_int(option: str, text: str) -> int:
+    """A count given on the command line (a frame limit, say): a UsageError unless a positive integer."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise UsageError(f"{option} {text}: must be a positive integer")
+    return value
+
+
+def check_record(option: str, path: Path, inputs: tuple[Path, ...] = ()) -> bool:
+    """An animation a command is about to write, checked before any work: True for an animated GIF,
+    False for a folder of PNG frames (created, or one holding nothing but frames). A UsageError when
+    it cannot be written: an input of the command, an unknown suffix, a missing parent folder, a
+    file where frames go, a folder holding other files."""
+    from beliefloc.render.picture_episode import holds_only_frames
+
+    if any(path.resolve() == source.resolve() for source in inputs):
+        raise UsageError(f"{option} {path}: is an input of the command; name another file")
+    if path.suffix.lower() == ".gif":
+        check_output(option, path, (".gif",), inputs)
+        return True
+    if path.is_dir():
+        if not holds_only_frames(path):
+            raise UsageError(f"{option} {path}: the folder holds other files than frames; name a new folder")
+        return False
+    if path.suffix:
+        raise UsageError(f"{option} {path}: unknown kind of file; expected FILE.gif, or a folder DIR for PNG frames")
+    if path.exists():
+        raise UsageError(f"{option} {path}: is a file; name a folder for the frames, or FILE.gif")
+    if not path.parent.is_dir():
+        raise UsageError(f"{option} {path}: the folder {path.parent} does not exist")
+    return False
+
+
 def warn_if_too_wide(grid: GridLayout | None, compact: bool | None, width: int, color: bool) -> None:
     """A warning when even the chosen form of the belief grid is wider than the terminal."""
     from beliefloc.render.belief_grid import grid_width, resolve_compact

@@ -56,6 +56,18 @@ CompactOption = Annotated[
 ]
 TopOption = Annotated[int, typer.Option("--top", min=0, help="How many of the most likely states to list.")]
 
+DEFAULT_RECORD_FRAMES = 200
+"""At most this many frames in a --record animation, unless --record-frames says otherwise."""
+RecordFramesOption = Annotated[
+    str | None,
+    typer.Option(
+        "--record-frames",
+        metavar="N",
+        help="At most N frames for --record: the start and the last N-1 steps of a longer run.",
+        show_default=str(DEFAULT_RECORD_FRAMES),
+    ),
+]
+
 # --- randomness --------------------------------------------------------------------------------------
 
 SeedOption = Annotated[int, typer.Option("--seed", min=0, help="Seeds every random number of the run.")]

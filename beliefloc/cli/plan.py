@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+from typing import Annotated
+
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import boundary, initial_belief, open_model, print_json
+from beliefloc.cli.common import boundary, check_output, initial_belief, open_model, print_json
 from beliefloc.cli.options import (
     BeliefOption,
     HeuristicOption,
@@ -28,6 +31,18 @@ from beliefloc.planning.settings import (
 )
 from beliefloc.render import stderr_console, stdout_console
 
+PlanPictureOption = Annotated[
+    Path | None,
+    typer.Option(
+        "-o",
+        "--output",
+        metavar="FILE.png|FILE.svg",
+        help="Also write a picture: the start belief with the plan drawn on it and its steps under it "
+        "(needs matplotlib: pip install 'beliefloc[plots]'). Written only when a plan is found.",
+        show_default=False,
+    ),
+]
+
 
 @boundary
 def plan_command(
@@ -40,20 +55,40 @@ def plan_command(
     max_expansions: MaxExpansionsOption = DEFAULT_MAX_EXPANSIONS,
     time_limit: PlanTimeLimitOption = DEFAULT_TIME_LIMIT,
     json_output: JsonOption = False,
+    output: PlanPictureOption = None,
 ) -> None:
     """Find actions and observations that take the belief to one state with probability >= threshold.
 
     Exit code 1 when there is no plan (every reachable belief was searched) or the search gave up.
 
+    With -o, a picture of the start belief (as `show -o` draws it) with the plan on it: the moves
+    as a path from the most likely state, each move going as intended (the most likely successor),
+    the perceptions starred and numbered by step, and the step table (action, expected observation,
+    max belief, cost) under the map.
+
     Example: beliefloc plan maps/kitchen.yaml --threshold 0.95
     Example: beliefloc plan maps/apartment.yaml --belief prior:domains/apartment.yaml
+    Example: beliefloc plan maps/kitchen.yaml -o kitchen-plan.svg
     """
     from beliefloc.planning.best_first import PlanStatus, plan
     from beliefloc.render.plan import effort_line, plan_table
 
     chosen = resolve_heuristic(planner, heuristic, h_weight)
-    model = open_model(source)
-    start = initial_belief(model, belief)
+    smap = None
+    if output is not None:
+        from beliefloc.cli.show import belief_inputs, open_with_map
+        from beliefloc.render.figures import PICTURE_SUFFIXES, pyplot
+
+        check_output("-o", output, PICTURE_SUFFIXES, inputs=(source, *belief_inputs(belief)))
+        pyplot()  # matplotlib missing: say so before any work
+        model, smap = open_with_map(source)
+        if model.grid is None:
+            from beliefloc.errors import UsageError
+
+            raise UsageError(f"-o {output}: model {model.name} has no grid to draw (an imported .pomdp); drop -o")
+    else:
+        model = open_model(source)
+    start = initial_belief(model, belief, smap)
     result = plan(
         model,
         start,
@@ -63,17 +98,25 @@ def plan_command(
         time_limit=time_limit,
         weight=h_weight,
     )
+    title = f"plan for {model.name}: cost {result.cost:g}, {len(result.steps)} steps"
+    if output is not None and result.found:
+        from beliefloc.render.figures import save_figure
+        from beliefloc.render.picture_belief import plan_figure
+
+        with plan_figure(model, start, result, smap=smap, title=title) as fig:
+            save_figure(fig, output)
     if json_output:
         print_json(result.as_json(model))
     else:
         out = stdout_console()
         if result.found:
-            title = f"plan for {model.name}: cost {result.cost:g}, {len(result.steps)} steps"
             if not result.steps:
                 out.print(f"already localized: one state holds at least {threshold:g}")
             else:
                 out.print(plan_table(result, title))
         out.print(effort_line(result))
+        if output is not None and result.found:
+            out.print(f"wrote {escape(str(output))}", soft_wrap=True)
     if result.status is PlanStatus.NO_PLAN:
         stderr_console().print(
             f"[bold]no plan:[/] every belief reachable from the start was searched and none gives one state "

@@ -45,6 +45,7 @@ def _files_named(source: Source) -> dict[str, Any]:
     if named is None:
         return {}
     from beliefloc.occupancy import OccupancyRule, load_occupancy, load_region_mask  # Pillow: only for these maps
+
     target = _beside(source, ("occupancy",), named, "a ROS map YAML file (map_saver's), e.g. depot.yaml")
     rule_text = data.get("occupancy_rule", OccupancyRule.BELIEFLOC.value)
     try:
