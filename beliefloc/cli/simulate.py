@@ -2,14 +2,26 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import boundary, initial_belief, open_model, print_json, warn_if_too_wide
+from beliefloc.cli.common import (
+    PRIOR_PREFIX,
+    boundary,
+    check_record,
+    initial_belief,
+    open_model,
+    positive_int,
+    print_json,
+    warn,
+    warn_if_too_wide,
+)
 from beliefloc.cli.options import (
+    DEFAULT_RECORD_FRAMES,
     BeliefOption,
     CompactOption,
     GammaOption,
@@ -20,6 +32,7 @@ from beliefloc.cli.options import (
     MaxExpansionsOption,
     ModelArgument,
     PlanTimeLimitOption,
+    RecordFramesOption,
     SeedOption,
     ThresholdOption,
     TimingsOption,
@@ -38,9 +51,14 @@ from beliefloc.simulation.settings import DEFAULT_MAX_STEPS, StrategyName
 
 if TYPE_CHECKING:
     import numpy as np
+    from rich.console import Console
 
     from beliefloc.model import Model
+    from beliefloc.render.picture_episode import EpisodeTrace
+    from beliefloc.semantic_map import SemanticMap
     from beliefloc.simulation.episode import EpisodeRecord, StepRecord
+
+"""``--record-frames``: a GIF of 200 frames at 0.6 s a frame lasts two minutes."""
 
 
 @boundary
@@ -85,6 +103,27 @@ def simulate(
         typer.Option("--world", help="Simulate the robot in this model instead (same states).", show_default=False),
     ] = None,
     show: Annotated[bool, typer.Option("--show", help="Print the belief grid after every step.")] = False,
+    record: Annotated[
+        Path | None,
+        typer.Option(
+            "--record",
+            metavar="FILE.gif|DIR",
+            help="Animate one episode (the first strategy's): the belief after every step, the true pose and "
+            "path, the action and observation as each frame's title; an animated GIF, or numbered PNG frames "
+            "(frame-000.png, …) in the folder DIR (created; an existing DIR must hold nothing but frames).",
+            show_default=False,
+        ),
+    ] = None,
+    record_episode: Annotated[
+        str | None,
+        typer.Option(
+            "--record-episode",
+            metavar="K",
+            help="Which episode --record animates, counted from 1 as the output numbers them.",
+            show_default="1",
+        ),
+    ] = None,
+    record_frames: RecordFramesOption = None,
     compact: CompactOption = None,
     timings: TimingsOption = True,
     json_output: JsonOption = False,
@@ -97,6 +136,7 @@ def simulate(
     Example: beliefloc simulate maps/kitchen.yaml -n 50 -s bestfirst -s uniform -s random
     Example: beliefloc simulate maps/corridors.yaml -n 20 -s ec2-macros -s ec2 --max-actions 500
     Example: beliefloc simulate maps/apartment.yaml -n 20 --belief prior:domains/apartment.yaml --start prior
+    Example: beliefloc simulate maps/kitchen.yaml -n 3 --record episode.gif --record-episode 2
     """
     from beliefloc.render.belief_grid import belief_view
     from beliefloc.render.drawing import uses_color
@@ -107,8 +147,10 @@ def simulate(
 
     chosen_heuristic = resolve_heuristic(Planner.BESTFIRST, heuristic, h_weight)
     names = [strategy_name(name) for name in strategy or [StrategyName.BESTFIRST.value]]
-    model = open_model(map_file)
-    start_belief = initial_belief(model, belief)
+    inputs = _inputs(map_file, world, macros, belief)
+    recording = _recording(record, record_episode, record_frames, episodes, inputs)
+    model, smap = _open(map_file, drawn=recording is not None)
+    start_belief = initial_belief(model, belief, smap)
     start_state = None if start in ("random", "prior") else model.states.index(start)
     world_model = _world(world, model) if world is not None else None
     table = None
@@ -125,6 +167,16 @@ def simulate(
         macros=table,
         weight=h_weight,
     )
+
+    recorder = None
+    if recording is not None:
+        from beliefloc.render.figures import pyplot
+        from beliefloc.render.picture_episode import TraceRecorder
+
+        if model.grid is None:
+            raise UsageError(f"--record {recording.path}: model {model.name} has no grid to draw an episode on")
+        pyplot()  # matplotlib missing: say so now, not after the episodes
+        recorder = TraceRecorder(names[0].value, recording.episode, start_belief, limit=recording.frames)
 
     out = stdout_console()
     color = uses_color(out)
@@ -154,6 +206,17 @@ def simulate(
             )
         )
 
+    def on_any_step(record: EpisodeRecord, step: StepRecord, current: np.ndarray) -> None:
+        if show and not json_output:
+            on_step(record, step, current)
+        if recorder is not None:
+            recorder.on_step(record, step, current)
+
+    def on_episode(record: EpisodeRecord) -> None:
+        progress.advance(task)
+        if recorder is not None:
+            recorder.on_episode(record)
+
     total = episodes * len(names)
     with progress_bar(stderr_console()) as progress:
         task = progress.add_task("episodes", total=total, visible=total > 1 and not show)
@@ -168,8 +231,8 @@ def simulate(
             world=world_model,
             settings=settings,
             max_steps=max_steps,
-            on_step=on_step if show and not json_output else None,
-            on_episode=lambda _: progress.advance(task),
+            on_step=on_any_step if (show and not json_output) or recorder is not None else None,
+            on_episode=on_episode,
         )
     summary = summarize(records)
     if json_output:
@@ -184,9 +247,97 @@ def simulate(
             for r in records:
                 out.print(_episode_line(r))
         out.print(summary_table(summary, threshold))
+    if recording is not None and recorder is not None and recorder.trace is not None:
+        _write_recording(model, smap, recorder.trace, recording, stderr_console() if json_output else out)
     first = [r for r in records if r.strategy == names[0].value]
     if any(r.status is not EpisodeStatus.LOCALIZED for r in first):
         raise typer.Exit(EXIT_NEGATIVE)
+
+
+@dataclass(frozen=True)
+class _Recording:
+    """What ``--record`` asked for, checked."""
+
+    path: Path
+    gif: bool
+    """A GIF file, else a folder of PNG frames."""
+    episode: int
+    """0-based."""
+    frames: int
+
+
+def _recording(
+    path: Path | None, episode: str | None, frames: str | None, episodes: int, inputs: list[Path]
+) -> _Recording | None:
+    """``--record`` and its options, checked before any work: nothing is simulated for a recording
+    that could not be written."""
+    if path is None:
+        for option, value in (("--record-episode", episode), ("--record-frames", frames)):
+            if value is not None:
+                raise UsageError(f"{option} {value}: needs --record FILE.gif|DIR")
+        return None
+    limit = DEFAULT_RECORD_FRAMES if frames is None else positive_int("--record-frames", frames)
+    k = 1 if episode is None else positive_int("--record-episode", episode)
+    if k > episodes:
+        raise UsageError(
+            f"--record-episode {k}: the run has {episodes} episode{'' if episodes == 1 else 's'} (--episodes)"
+        )
+    return _Recording(path, check_record("--record", path, tuple(inputs)), k - 1, limit)
+
+
+def _inputs(map_file: Path, world: Path | None, macros: Path | None, belief: str) -> list[Path]:
+    """The files the command reads (an output must be none of them)."""
+    inputs = [map_file, *(p for p in (world, macros) if p is not None)]
+    if belief.startswith(PRIOR_PREFIX):
+        inputs.append(Path(belief.removeprefix(PRIOR_PREFIX)))
+    elif belief != "uniform":
+        inputs.append(Path(belief))
+    return inputs
+
+
+def _open(path: Path, *, drawn: bool) -> tuple[Model, SemanticMap | None]:
+    """The model, and when it is to be ``drawn`` the map it comes from (its rooms, its occupancy
+    image; None for a model without one)."""
+    from beliefloc.errors import BeliefLocError
+    from beliefloc.model_sources import MAP_SUFFIXES, source_map
+
+    if not drawn:
+        return open_model(path), None
+    if path.suffix.lower() in MAP_SUFFIXES:
+        from beliefloc.semantic_map import compile_model, load_map
+
+        smap = load_map(path, on_warning=warn)
+        return compile_model(smap), smap
+    model = open_model(path)
+    if model.grid is None or model.source is None:
+        return model, None
+    try:
+        return model, source_map(model)
+    except BeliefLocError:  # the map moved or changed: draw the belief without it
+        return model, None
+
+
+def _write_recording(
+    model: Model, smap: SemanticMap | None, trace: EpisodeTrace, recording: _Recording, console: Console
+) -> None:
+    from beliefloc.render.figures import save_gif
+    from beliefloc.render.picture_episode import episode_frames, save_frames
+
+    frames = episode_frames(model, trace, smap=smap)
+    if recording.gif:
+        save_gif(frames, recording.path)
+    else:
+        save_frames(frames, recording.path)
+    kept = (
+        "" if len(frames) == trace.steps + 1 else f": the start and the last {len(frames) - 1} of {trace.steps} steps"
+    )
+    console.print(
+        escape(
+            f"recorded {trace.strategy}, episode {trace.episode + 1} in {len(frames)} frame"
+            f"{'' if len(frames) == 1 else 's'}{kept} → {recording.path}"
+        ),
+        soft_wrap=True,
+    )
 
 
 def _world(path: Path, model: Model) -> Model:
