@@ -8,13 +8,14 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import boundary, for_option, open_model, print_json
+from beliefloc.cli.common import boundary, check_output, for_option, open_model, print_json
 from beliefloc.cli.options import GammaOption, JsonOption, ModelArgument
 from beliefloc.errors import EXIT_NEGATIVE, UsageError
 from beliefloc.render import stderr_console, stdout_console
 
 if TYPE_CHECKING:
-    pass
+    from beliefloc.model import Model
+    from beliefloc.planning.macros import MacroTable
 
 macros_app = typer.Typer(
     name="macros",
@@ -89,16 +90,38 @@ def show(
             "--model", help="The map or model it was built from (default: the one it names).", show_default=False
         ),
     ] = None,
+    output: Annotated[
+        Path | None,
+        typer.Option(
+            "-o",
+            "--output",
+            metavar="FILE.png|FILE.svg",
+            help="Also draw the localizability verdict as a picture (needs matplotlib: pip install "
+            "'beliefloc[plots]'): every state of a never-distinguishable pair as an arrow at its pose on the map, "
+            "a line linking each pair.",
+            show_default=False,
+        ),
+    ] = None,
     json_output: JsonOption = False,
 ) -> None:
     """Summarise a macro table, or print one pair's macro with the expected path of both states.
 
+    With -o the states the robot can never tell apart are also drawn on the map, and one line says
+    what was written.
+
     Example: beliefloc macros show corridors-macros.npz --pair 1,2,1 1,12,1
+
+    Example: beliefloc macros show ladder-macros.npz -o ladder-never.png
     """
     from beliefloc.macro_file import load_macros, read_header
     from beliefloc.planning.macros import explain_pair, longest_macros
     from beliefloc.render.ec2 import longest_macros_table, macro_path_table, macro_summary_table
 
+    if output is not None:
+        from beliefloc.render.figures import PICTURE_SUFFIXES, pyplot
+
+        check_output("-o", output, PICTURE_SUFFIXES, (macros, *(() if model_path is None else (model_path,))))
+        pyplot()  # matplotlib missing: say so before any work
     header, _ = read_header(macros)
     if model_path is None:
         if not header.get("source"):
@@ -107,28 +130,43 @@ def show(
     model = open_model(model_path)
     table = load_macros(macros, model)
     out = stdout_console()
+    never_told_apart = False
     if pair is None:
         summary = table.summary()
         longest = longest_macros(model, table)
         if json_output:
             print_json({**summary, "longest": longest})
-            return
-        out.print(macro_summary_table(summary, f"macros of {model.name} ({macros})"))
-        if longest:
-            out.print(longest_macros_table(longest))
-        return
-    with for_option("--pair"):
-        i, j = (model.states.index(name) for name in pair)
-        explained = explain_pair(model, table, i, j)
-    if json_output:
-        print_json(explained.as_json())
+        else:
+            out.print(macro_summary_table(summary, f"macros of {model.name} ({macros})"))
+            if longest:
+                out.print(longest_macros_table(longest))
     else:
-        out.print(escape(explained.verdict))
-        if explained.steps:
-            title = f"macro of ({pair[0]}, {pair[1]}): {' '.join(explained.actions)}, cost {explained.cost:g}"
-            out.print(macro_path_table(title, list(explained.steps)))
-    if explained.cost is None:
+        with for_option("--pair"):
+            i, j = (model.states.index(name) for name in pair)
+            explained = explain_pair(model, table, i, j)
+        never_told_apart = explained.cost is None
+        if json_output:
+            print_json(explained.as_json())
+        else:
+            out.print(escape(explained.verdict))
+            if explained.steps:
+                title = f"macro of ({pair[0]}, {pair[1]}): {' '.join(explained.actions)}, cost {explained.cost:g}"
+                out.print(macro_path_table(title, list(explained.steps)))
+    if output is not None:
+        _write_picture(output, model, table)
+        (stderr_console() if json_output else out).print(f"wrote {escape(str(output))}", soft_wrap=True)
+    if never_told_apart:
         raise typer.Exit(EXIT_NEGATIVE)
+
+
+def _write_picture(output: Path, model: Model, table: MacroTable) -> None:
+    from beliefloc.render.figures import save_figure
+    from beliefloc.render.picture_macros import macros_figure
+
+    if model.grid is None:
+        raise UsageError(f"-o {output}: model {model.name} has no grid to draw (an imported .pomdp); drop -o")
+    with macros_figure(model, table) as fig:
+        save_figure(fig, output)
 
 
 def register(app: typer.Typer) -> None:

@@ -10,13 +10,31 @@ from __future__ import annotations
 
 import enum
 import time
+from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, TypeVar
 
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import boundary, for_option, print_json, target_option, warn
-from beliefloc.cli.options import DefaultsOption, DomainArgument, SeedOption, TargetOption, TimingsOption
+from beliefloc.cli.common import (
+    boundary,
+    check_output,
+    check_record,
+    for_option,
+    positive_int,
+    print_json,
+    target_option,
+    warn,
+)
+from beliefloc.cli.options import (
+    DEFAULT_RECORD_FRAMES,
+    DefaultsOption,
+    DomainArgument,
+    RecordFramesOption,
+    SeedOption,
+    TargetOption,
+    TimingsOption,
+)
 from beliefloc.errors import EXIT_NEGATIVE, UsageError
 from beliefloc.object_search.settings import (
     COMMIT_THRESHOLD,
@@ -30,6 +48,9 @@ from beliefloc.object_search.settings import (
 from beliefloc.render import stderr_console, stdout_console
 
 if TYPE_CHECKING:
+    from rich.console import Console
+
+    from beliefloc.object_search.loop import SearchRecord
     from beliefloc.object_search.posterior import TrustFactor
     from beliefloc.object_search.space import SearchSpace
 
@@ -78,6 +99,7 @@ TimeLimitOption = Annotated[
     float | None,
     typer.Option("--time-limit", help="Time units (default: the domain's search.time_limit).", show_default=False),
 ]
+"""``--record-frames``: as ``simulate --record``'s, two minutes of GIF at 0.6 s a frame."""
 
 
 def _choice(name: str, default: Choice, option: str) -> Choice:
@@ -161,6 +183,28 @@ def run(
             "--show", help="Draw the belief over the rooms' cells after every step (on the map's grid with map:)."
         ),
     ] = False,
+    output: Annotated[
+        Path | None,
+        typer.Option(
+            "-o",
+            "--output",
+            metavar="FILE.png|FILE.svg",
+            help="Also draw the search as a picture (needs matplotlib: pip install 'beliefloc[plots]'): the "
+            "belief over the cells at the end, the views taken, the robot's path, and the room prior beside it.",
+            show_default=False,
+        ),
+    ] = None,
+    recording: Annotated[
+        Path | None,
+        typer.Option(
+            "--record",
+            metavar="FILE.gif|DIR",
+            help="Animate the search, the picture of -o after every step: an animated GIF, or numbered PNG "
+            "frames (frame-000.png, …) in the folder DIR (created; an existing DIR must hold nothing but frames).",
+            show_default=False,
+        ),
+    ] = None,
+    record_frames: RecordFramesOption = None,
     timings: TimingsOption = True,
     json_output: Annotated[bool, typer.Option("--json", help="Print the steps and verdict as JSON on stdout.")] = False,
 ) -> None:
@@ -169,6 +213,9 @@ def run(
     With --dynamic-kb the domain's objects without a room are placed in the simulated world (where
     the defaults put them, or at random) and committed to the knowledge base when seen.
 
+    With -o the search is also drawn as a picture, and with --record animated step by step (as
+    --show draws it in the terminal); one line says what was written.
+
     Exit code 0 when found, 1 when the robot gives up (not found) or runs out of time.
 
     Example: beliefloc search run domains/home.yaml --target printer --seed 3 --show
@@ -176,6 +223,8 @@ def run(
     Example: beliefloc search run domains/home.yaml --dynamic-kb --revision discard
 
     Example: beliefloc search run domains/apartment.yaml --target-cell kitchen:7,9 --show
+
+    Example: beliefloc search run domains/home.yaml --seed 3 -o search.png --record search.gif
     """
     from beliefloc.knowledge import KnowledgeBase, load_domain
     from beliefloc.object_search.domain_space import search_space
@@ -183,8 +232,9 @@ def run(
     from beliefloc.object_search.loop import Verdict, seeded_search
     from beliefloc.object_search.policy import POLICIES
     from beliefloc.render.drawing import uses_color
-    from beliefloc.render.search import belief_plane, step_line, steps_table, verdict_text
+    from beliefloc.render.search import belief_plane, search_legend, step_line, steps_table, verdict_text
 
+    gif, frame_limit = _check_pictures(domain_file, output, recording, record_frames)
     chosen_metareasoning = _choice(metareasoning, Metareasoning.EXPECTATION, METAREASONING_OPTION)
     chosen_policy = POLICIES[_choice(policy, PolicyName.POMDP, "--policy").value]
     chosen_revision = _choice(revision, Revision.REUSE, "--revision")
@@ -222,7 +272,7 @@ def run(
         tau_found=settings.tau_found,
         tau_absent=settings.tau_absent,
         time_limit=settings.time_limit if time_limit is None else time_limit,
-        keep_beliefs=show,
+        keep_beliefs=show or output is not None or recording is not None,
         revision=chosen_revision,
         trust=trust,
         dynamic=dynamic_factory(domain, space, kb, chosen, threshold=commit_threshold) if dynamic_kb else None,
@@ -247,6 +297,7 @@ def run(
         )
         if show:
             color = uses_color(console)
+            console.print(search_legend(space, color=color))
             console.print(
                 belief_plane(space, record.initial_belief, robot=space.start, target=record.true_cell, color=color)
             )
@@ -257,8 +308,66 @@ def run(
         else:
             console.print(steps_table(space, record))
         console.print(verdict_text(space, record))
+    heading = (
+        f"{domain.name}: searching for a {chosen} ({record.policy.value} policy, "
+        f"{record.metareasoning.value} metareasoning, seed {seed})"
+    )
+    said = stderr_console() if json_output else stdout_console()
+    if output is not None:
+        _write_picture(output, space, record, heading, said)
+    if recording is not None and frame_limit is not None:
+        _write_recording(recording, gif, frame_limit, space, record, heading, said)
     if record.verdict is not Verdict.FOUND:
         raise typer.Exit(EXIT_NEGATIVE)
+
+
+def _check_pictures(
+    domain_file: Path, output: Path | None, record: Path | None, record_frames: str | None
+) -> tuple[bool, int | None]:
+    """``-o``, ``--record`` and ``--record-frames``, checked before any work (nothing is searched
+    for a picture that could not be written): whether the recording is a GIF, and its frame limit
+    (None without ``--record``)."""
+    if record is None and record_frames is not None:
+        raise UsageError(f"--record-frames {record_frames}: needs --record FILE.gif|DIR")
+    if output is None and record is None:
+        return False, None
+    from beliefloc.render.figures import PICTURE_SUFFIXES, pyplot
+
+    if output is not None:
+        check_output("-o", output, PICTURE_SUFFIXES, (domain_file,))
+    gif, limit = False, None
+    if record is not None:
+        limit = DEFAULT_RECORD_FRAMES if record_frames is None else positive_int("--record-frames", record_frames)
+        gif = check_record("--record", record, (domain_file,))
+    pyplot()  # matplotlib missing: say so before any work
+    return gif, limit
+
+
+def _write_picture(output: Path, space: SearchSpace, record: SearchRecord, heading: str, said: Console) -> None:
+    from beliefloc.render.figures import save_figure
+    from beliefloc.render.picture_search import search_figure
+
+    with search_figure(space, record, heading=heading) as fig:
+        save_figure(fig, output)
+    said.print(f"wrote {escape(str(output))}", soft_wrap=True)
+
+
+def _write_recording(
+    path: Path, gif: bool, limit: int, space: SearchSpace, record: SearchRecord, heading: str, said: Console
+) -> None:
+    from beliefloc.render.figures import save_gif
+    from beliefloc.render.picture_episode import save_frames
+    from beliefloc.render.picture_search import frame_pngs, frame_steps
+
+    steps = frame_steps(len(record.steps), limit)
+    frames = list(frame_pngs(space, record, steps, heading=heading))
+    if gif:
+        save_gif(frames, path)
+    else:
+        save_frames(frames, path)
+    n = len(record.steps)
+    kept = "" if len(frames) == n + 1 else f": the start and the last {len(frames) - 1} of {n} steps"
+    said.print(escape(f"recorded the search in {len(frames)} frames{kept} → {path}"), soft_wrap=True)
 
 
 @search_app.command()

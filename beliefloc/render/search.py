@@ -1,10 +1,10 @@
 """Object search traces: one line per step, the cell belief drawn on the plane or the map, the verdict.
 
-The plane shows every room at its placement, two characters per cell, blank between rooms. A
-cell's shade is its probability relative to the largest one drawn (viridis, as in
-:mod:`beliefloc.render.belief_grid`); ``R`` marks the robot, ``*`` the most likely cell (red), ``T`` the
-simulated target's true cell (the simulator knows it; the robot does not). Without colour a cell
-is a shade character and its mark.
+The plane shows every room at its placement, two characters per cell, blank between rooms, and
+each room's name above it (:func:`plane_labels`). A cell's shade is its probability relative to
+the largest one drawn (viridis, as in :mod:`beliefloc.render.belief_grid`); ``R`` marks the robot,
+``*`` the most likely cell (red), ``T`` the simulated target's true cell (the simulator knows it;
+the robot does not). Without colour a cell is a shade character and its mark.
 
 A search on a map (:class:`~beliefloc.object_search.map_space.MapSearchSpace`) is drawn on the
 map's grid, with its row and column numbers (the numbers ``--target-cell`` takes): walls grey
@@ -12,12 +12,14 @@ map's grid, with its row and column numbers (the numbers ``--target-cell`` takes
 ``×``, and a room's cells shaded and lettered with the room's letter (listed below the grid)
 where no mark stands.
 
-Functions here only observe a search record; they return rich renderables and never print.
+:func:`search_legend` says what the marks, shades and letters mean (``search run --show`` prints
+it once, above the first drawing). Functions here only observe a search record; they return rich
+renderables and never print.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -65,21 +67,70 @@ def belief_plane(
     cols = space.plane[:, 1].astype(int)
     top, best, levels = _shading(belief)
     at = {(int(r), int(c)): i for i, (r, c) in enumerate(zip(rows, cols, strict=True))}
+    in_row, before = plane_labels(space)
+
+    def draw_cell(cell: int) -> None:
+        mark = "R" if cell == robot else "T" if cell == target else "*" if cell == best else ""
+        _append_cell(text, mark, None, int(levels[cell]), cell == best, color)
+
     text = Text()
     for r in range(int(rows.max()) + 1):
-        for c in range(int(cols.max()) + 1):
-            cell = at.get((r, c))
-            if cell is None:
-                text.append("  ")
-                continue
-            mark = "R" if cell == robot else "T" if cell == target else "*" if cell == best else ""
-            _append_cell(text, mark, None, int(levels[cell]), cell == best, color)
-        text.append("\n")
+        if r in before:
+            _append_line(text, {}, before[r], draw_cell)
+        row_cells = {c: cell for (row, c), cell in at.items() if row == r}
+        _append_line(text, row_cells, in_row.get(r, []), draw_cell)
     legend = ", ".join(
         f"{room} {float(belief[space.room_of_cell == i].sum()):.3f}" for i, room in enumerate(space.rooms)
     )
     text.append(f"rooms: {legend}; max b {top:.3f} at {space.cell_name(best)}", style="dim")
     return text
+
+
+Label = tuple[int, str]
+"""A room's name and the plane column it starts at."""
+
+
+def plane_labels(space: SearchSpace) -> tuple[dict[int, list[Label]], dict[int, list[Label]]]:
+    """Where each room's name goes on a plane of rooms, starting over the room's left column: on the
+    plane row just above the room when no cell is there over the room (``in_row[row]``), else on a
+    line of its own inserted above the room's top row (``before[row]``) when no room crosses that
+    line. A room with neither place has no name drawn (the line under the plane lists every room)."""
+    plane = space.plane.astype(int)
+    occupied = {(int(r), int(c)) for r, c in plane}
+    extents = []
+    for index in range(len(space.rooms)):
+        cells = plane[space.room_of_cell == index]
+        extents.append((int(cells[:, 0].min()), int(cells[:, 0].max()), int(cells[:, 1].min()), int(cells[:, 1].max())))
+    in_row: dict[int, list[Label]] = {}
+    before: dict[int, list[Label]] = {}
+    for room, (top, _, left, right) in zip(space.rooms, extents, strict=True):
+        if top > 0 and not any((top - 1, c) in occupied for c in range(left, right + 1)):
+            in_row.setdefault(top - 1, []).append((left, room))
+        elif not any(t < top <= b for t, b, _, _ in extents):
+            before.setdefault(top, []).append((left, room))
+    return in_row, before
+
+
+def _append_line(text: Text, cells: Mapping[int, int], labels: list[Label], draw_cell: Callable[[int], None]) -> None:
+    """One line of the plane: ``cells`` (column -> cell, two characters each) and room names (bold,
+    each cut one character short of whatever comes next on the line)."""
+    starts = sorted(
+        [(2 * c, "cell", str(cell)) for c, cell in cells.items()] + [(2 * c, "label", n) for c, n in labels]
+    )
+    position = 0
+    for k, (start, kind, what) in enumerate(starts):
+        if start < position:
+            continue  # under a name cut short, or two names at one column: the first wins
+        text.append(" " * (start - position))
+        if kind == "cell":
+            draw_cell(int(what))
+            position = start + 2
+            continue
+        limit = starts[k + 1][0] - start - 1 if k + 1 < len(starts) else len(what)
+        shown = what if len(what) <= limit else what[: max(limit - 1, 0)] + "…"
+        text.append(shown, style="bold")
+        position = start + len(shown)
+    text.append("\n")
 
 
 def belief_map(
@@ -123,6 +174,41 @@ def belief_map(
         f"{letters[i]} {room} {float(belief[space.room_of_cell == i].sum()):.3f}" for i, room in enumerate(space.rooms)
     )
     text.append(f"rooms: {legend}; max b {top:.3f} at {space.cell_name(best)}", style="dim")
+    return text
+
+
+def search_legend(space: SearchSpace, *, color: bool = True) -> Text:
+    """What the marks, shades and letters of :func:`belief_plane` mean, in lines of at most 80
+    characters: printed once above the drawings of ``search run --show``."""
+    pad = " " * 10
+    text = Text("marks     ")
+    text.append("R", style="bold")
+    text.append(" the robot   ")
+    text.append("T", style="bold")
+    text.append(" the target's true cell (known to the simulator only)\n" + pad)
+    if color:
+        text.append("* ", style=f"bold white on {HIGHLIGHT}")
+    else:
+        text.append("█*")
+    text.append(" the most likely cell (R or T instead when one stands there)\n")
+    text.append("shade     ")
+    if color:
+        for colour in PALETTE:
+            text.append("  ", style=f"on {colour}")
+    else:
+        text.append(PLAIN_SHADES)
+    text.append("  a cell's belief in 8 steps up to max b (under the grid)\n")
+    if isinstance(space, MapSearchSpace):
+        text.append("map       ")
+        text.append("  " if color else "##", style=f"on {BLOCKED}" if color else "")
+        text.append(" wall   · free, in no room   × a room the robot cannot enter\n")
+        text.append("rooms     a letter on each cell of a room (listed under the grid)")
+    else:
+        text.append("rooms     named above the room")
+        if space.closed_rooms:
+            text.append("; ")
+            text.append("  " if color else "..", style="on grey23" if color else "")
+            text.append(" a room the robot cannot enter")
     return text
 
 

@@ -12,6 +12,7 @@ from pathlib import Path
 from benchmarks import planning
 
 from .children import CHILDREN, run_child
+from .plots import points_from_markdown, points_from_results, with_figure_section, write_plot
 from .report import report
 from .settings import HEURISTICS, RESULTS, say, single_threaded
 
@@ -49,6 +50,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="worlds made with generate gridworld --rotation-failure P (0: the authors' code; default: 0.02)",
     )
     parser.add_argument("--output", type=Path, help=f"markdown to write (default {RESULTS.name}, or planning-quick.md)")
+    parser.add_argument(
+        "--replot",
+        action="store_true",
+        help="run nothing: redraw the figure (the .png beside --output) from the numbers of the markdown written",
+    )
     return parser
 
 
@@ -59,6 +65,8 @@ def main(argv: list[str] | None = None) -> int:
         params = json.loads(args.child)
         print(json.dumps(CHILDREN[params["kind"]](params)))
         return 0
+    if args.replot:
+        return replot(args.output or (RESULTS.with_name("planning-quick.md") if args.quick else RESULTS))
     if args.quick:
         args.sizes, args.big_size = [1e2, 1e3], 0
         args.heuristic_worlds = args.baseline_worlds = 2
@@ -134,6 +142,19 @@ def main(argv: list[str] | None = None) -> int:
     text = report(args, argv, episodes, big, heuristics, baselines, total)
     output = args.output or (RESULTS.with_name("planning-quick.md") if args.quick else RESULTS)
     output.parent.mkdir(parents=True, exist_ok=True)
+    written = write_plot(points_from_results(episodes + ([big] if big else [])), output.with_suffix(".png"))
+    text = with_figure_section(text, written)
     output.write_text(text)
     print(text)
     return 0
+
+
+def replot(output: Path) -> int:
+    """Redraw the figure beside ``output`` from the tables it holds, and link it from there."""
+    text = output.read_text()
+    written = write_plot(points_from_markdown(text), output.with_suffix(".png"))
+    updated = with_figure_section(text, written)
+    if updated != text:
+        output.write_text(updated)
+    say(f"figure {'skipped: matplotlib is not installed' if written is None else f'written to {written}'}")
+    return 0 if written is not None else 1
