@@ -160,6 +160,33 @@ def check_record(option: str, path: Path, inputs: tuple[Path, ...] = ()) -> bool
     return False
 
 
+def belief_inputs(belief_spec: str) -> tuple[Path, ...]:
+    """The files ``--belief`` reads (which ``-o`` must not overwrite)."""
+    if belief_spec == "uniform":
+        return ()
+    return (Path(belief_spec.removeprefix(PRIOR_PREFIX)),)
+
+
+def open_with_map(source: Path) -> tuple[Model, SemanticMap | None]:
+    """The model, and the map it comes from when there is one (to draw its rooms and its occupancy
+    image); None for a model without one, or whose map moved or changed."""
+    from beliefloc.errors import BeliefLocError
+    from beliefloc.model_sources import MAP_SUFFIXES, source_map
+
+    if source.suffix.lower() in MAP_SUFFIXES:
+        from beliefloc.semantic_map import compile_model, load_map
+
+        smap = load_map(source, on_warning=warn)
+        return compile_model(smap), smap
+    model = open_model(source)
+    if model.grid is None or model.source is None:
+        return model, None
+    try:
+        return model, source_map(model)
+    except BeliefLocError:  # the map moved or changed: draw the belief without it
+        return model, None
+
+
 def warn_if_too_wide(grid: GridLayout | None, compact: bool | None, width: int, color: bool) -> None:
     """A warning when even the chosen form of the belief grid is wider than the terminal."""
     from beliefloc.render.belief_grid import grid_width, resolve_compact

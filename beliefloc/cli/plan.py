@@ -8,7 +8,15 @@ from typing import Annotated
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import boundary, check_output, initial_belief, open_model, print_json
+from beliefloc.cli.common import (
+    belief_inputs,
+    boundary,
+    check_output,
+    initial_belief,
+    open_model,
+    open_with_map,
+    print_json,
+)
 from beliefloc.cli.options import (
     BeliefOption,
     HeuristicOption,
@@ -76,7 +84,6 @@ def plan_command(
     chosen = resolve_heuristic(planner, heuristic, h_weight)
     smap = None
     if output is not None:
-        from beliefloc.cli.show import belief_inputs, open_with_map
         from beliefloc.render.figures import PICTURE_SUFFIXES, pyplot
 
         check_output("-o", output, PICTURE_SUFFIXES, inputs=(source, *belief_inputs(belief)))

@@ -10,12 +10,12 @@ from rich.markup import escape
 
 from beliefloc.cli.common import (
     PRIOR_PREFIX,
+    belief_inputs,
     boundary,
     check_output,
     initial_belief,
-    open_model,
+    open_with_map,
     print_json,
-    warn,
     warn_if_too_wide,
 )
 from beliefloc.cli.options import BeliefOption, CompactOption, JsonOption, ModelArgument, TopOption
@@ -121,13 +121,6 @@ def _describe(belief_spec: str, model: Model) -> str:
     return f"{model.name}: {where} over {model.n_states} states"
 
 
-def belief_inputs(belief_spec: str) -> tuple[Path, ...]:
-    """The files ``--belief`` reads (which ``-o`` must not overwrite)."""
-    if belief_spec == "uniform":
-        return ()
-    return (Path(belief_spec.removeprefix(PRIOR_PREFIX)),)
-
-
 def _write_picture(output: Path, model: Model, belief: np.ndarray, smap: SemanticMap | None, title: str) -> None:
     from beliefloc.errors import UsageError
     from beliefloc.render.figures import save_figure
@@ -137,25 +130,6 @@ def _write_picture(output: Path, model: Model, belief: np.ndarray, smap: Semanti
         raise UsageError(f"-o {output}: model {model.name} has no grid to draw (an imported .pomdp); drop -o")
     with belief_figure(model, belief, smap=smap, title=title) as fig:
         save_figure(fig, output)
-
-
-def open_with_map(source: Path) -> tuple[Model, SemanticMap | None]:
-    """The model, and the map it comes from when there is one (to draw its rooms)."""
-    from beliefloc.errors import BeliefLocError
-    from beliefloc.model_sources import MAP_SUFFIXES, source_map
-
-    if source.suffix.lower() in MAP_SUFFIXES:
-        from beliefloc.semantic_map import compile_model, load_map
-
-        smap = load_map(source, on_warning=warn)
-        return compile_model(smap), smap
-    model = open_model(source)
-    if model.grid is None or model.source is None:
-        return model, None
-    try:
-        return model, source_map(model)
-    except BeliefLocError:  # the map moved or changed: draw the belief without rooms
-        return model, None
 
 
 def _room_letters(smap: SemanticMap) -> dict[str, str] | None:

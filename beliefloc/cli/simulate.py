@@ -10,14 +10,14 @@ import typer
 from rich.markup import escape
 
 from beliefloc.cli.common import (
-    PRIOR_PREFIX,
+    belief_inputs,
     boundary,
     check_record,
     initial_belief,
     open_model,
+    open_with_map,
     positive_int,
     print_json,
-    warn,
     warn_if_too_wide,
 )
 from beliefloc.cli.options import (
@@ -147,9 +147,9 @@ def simulate(
 
     chosen_heuristic = resolve_heuristic(Planner.BESTFIRST, heuristic, h_weight)
     names = [strategy_name(name) for name in strategy or [StrategyName.BESTFIRST.value]]
-    inputs = _inputs(map_file, world, macros, belief)
+    inputs = [map_file, *(p for p in (world, macros) if p is not None), *belief_inputs(belief)]
     recording = _recording(record, record_episode, record_frames, episodes, inputs)
-    model, smap = _open(map_file, drawn=recording is not None)
+    model, smap = open_with_map(map_file) if recording is not None else (open_model(map_file), None)
     start_belief = initial_belief(model, belief, smap)
     start_state = None if start in ("random", "prior") else model.states.index(start)
     world_model = _world(world, model) if world is not None else None
@@ -283,38 +283,6 @@ def _recording(
             f"--record-episode {k}: the run has {episodes} episode{'' if episodes == 1 else 's'} (--episodes)"
         )
     return _Recording(path, check_record("--record", path, tuple(inputs)), k - 1, limit)
-
-
-def _inputs(map_file: Path, world: Path | None, macros: Path | None, belief: str) -> list[Path]:
-    """The files the command reads (an output must be none of them)."""
-    inputs = [map_file, *(p for p in (world, macros) if p is not None)]
-    if belief.startswith(PRIOR_PREFIX):
-        inputs.append(Path(belief.removeprefix(PRIOR_PREFIX)))
-    elif belief != "uniform":
-        inputs.append(Path(belief))
-    return inputs
-
-
-def _open(path: Path, *, drawn: bool) -> tuple[Model, SemanticMap | None]:
-    """The model, and when it is to be ``drawn`` the map it comes from (its rooms, its occupancy
-    image; None for a model without one)."""
-    from beliefloc.errors import BeliefLocError
-    from beliefloc.model_sources import MAP_SUFFIXES, source_map
-
-    if not drawn:
-        return open_model(path), None
-    if path.suffix.lower() in MAP_SUFFIXES:
-        from beliefloc.semantic_map import compile_model, load_map
-
-        smap = load_map(path, on_warning=warn)
-        return compile_model(smap), smap
-    model = open_model(path)
-    if model.grid is None or model.source is None:
-        return model, None
-    try:
-        return model, source_map(model)
-    except BeliefLocError:  # the map moved or changed: draw the belief without it
-        return model, None
 
 
 def _write_recording(
