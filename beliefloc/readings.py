@@ -153,14 +153,15 @@ class ReadingBinner:
         act = self.model.action(action) if isinstance(action, str) else action
         slots = self.sensors(act)
         expected = [slot.name for slot in slots]
+        form = f", e.g. readings {json.dumps(self.example(act, 0))}" if slots else ""  # what a reply looks like
         extra = [name for name in readings if name not in expected]
         if extra:
-            reads = f"reads {', '.join(expected)}" if expected else "reads no sensor"
-            raise InvalidValueError(f"unexpected reading of {', '.join(map(repr, extra))}: {act.name!r} {reads}")
+            reads = f"reads only {', '.join(expected)}" if expected else "reads no sensor"
+            raise InvalidValueError(f"unexpected reading of {', '.join(map(repr, extra))}: {act.name!r} {reads}{form}")
         missing = [name for name in expected if name not in readings]
         if missing:
             raise InvalidValueError(
-                f"no reading of {', '.join(map(repr, missing))}: {act.name!r} reads {', '.join(expected)}"
+                f"no reading of {', '.join(map(repr, missing))}: {act.name!r} reads {', '.join(expected)}{form}"
             )
         if not slots:
             return None

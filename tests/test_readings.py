@@ -160,8 +160,13 @@ def test_describe_gives_beams_in_radians_counter_clockwise() -> None:
             r"^look: should be a list of the classes detected \(of potted_plant, .*got \"chair\"",
         ),
         ("look", {"look": ["sofa"]}, r"^look: 'sofa': not a class this sensor looks for \(potted_plant, fire_exting"),
-        ("look", {}, r"^no reading of 'look': 'look' reads look$"),
-        ("look", {"look": [], "scan": 1.0}, r"^unexpected reading of 'scan': 'look' reads look$"),
+        ("look", {}, r"^no reading of 'look': 'look' reads look, e\.g\. readings \{\"look\": \[\]\}$"),
+        (
+            "look",
+            {"look": [], "scan": 1.0},
+            r"^unexpected reading of 'scan': 'look' reads only look, "
+            r"e\.g\. readings \{\"look\": \[\]\}$",
+        ),
         ("forward", {"scan": 1.0}, r"^unexpected reading of 'scan': 'forward' reads no sensor$"),
     ],
 )
