@@ -59,6 +59,11 @@ class InvalidValueError(BeliefLocError, ValueError):
     command-line option: the CLI adds the option's name (``cli.common.for_option``)."""
 
 
+class LimitError(BeliefLocError):
+    """An input is larger than a documented bound (:mod:`beliefloc.limits`); the message names the
+    bound and the environment variable that raises it."""
+
+
 class UsageError(BeliefLocError):
     """A command-line argument is wrong; raised by the CLI only, with the option's name."""
 

@@ -1,0 +1,73 @@
+"""The documented bounds on what beliefloc reads, checked before it allocates or parses.
+
+Maps, domains, knowledge bases and model files are shared between people and downloaded with
+papers' code: reading one must never crash the process, hang it or exhaust the machine. Each limit
+has a default that fits every real map we know of with room to spare, and an environment variable
+that raises (or lowers) it for the one run that needs it. An error that hits a limit says which
+one and how to raise it (:func:`exceeded`).
+
+Imports nothing numeric: the command line reads these when it starts.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Limit:
+    """A bound with a name for people, a default and the environment variable that overrides it."""
+
+    what: str
+    """What is counted, for messages: ``"bytes in an input file"``."""
+    default: int
+    variable: str
+
+    @property
+    def value(self) -> int:
+        """The bound in force: the environment variable when it is set to a positive integer."""
+        text = os.environ.get(self.variable, "").strip().replace("_", "")
+        if text.isdigit() and int(text) > 0:
+            return int(text)
+        return self.default
+
+    def check(self, count: int, where: str) -> None:
+        """Raise :class:`~beliefloc.errors.LimitError` when ``count`` is above the bound."""
+        if count > self.value:
+            from beliefloc.errors import LimitError
+
+            raise LimitError(exceeded(self, count, where))
+
+
+def exceeded(limit: Limit, count: int | None, where: str) -> str:
+    """``where: 3,000,000 states × observations is more than the limit of 50,000,000 ...``."""
+    amount = f"{count:,} {limit.what}" if count is not None else f"more {limit.what}"
+    return (
+        f"{where}: {amount} is more than the limit of {limit.value:,}; "
+        f"if the input is what you meant, raise it with the environment variable {limit.variable}=N"
+    )
+
+
+INPUT_BYTES = Limit("bytes in an input file", 256 * 1024 * 1024, "BELIEFLOC_MAX_INPUT_BYTES")
+"""Maps, domains, belief files, knowledge bases, .pomdp files: a generated 10^6-state map is ~40 MB."""
+
+NESTING = Limit("levels of nesting", 64, "BELIEFLOC_MAX_NESTING")
+"""YAML and JSON structure depth (a map needs 5); deeper input crashes native parsers."""
+
+YAML_NODES = Limit("YAML values (after expanding aliases)", 20_000_000, "BELIEFLOC_MAX_YAML_NODES")
+"""Values built from one YAML file, counting each use of an alias (``*name``) in full: a ten-line
+file of nested aliases would otherwise expand to gigabytes."""
+
+MODEL_ENTRIES = Limit("states × observations", 100_000_000, "BELIEFLOC_MAX_MODEL_ENTRIES")
+"""The largest observation table a model may have (8 bytes an entry: 800 MB at the default); the
+size of a model is checked against it before any table is allocated."""
+
+MODEL_FILE_BYTES = Limit("bytes in a model or macro file, uncompressed", 4 * 1024**3, "BELIEFLOC_MAX_MODEL_BYTES")
+""".npz arrays are checked against it from their headers, before they are decompressed."""
+
+GROUNDING_SECONDS = Limit("seconds of grounding and solving", 60, "BELIEFLOC_MAX_KB_SECONDS")
+"""Time budget for clingo on one knowledge base (the shipped ones need well under a second)."""
+
+GROUNDING_BYTES = Limit("bytes of memory for clingo", 4 * 1024**3, "BELIEFLOC_MAX_KB_BYTES")
+"""Memory budget for grounding and solving one knowledge base."""
