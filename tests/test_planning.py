@@ -126,10 +126,16 @@ def test_successor_statistics_match_the_bayes_update():
         assert stats.max_belief == pytest.approx(posterior.max(), abs=1e-12)
 
 
-def test_plan_cli_no_plan_and_gave_up_exit_1(runner, tmp_path: Path):
+def test_plan_cli_not_localizable_no_plan_and_gave_up_exit_1(runner, tmp_path: Path):
     twins = tmp_path / "twins.yaml"
     twins.write_text(yaml.safe_dump(TWINS))
     result = runner.invoke(app, ["plan", str(twins)])
+    assert result.exit_code == EXIT_NEGATIVE
+    assert "not localizable" in result.stderr and "Look-alike states: 0,0 ~ 0,1." in result.stderr
+    # three look-alike cells cannot be split into twin pairs: the search itself proves there is no plan
+    triplets = tmp_path / "triplets.yaml"
+    triplets.write_text(yaml.safe_dump({**TWINS, "name": "triplets", "grid": {"rows": 1, "cols": 3, "headings": 1}}))
+    result = runner.invoke(app, ["plan", str(triplets)])
     assert result.exit_code == EXIT_NEGATIVE
     assert "no plan" in result.stderr and "cannot be told apart" in result.stderr
     result = runner.invoke(app, ["plan", str(MAPS / "window-2x2.yaml"), "--max-expansions", "2"])

@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar
 import typer
 from rich.markup import escape
 
-from beliefloc.errors import BeliefLocError, InvalidValueError, UsageError
+from beliefloc.errors import EXIT_NEGATIVE, BeliefLocError, InvalidValueError, UsageError
 from beliefloc.render import stderr_console
 
 if TYPE_CHECKING:
@@ -203,3 +203,39 @@ def warn_if_too_wide(grid: GridLayout | None, compact: bool | None, width: int, 
 def print_json(data: Any) -> None:
     """Plain JSON on stdout, no decoration: the stable interface for scripts."""
     sys.stdout.write(json.dumps(data, indent=2, allow_nan=False) + "\n")
+
+
+def refuse_unreachable(model: Model, start: np.ndarray, threshold: float, json_output: bool) -> None:
+    """Before any search: exit 2 for a threshold no belief can reach, exit 1 with the look-alike states
+    when the start belief can never be narrowed to one state (:mod:`beliefloc.planning.verdict`)."""
+    from beliefloc.planning.verdict import unreachable_goal
+
+    verdict = unreachable_goal(model, start, threshold)
+    if verdict is None:
+        return
+    if not verdict.look_alikes:
+        raise UsageError(f"--threshold {threshold:g}: no belief on {model.name} can reach it: {verdict.reason}")
+    pairs = [(model.states.name(i), model.states.name(j)) for i, j in verdict.look_alikes]
+    if json_output:
+        print_json(
+            {
+                "found": False,
+                "status": "not_localizable",
+                "bound": verdict.bound,
+                "reason": verdict.reason,
+                "look_alikes": [list(pair) for pair in pairs],
+            }
+        )
+    shown = "; ".join(f"{a} ~ {b}" for a, b in pairs[:_PAIRS_SHOWN])
+    more = f"; … ({len(pairs)} pairs in all)" if len(pairs) > _PAIRS_SHOWN else ""
+    stderr_console().print(
+        escape(
+            f"not localizable: no plan can take this start belief to {threshold:g}: {verdict.reason}. "
+            f"Look-alike states: {shown}{more}."
+        ),
+        soft_wrap=True,
+    )
+    raise typer.Exit(EXIT_NEGATIVE)
+
+
+_PAIRS_SHOWN = 6

@@ -7,6 +7,8 @@ numpy nor scipy nor clingo. A command imports what it computes with when it runs
 
 from __future__ import annotations
 
+import math
+from collections.abc import Callable
 from pathlib import Path
 from typing import Annotated
 
@@ -14,6 +16,60 @@ import typer
 
 from beliefloc.cli.common import for_option
 from beliefloc.planning.settings import DEFAULT_WEIGHT, Heuristic, Planner, check_weight, heuristic_for
+
+# --- numbers ---------------------------------------------------------------------------------------
+
+
+def number(
+    *, low: float | None = None, high: float | None = None, above: float | None = None
+) -> Callable[[str | float], float]:
+    """A parser for a float option (typer's ``parser=``): finite, at least ``low``, more than ``above``,
+    at most ``high``; the message says so in words (click's ranges let NaN through)."""
+    if low is not None and high is not None:
+        wanted = f"a number from {low:g} to {high:g}"
+    elif above is not None:
+        wanted = f"a number greater than {above:g}"
+    elif low is not None:
+        wanted = f"a number of {low:g} or more"
+    else:
+        wanted = "a finite number"
+
+    def parse(text: str | float) -> float:
+        if isinstance(text, (int, float)):
+            return float(text)  # the default, given by the code
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        ok = (
+            math.isfinite(value)
+            and (low is None or value >= low)
+            and (above is None or value > above)
+            and (high is None or value <= high)
+        )
+        if not ok:
+            raise typer.BadParameter(f"must be {wanted}, got {text!r}")
+        return value
+
+    return parse
+
+
+def whole(*, low: int = 0) -> Callable[[str | int], int]:
+    """A parser for an integer option (typer's ``parser=``) of at least ``low``."""
+
+    def parse(text: str | int) -> int:
+        if isinstance(text, int):
+            return text  # the default, given by the code
+        try:
+            value = int(text.strip().replace("_", ""))
+        except ValueError:
+            value = low - 1
+        if value < low:
+            raise typer.BadParameter(f"must be a whole number of {low} or more, got {text!r}")
+        return value
+
+    return parse
+
 
 # --- what a command reads --------------------------------------------------------------------------
 
@@ -54,7 +110,9 @@ CompactOption = Annotated[
         show_default=False,
     ),
 ]
-TopOption = Annotated[int, typer.Option("--top", min=0, help="How many of the most likely states to list.")]
+TopOption = Annotated[
+    int, typer.Option("--top", parser=whole(low=0), metavar="N", help="How many of the most likely states to list.")
+]
 
 DEFAULT_RECORD_FRAMES = 200
 """At most this many frames in a --record animation, unless --record-frames says otherwise."""
@@ -70,12 +128,20 @@ RecordFramesOption = Annotated[
 
 # --- randomness --------------------------------------------------------------------------------------
 
-SeedOption = Annotated[int, typer.Option("--seed", min=0, help="Seeds every random number of the run.")]
+SeedOption = Annotated[
+    int, typer.Option("--seed", parser=whole(low=0), metavar="N", help="Seeds every random number of the run.")
+]
 
 # --- planning (plan, simulate) ---------------------------------------------------------------------
 
 ThresholdOption = Annotated[
-    float, typer.Option("--threshold", min=0.0, max=1.0, help="Goal: one state holds at least this probability.")
+    float,
+    typer.Option(
+        "--threshold",
+        parser=number(low=0.0, high=1.0),
+        metavar="P",
+        help="Goal: one state holds at least this probability.",
+    ),
 ]
 PlannerOption = Annotated[
     Planner,
@@ -97,15 +163,23 @@ HWeightOption = Annotated[
     float,
     typer.Option(
         "--h-weight",
+        parser=number(above=0.0),
+        metavar="W",
         help="Best-first ranks beliefs by g + W·h; 1 is the paper's. Below 1 the actions' costs count more: "
         "cheaper plans from a longer search.",
     ),
 ]
 MaxExpansionsOption = Annotated[
-    int, typer.Option("--max-expansions", min=1, help="Give up after expanding this many beliefs.")
+    int,
+    typer.Option(
+        "--max-expansions", parser=whole(low=1), metavar="N", help="Give up after expanding this many beliefs."
+    ),
 ]
 PlanTimeLimitOption = Annotated[
-    float, typer.Option("--time-limit", min=0.0, help="Give up after this many seconds of search.")
+    float,
+    typer.Option(
+        "--time-limit", parser=number(above=0.0), metavar="SECONDS", help="Give up after this many seconds of search."
+    ),
 ]
 
 
@@ -125,8 +199,8 @@ GammaOption = Annotated[
     float | None,
     typer.Option(
         "--gamma",
-        min=0.0,
-        max=1.0,
+        parser=number(low=0.0, high=1.0),
+        metavar="D",
         help="EC2: two states are distinguishable when their observation difference (Eq. 5) exceeds this. "
         "Default: halfway between the largest difference of two states with equal noise-free readings "
         "and the smallest of two with different ones.",

@@ -16,6 +16,7 @@ from beliefloc.cli.common import (
     open_model,
     open_with_map,
     print_json,
+    refuse_unreachable,
 )
 from beliefloc.cli.options import (
     BeliefOption,
@@ -29,7 +30,7 @@ from beliefloc.cli.options import (
     ThresholdOption,
     resolve_heuristic,
 )
-from beliefloc.errors import EXIT_NEGATIVE
+from beliefloc.errors import EXIT_NEGATIVE, UsageError
 from beliefloc.planning.settings import (
     DEFAULT_MAX_EXPANSIONS,
     DEFAULT_THRESHOLD,
@@ -67,7 +68,10 @@ def plan_command(
 ) -> None:
     """Find actions and observations that take the belief to one state with probability >= threshold.
 
-    Exit code 1 when there is no plan (every reachable belief was searched) or the search gave up.
+    Exit code 1 when there is no plan: the start belief lies on look-alike states that no sequence of
+    actions tells apart (known before any search, as 'macros build' knows it), every reachable belief
+    was searched, or the search gave up. A --threshold that no belief can reach (1 with noisy
+    sensors) is refused with exit code 2.
 
     With -o, a picture of the start belief (as `show -o` draws it) with the plan on it: the moves
     as a path from the most likely state, each move going as intended (the most likely successor),
@@ -80,6 +84,7 @@ def plan_command(
     """
     from beliefloc.planning.best_first import PlanStatus, plan
     from beliefloc.render.plan import effort_line, plan_table
+    from beliefloc.render.progress import search_progress
 
     chosen = resolve_heuristic(planner, heuristic, h_weight)
     smap = None
@@ -90,21 +95,22 @@ def plan_command(
         pyplot()  # matplotlib missing: say so before any work
         model, smap = open_with_map(source)
         if model.grid is None:
-            from beliefloc.errors import UsageError
-
             raise UsageError(f"-o {output}: model {model.name} has no grid to draw (an imported .pomdp); drop -o")
     else:
         model = open_model(source)
     start = initial_belief(model, belief, smap)
-    result = plan(
-        model,
-        start,
-        threshold=threshold,
-        heuristic=chosen,
-        max_expansions=max_expansions,
-        time_limit=time_limit,
-        weight=h_weight,
-    )
+    refuse_unreachable(model, start, threshold, json_output)
+    with search_progress(stderr_console(), time_limit) as progress:
+        result = plan(
+            model,
+            start,
+            threshold=threshold,
+            heuristic=chosen,
+            max_expansions=max_expansions,
+            time_limit=time_limit,
+            weight=h_weight,
+            progress=progress,
+        )
     title = f"plan for {model.name}: cost {result.cost:g}, {len(result.steps)} steps"
     if output is not None and result.found:
         from beliefloc.render.figures import save_figure

@@ -18,6 +18,7 @@ from beliefloc.cli.common import (
     open_with_map,
     positive_int,
     print_json,
+    refuse_unreachable,
     warn_if_too_wide,
 )
 from beliefloc.cli.options import (
@@ -37,6 +38,7 @@ from beliefloc.cli.options import (
     ThresholdOption,
     TimingsOption,
     resolve_heuristic,
+    whole,
 )
 from beliefloc.errors import EXIT_NEGATIVE, UsageError
 from beliefloc.planning.settings import (
@@ -64,7 +66,9 @@ if TYPE_CHECKING:
 @boundary
 def simulate(
     map_file: ModelArgument,
-    episodes: Annotated[int, typer.Option("--episodes", "-n", min=1, help="How many episodes.")] = 1,
+    episodes: Annotated[
+        int, typer.Option("--episodes", "-n", parser=whole(low=1), metavar="N", help="How many episodes.")
+    ] = 1,
     seed: SeedOption = 0,
     start: Annotated[
         str,
@@ -93,7 +97,11 @@ def simulate(
     max_steps: Annotated[
         int,
         typer.Option(
-            "--max-steps", "--max-actions", min=1, help="Stop an episode after this many actions (the paper: 500)."
+            "--max-steps",
+            "--max-actions",
+            parser=whole(low=1),
+            metavar="N",
+            help="Stop an episode after this many actions (the paper: 500).",
         ),
     ] = DEFAULT_MAX_STEPS,
     macros: MacrosOption = None,
@@ -130,7 +138,8 @@ def simulate(
 ) -> None:
     """Run localization episodes: every strategy from the same seeded starts (paired trials).
 
-    Exit code 1 when an episode of the first strategy does not end localized.
+    Exit code 1 when an episode (of any strategy) does not end localized, or when the start belief
+    lies on look-alike states that no strategy can tell apart (said before any episode runs).
 
     Example: beliefloc simulate maps/kitchen.yaml --show
     Example: beliefloc simulate maps/kitchen.yaml -n 50 -s bestfirst -s uniform -s random
@@ -151,6 +160,7 @@ def simulate(
     recording = _recording(record, record_episode, record_frames, episodes, inputs)
     model, smap = open_with_map(map_file) if recording is not None else (open_model(map_file), None)
     start_belief = initial_belief(model, belief, smap)
+    refuse_unreachable(model, start_belief, threshold, json_output)
     start_state = None if start in ("random", "prior") else model.states.index(start)
     world_model = _world(world, model) if world is not None else None
     table = None
@@ -249,8 +259,7 @@ def simulate(
         out.print(summary_table(summary, threshold))
     if recording is not None and recorder is not None and recorder.trace is not None:
         _write_recording(model, smap, recorder.trace, recording, stderr_console() if json_output else out)
-    first = [r for r in records if r.strategy == names[0].value]
-    if any(r.status is not EpisodeStatus.LOCALIZED for r in first):
+    if any(r.status is not EpisodeStatus.LOCALIZED for r in records):
         raise typer.Exit(EXIT_NEGATIVE)
 
 

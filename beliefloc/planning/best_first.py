@@ -36,6 +36,7 @@ import hashlib
 import heapq
 import time
 from collections import OrderedDict
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -56,6 +57,11 @@ from beliefloc.planning.successors import SuccessorEvaluator, SuccessorStats
 KEY_RESOLUTION = 2**30
 """Beliefs are compared after rounding every entry to a multiple of 2^-30 (about 1e-9)."""
 _CACHE_BYTES = 256 * 2**20
+
+
+SearchProgress = Callable[[int, int, float], None]
+"""``progress(expanded, generated, seconds)`` during a search."""
+_PROGRESS_EVERY = 256
 
 
 class PlanStatus(enum.Enum):
@@ -154,10 +160,12 @@ def plan(
     memory: ClosedList | None = None,
     evaluator: SuccessorEvaluator | None = None,
     weight: float = DEFAULT_WEIGHT,
+    progress: SearchProgress | None = None,
 ) -> PlanResult:
     """Search for actions that take ``belief`` to one with ``max(b) >= threshold``.
 
-    Nodes are ranked by ``f = g + weight · h`` (``weight > 0``; 1 is the paper's search)."""
+    Nodes are ranked by ``f = g + weight · h`` (``weight > 0``; 1 is the paper's search).
+    ``progress(expanded, generated, seconds)`` is called every few hundred expansions."""
     check_weight(weight)
     start = time.perf_counter()
     evaluator = evaluator or SuccessorEvaluator(model)
@@ -202,6 +210,8 @@ def plan(
             status = PlanStatus.BUDGET_EXCEEDED
             break
         expanded += 1
+        if progress is not None and expanded % _PROGRESS_EVERY == 0:
+            progress(expanded, len(parent) - 1, time.perf_counter() - start)
         successors = memory.successors.get(key)
         if successors is None:
             successors = evaluator.evaluate(current)

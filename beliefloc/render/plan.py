@@ -44,7 +44,7 @@ def summary_table(summary: dict[str, StrategySummary], threshold: float) -> Tabl
     runs = max((s.episodes for s in summary.values()), default=0)
     table = Table(
         title=f"{runs} episode{'' if runs == 1 else 's'} per strategy (localized: max belief >= {threshold:g}; "
-        "correct: at the true state)",
+        "correct: localized at the true state)",
         title_justify="left",
         box=box.SIMPLE_HEAD,
         pad_edge=False,

@@ -222,7 +222,8 @@ class StrategySummary:
     episodes: int
     localized: int
     correct: int
-    """Episodes whose most likely state at the end is the robot's true state."""
+    """Localized episodes whose most likely state at the end is the robot's true state (never more
+    than ``localized``)."""
     failures: dict[str, int]
     """Episodes per status other than localized, by the status's name."""
     mean_plan_seconds: float | None
@@ -253,7 +254,7 @@ def summarize(records: Sequence[EpisodeRecord]) -> dict[str, StrategySummary]:
         out[name] = StrategySummary(
             episodes=len(mine),
             localized=len(localized),
-            correct=sum(r.correct for r in mine),
+            correct=sum(r.correct for r in localized),
             failures={s: sum(r.status.value == s for r in mine) for s in failed},
             mean_plan_seconds=_mean(per_episode_plan),
             stdev_plan_seconds=_stdev(per_episode_plan),
