@@ -8,6 +8,7 @@ from beliefloc import __version__
 from beliefloc.cli import (
     export,
     generate,
+    init,
     kb,
     localize,
     macros,
@@ -15,6 +16,7 @@ from beliefloc.cli import (
     plan,
     pose,
     prior,
+    schema,
     search,
     select,
     show,
@@ -49,7 +51,24 @@ def _root(
     """beliefloc."""
 
 
-for module in (maps, track, show, pose, plan, simulate, localize, select, macros, prior, kb, search, export, generate):
+for module in (
+    maps,
+    track,
+    show,
+    pose,
+    plan,
+    simulate,
+    localize,
+    select,
+    macros,
+    prior,
+    kb,
+    search,
+    export,
+    generate,
+    init,
+    schema,
+):
     module.register(app)
 
 

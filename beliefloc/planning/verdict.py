@@ -179,7 +179,7 @@ def _match(twins: tuple[np.ndarray, np.ndarray], support: np.ndarray) -> np.ndar
     keep = inside[pi] & inside[pj]
     used = np.zeros_like(inside)
     chosen: list[tuple[int, int]] = []
-    for i, j in zip(pi[keep].tolist(), pj[keep].tolist()):
+    for i, j in zip(pi[keep].tolist(), pj[keep].tolist(), strict=True):
         if not used[i] and not used[j]:
             used[i] = used[j] = True
             chosen.append((i, j))
