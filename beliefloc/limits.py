@@ -71,3 +71,17 @@ GROUNDING_SECONDS = Limit("seconds of grounding and solving", 60, "BELIEFLOC_MAX
 
 GROUNDING_BYTES = Limit("bytes of memory for clingo", 4 * 1024**3, "BELIEFLOC_MAX_KB_BYTES")
 """Memory budget for grounding and solving one knowledge base."""
+
+GEOMETRY_TESTS = Limit("geometry tests", 200_000_000, "BELIEFLOC_MAX_GEOMETRY_TESTS")
+"""Work of laying a map's cells over its geometry, counted before it starts: an occupancy map's
+``robot_radius`` tests every cell against each pixel offset within the radius, a room polygon every
+cell against each of its corners, a Look sensor every landmark of its classes against each state in
+range (a few seconds at the default)."""
+
+MODEL_FILE_ARRAYS = Limit("arrays in a model or macro file", 100_000, "BELIEFLOC_MAX_MODEL_ARRAYS")
+"""Members of a model or macro ``.npz`` archive (a model has three for each moving action and two for
+each sensor part), counted from the archive's directory before any member is read."""
+
+MODEL_ELEMENTS = Limit("states, actions or observations", 10_000_000, "BELIEFLOC_MAX_MODEL_ELEMENTS")
+"""The most states, actions or observations a ``.pomdp`` file may declare (``states: 1000000000``
+is a short line), checked before any name or table is made; a generated 10^6-state map fits."""

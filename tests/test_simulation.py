@@ -154,4 +154,9 @@ def test_simulate_unknown_strategy_and_failing_episodes(runner, tmp_path):
     twins.write_text(yaml.safe_dump(TWINS))
     result = runner.invoke(app, ["simulate", str(twins)])
     assert result.exit_code == EXIT_NEGATIVE
+    assert "not localizable" in result.stderr and result.stdout == ""  # said before any episode
+    triplets = tmp_path / "triplets.yaml"  # no twin pairs: the episodes run, and their search finds no plan
+    triplets.write_text(yaml.safe_dump({**TWINS, "name": "triplets", "grid": {"rows": 1, "cols": 3, "headings": 1}}))
+    result = runner.invoke(app, ["simulate", str(triplets)])
+    assert result.exit_code == EXIT_NEGATIVE
     assert "no plan" in result.stdout

@@ -6,7 +6,6 @@ entries per row, and observations are stored factored (see :mod:`beliefloc.model
 
 from __future__ import annotations
 
-import itertools
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -23,6 +22,7 @@ from beliefloc.model import (
     StateSpace,
 )
 from beliefloc.semantic_map import geometry, pixel_geometry
+from beliefloc.semantic_map.observations import label, look_values, scan_values
 from beliefloc.semantic_map.schema import (
     HereSensor,
     LookSensor,
@@ -267,19 +267,15 @@ def _look_parts(
             if name in readings:
                 best[states] = _annotated_angle(readings[name], cls)
         truth = _angle_to_value(best, bins)
+        values, aliases = look_values(cls, sensor.angle_bins)  # the names validation checked
         if bins is None:
-            values: tuple[str, ...] = ("", cls)
             confusion = np.array([[1.0 - fp, fp], [fn, 1.0 - fn]])
-            aliases = {f"{cls}_seen": 1, f"{cls}_not_seen": 0}
         else:
-            edges = [0.0, *bins.tolist()]
-            values = ("", *(f"{cls}@{lo:g}-{hi:g}" for lo, hi in itertools.pairwise(edges)))
             k = len(bins)
             confusion = np.zeros((k + 1, k + 1))
             confusion[0, 0], confusion[0, 1:] = 1.0 - fp, fp / k
             confusion[1:, 0] = fn
             confusion[1:, 1:] += np.eye(k) * (1.0 - fn)
-            aliases = {f"{cls}_not_seen": 0}
         parts.append(ObservationPart(f"{name}.{cls}", values, truth, confusion, aliases))
     return tuple(parts)
 
@@ -352,10 +348,13 @@ def _scan_parts(
                 else:
                     truth[states] = int(np.searchsorted(bins, np.float64(float(reading)) - 1e-9))  # type: ignore[arg-type]
         if sensor.multi_beam:
-            label = f"{angle:g}"
+            angle_label = label(angle)
             parts.append(
                 ObservationPart(
-                    f"{name}@{label}", tuple(f"{v}@{label}" for v in names), truth, _noise(len(names), sensor.error)
+                    f"{name}@{angle_label}",
+                    scan_values(sensor.bins, angle_label),
+                    truth,
+                    _noise(len(names), sensor.error),
                 )
             )
         else:

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from beliefloc.errors import MapError
+from beliefloc.file_kinds import MAP, kind_of_data, kind_of_path, not_a
 from beliefloc.model import SourceInfo
 from beliefloc.semantic_map.schema import SemanticMap
 from beliefloc.source import Source, read_source, validate_source
@@ -22,18 +23,33 @@ Warn = Callable[[str], None]
 def load_map(path: str | Path, *, on_warning: Warn | None = None) -> SemanticMap:
     """Read and validate a semantic map; raises :class:`MapError` naming file, line and field.
 
-    What the occupancy map's reading has to say (unknown grey counted as unknown, a NaN yaw) goes
-    to ``on_warning``, prefixed with the occupancy map's file."""
+    A file of another kind (a domain, a belief file, an occupancy map's YAML, a knowledge base...)
+    is refused as such: ``domains/home.yaml is a knowledge-base domain, not a map``.
+
+    What validation has to say goes to ``on_warning``: a Look class no landmark has, with the
+    file, line and field; what the occupancy map's reading has to say (unknown grey counted as
+    unknown, a NaN yaw), prefixed with the occupancy map's file."""
+    other = kind_of_path(path)
+    if other is not None:
+        raise MapError(not_a(path, other, MAP))
     source = read_source(path, MapError)
+    other = kind_of_data(source.data)
+    if other is not None and other != MAP:
+        raise MapError(not_a(source.path, other, MAP))
     if not isinstance(source.data, dict):
         raise MapError(f"{source.path}:1:1: a map file is a YAML mapping (name:, grid:, actions:, ...)")
     context = _files_named(source)
+    warnings: list[tuple[tuple[str | int, ...], str]] = []
+    context["warnings"] = warnings
     smap = validate_source(source, SemanticMap, MapError, context=context)
     smap._source = SourceInfo(str(source.path), source.sha256)
-    occupancy = smap.occupancy_map
-    if occupancy is not None and on_warning is not None:
-        for message in occupancy.warnings:
-            on_warning(f"{occupancy.yaml_path}: {message}")
+    if on_warning is not None:
+        for where, message in warnings:
+            on_warning(source.format(where, message))
+        occupancy = smap.occupancy_map
+        if occupancy is not None:
+            for message in occupancy.warnings:
+                on_warning(f"{occupancy.yaml_path}: {message}")
     return smap
 
 

@@ -8,25 +8,53 @@ of the offending value, so the loader can name its line.
 
 from __future__ import annotations
 
-import itertools
+import collections
 import math
 import re
 from functools import cached_property
 from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, PrivateAttr, ValidationInfo, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    Field,
+    PrivateAttr,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
 
 from beliefloc.errors import FieldError
+from beliefloc.limits import GEOMETRY_TESTS, MODEL_ENTRIES
 from beliefloc.model import MapFrame, SourceInfo
+from beliefloc.semantic_map import observations
+from beliefloc.semantic_map.observations import ObservationSet, PartGroup, PartSpec
 from beliefloc.semantic_map.occupancy_grid import free_cells, grid_shape, rooms_from_mask, rooms_from_polygons
 from beliefloc.source import refuse_field_name
 
 if TYPE_CHECKING:
     from beliefloc.occupancy import OccupancyMap
 
-Probability = Annotated[float, Field(ge=0.0, le=1.0)]
-Cost = Annotated[float, Field(ge=0.0, allow_inf_nan=False)]
+MAX_COST = 1e6
+"""The largest cost of an action: plans add costs up, and a sum must stay a finite number."""
+MAX_METRES = 1e9
+"""The largest length or map-frame coordinate, in metres (UTM coordinates fit)."""
+MIN_CELL_SIZE = 1e-3
+"""The smallest ``cell_size``, in metres."""
+
+# Numbers are strict: YAML's true and false are booleans, never 1 and 0 (a strict float still
+# takes an integer). Every float that enters arithmetic is finite and bounded.
+Integer = Annotated[int, Field(strict=True)]
+Probability = Annotated[float, Field(strict=True, ge=0.0, le=1.0, allow_inf_nan=False)]
+Cost = Annotated[float, Field(strict=True, ge=0.0, le=MAX_COST, allow_inf_nan=False)]
+Length = Annotated[float, Field(strict=True, ge=0.0, le=MAX_METRES, allow_inf_nan=False)]
+"""Metres, from 0."""
+CellSize = Annotated[float, Field(strict=True, ge=MIN_CELL_SIZE, le=MAX_METRES, allow_inf_nan=False)]
+Coordinate = Annotated[float, Field(strict=True, ge=-MAX_METRES, le=MAX_METRES, allow_inf_nan=False)]
+"""A map-frame x or y, in metres."""
+Degrees = Annotated[float, Field(strict=True, allow_inf_nan=False)]
 Name = Annotated[str, Field(pattern=r"^[A-Za-z0-9_\-]+$", max_length=64)]
 """Class, action and sensor names: they become parts of observation names on the command line."""
 
@@ -46,15 +74,22 @@ class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
 
 
+def _no_boolean(value: Any) -> Any:
+    """YAML's true and false are not the numbers 1 and 0 (a Literal would take them)."""
+    if isinstance(value, bool):
+        raise ValueError(f"should be a number, got {str(value).lower()}")
+    return value
+
+
 class Grid(_Strict):
-    rows: int = Field(ge=1, le=100_000)
+    rows: Integer = Field(ge=1, le=100_000)
     """On a map with ``occupancy:``, rows and cols come from the image (the loader fills them in)."""
-    cols: int = Field(ge=1, le=100_000)
-    cell_size: float = Field(default=1.0, gt=0.0, allow_inf_nan=False)
+    cols: Integer = Field(ge=1, le=100_000)
+    cell_size: CellSize = 1.0
     """Side of a cell in meters; ranges and scan bins are in meters too."""
-    headings: Literal[1, 4, 8] = 4
+    headings: Annotated[Literal[1, 4, 8], BeforeValidator(_no_boolean)] = 4
     """1: no orientation, compass moves; 4 or 8: a triangle per heading, 0 = north, clockwise."""
-    robot_radius: float | None = Field(default=None, ge=0.0, allow_inf_nan=False)
+    robot_radius: Length | None = None
     """Occupancy maps: a cell is a state only when a disc of this radius on its centre touches no
     occupied or unknown pixel (:mod:`beliefloc.semantic_map.occupancy_grid`). Default 0."""
 
@@ -64,9 +99,9 @@ class Landmark(_Strict):
     map-frame metres (what RViz's Publish Point gives; the loader fills in its cell)."""
 
     class_: Name = Field(alias="class")
-    cell: tuple[int, int]
-    x: float | None = Field(default=None, allow_inf_nan=False)
-    y: float | None = Field(default=None, allow_inf_nan=False)
+    cell: tuple[Integer, Integer]
+    x: Coordinate | None = None
+    y: Coordinate | None = None
     name: str | None = None
     """Optional label for humans (shown by ``beliefloc show``)."""
 
@@ -97,11 +132,11 @@ class LookSensor(_SensorBase):
     classes: list[Name]
     false_positive: Probability = 0.0
     false_negative: Probability = 0.0
-    range: float | None = Field(default=None, ge=0.0, allow_inf_nan=False)
+    range: Length | None = None
     """Meters between cell centres; unlimited when omitted."""
-    fov: float | None = Field(default=None, gt=0.0, le=360.0)
+    fov: Annotated[Degrees, Field(gt=0.0, le=360.0)] | None = None
     """Field of view in degrees, centred on the heading. Default 90 (360 on maps with headings 1)."""
-    angle_bins: list[Annotated[float, Field(gt=0.0, le=180.0)]] | None = None
+    angle_bins: list[Annotated[Degrees, Field(gt=0.0, le=180.0)]] | None = None
     """Upper edges (degrees) of viewing-angle bins: [18, 30, 45] reports 0-18, 18-30 or 30-45."""
     occlusion: bool = True
     """Blocked cells between the robot and a landmark hide it."""
@@ -111,7 +146,8 @@ class LookSensor(_SensorBase):
     def _classes(cls, value: list[str]) -> list[str]:
         if not value:
             raise ValueError("a look sensor needs at least one class, or it has no observations")
-        duplicates = sorted({c for c in value if value.count(c) > 1})
+        counts = collections.Counter(value)
+        duplicates = sorted(c for c, n in counts.items() if n > 1)
         if duplicates:
             raise ValueError(f"classes listed twice: {', '.join(duplicates)}")
         return value
@@ -138,13 +174,11 @@ class ScanSensor(_SensorBase):
     """Distance to the wall or blocked cell in front, binned; 'no_wall' beyond the last bin."""
 
     type: Literal["scan"]
-    bins: list[Annotated[float, Field(gt=0.0, allow_inf_nan=False)]]
+    bins: list[Annotated[Length, Field(gt=0.0)]]
     """Upper edges in meters: [0.2, 0.8, 1.1, 1.5] gives wall_0-0.2 ... wall_1.1-1.5 and no_wall."""
     error: Probability = 0.0
     """Probability of reading another bin, spread evenly over the others."""
-    beams: list[Annotated[float, Field(gt=-360.0, lt=360.0, allow_inf_nan=False)]] = Field(
-        default_factory=lambda: [0.0]
-    )
+    beams: list[Annotated[Degrees, Field(gt=-360.0, lt=360.0)]] = Field(default_factory=lambda: [0.0])
     """Directions of the beams in degrees, relative to the heading (clockwise positive), each read
     independently with the same bins and error: ``[-90, 0, 90]`` looks left, ahead and right.
     Multiples of 360/headings. The default ``[0]`` is one beam straight ahead."""
@@ -173,9 +207,7 @@ class ScanSensor(_SensorBase):
         return value
 
     def observation_names(self) -> list[str]:
-        edges = [0.0, *self.bins]
-        names = [f"wall_{_fmt(lo)}-{_fmt(hi)}" for lo, hi in itertools.pairwise(edges)]
-        return [*names, "no_wall"]
+        return list(observations.scan_values(self.bins))
 
 
 class HereSensor(_SensorBase):
@@ -204,8 +236,8 @@ knowledge base (clingo constants), so that a domain can reference the map's room
 class RoomRectangle(_Strict):
     """``{from: [r0, c0], to: [r1, c1]}``: the cells from ``[r0, c0]`` to ``[r1, c1]``, both corners included."""
 
-    from_: tuple[int, int] = Field(alias="from")
-    to: tuple[int, int]
+    from_: tuple[Integer, Integer] = Field(alias="from")
+    to: tuple[Integer, Integer]
 
 
 class Rooms(_Strict):
@@ -227,9 +259,9 @@ class Rooms(_Strict):
     """Occupancy maps: a region mask in the Nav2 costmap-filter style -- a second map YAML and image
     with the map's size, resolution and origin, where pixel value k means region k -- relative to
     this file; ``labels`` names the regions. A cell is in the room its centre's pixel says."""
-    labels: dict[int, RoomName] | None = None
+    labels: dict[Integer, RoomName] | None = None
     """``{1: aisle_a, 2: dock}``: the room of each pixel value of ``mask``."""
-    polygons: dict[RoomName, list[tuple[float, float]]] | None = None
+    polygons: dict[RoomName, list[tuple[Coordinate, Coordinate]]] | None = None
     """Room name -> its outline, ``[[x, y], ...]`` in map-frame metres (at least three corners). A
     cell is in the room when its centre is inside."""
 
@@ -307,6 +339,7 @@ class SemanticMap(_Strict):
         refuse_field_name(cls, data, "room_spec")  # files write ``rooms:``
         if not isinstance(data, dict):
             return data
+        _refuse_internal_names(data)
         context = info.context or {}
         occupancy: OccupancyMap | None = context.get("occupancy")
         if occupancy is not None:
@@ -389,6 +422,9 @@ class SemanticMap(_Strict):
         self._occupancy = context.get("occupancy")
         self._region_mask = context.get("region_mask")
         self._check_occupancy()
+        g = self.grid
+        if self._occupancy is None:  # an occupancy map's grid was checked as its size was worked out
+            observations.check_grid(g.rows, g.cols, g.headings, ("grid",))
         self._check_layout()
         if not self.free.any():
             if self._occupancy is not None:
@@ -402,7 +438,9 @@ class SemanticMap(_Strict):
         self._check_landmarks()
         self._check_actions()
         self._check_sensors()
+        self._check_observations()
         self._check_annotations()
+        self._warn_unseen_classes(context.get("warnings"))
         self._check_rooms()
         return self
 
@@ -486,11 +524,102 @@ class SemanticMap(_Strict):
                         f"a field of view of {2 * half:g} degrees sees up to {half:g} degrees off axis, but the "
                         f"angle_bins stop at {sensor.angle_bins[-1]:g}; drop fov or add a bin edge of {half:g}",
                     )
+            if not isinstance(sensor, HereSensor):
+                self._check_edges(name, sensor)
             if not sensor.passive and not sensor.as_action:
                 raise FieldError(
                     ("sensors", name, "as_action"),
                     "a sensor that is neither passive nor an action is never used",
                 )
+
+    def observation_sets(self, *, named: bool = False) -> list[ObservationSet]:
+        """The observations of the model's actions, from the map alone: the moves' (the joint
+        readings of the passive sensors, or the one observation ``none``), then each sensor's that
+        is offered as an action. With ``named``, each set's parts with their readings' names, as
+        :mod:`~beliefloc.semantic_map.compile` builds them (ask only once the sizes are known to
+        be within the limits: a Look's names are built per class)."""
+        groups = {name: _sensor_groups(name, sensor, self) for name, sensor in self.sensors.items()}
+        parts = {name: _sensor_parts(name, sensor, self) if named else () for name, sensor in self.sensors.items()}
+        passive = [name for name, sensor in self.sensors.items() if sensor.passive]
+        widest = max(passive, key=lambda name: ObservationSet(name, groups[name], ()).n_observations, default=None)
+        moves = ObservationSet(
+            "the moves",
+            tuple(g for name in passive for g in groups[name]),
+            ("sensors", widest, "passive") if widest is not None else ("actions",),
+            f"each reads the passive sensors {', '.join(passive)} together" if passive else "",
+            moves=tuple(self.actions),
+            parts=tuple(p for name in passive for p in parts[name]),
+        )
+        own = [
+            ObservationSet(name, groups[name], _defining_field(name, sensor), _explain(sensor, self), parts=parts[name])
+            for name, sensor in self.sensors.items()
+            if sensor.as_action
+        ]
+        return [moves, *own]
+
+    def _check_observations(self) -> None:
+        """The model's size, before anything is allocated; then that observation names are unique.
+        Then the work of Look's geometry (landmarks against the cells in range)."""
+        n_states = int(self.free.sum()) * self.grid.headings
+        observations.check_size(n_states, self.observation_sets(), MODEL_ENTRIES)
+        for action in self.observation_sets(named=True):
+            observations.check_names(action)
+        for name, sensor in self.sensors.items():
+            if isinstance(sensor, LookSensor):
+                self._check_look_work(name, sensor, n_states)
+
+    def _check_look_work(self, name: str, sensor: LookSensor, n_states: int) -> None:
+        """Each landmark of a class the sensor looks for is tested against every state in range."""
+        classes = set(sensor.classes)
+        landmarks = sum(1 for lm in self.landmarks if lm.class_ in classes)
+        g = self.grid
+        states = n_states
+        if sensor.range is not None:
+            reach = min(math.floor(sensor.range / g.cell_size + 1e-9) + 1, max(g.rows, g.cols))
+            states = min(n_states, (2 * reach + 1) ** 2 * g.headings)
+        tests = landmarks * states
+        if tests > GEOMETRY_TESTS.value:
+            where = "range" if sensor.range is not None else "classes"
+            raise FieldError(
+                ("sensors", name, where),
+                _too_much_geometry(tests, f"{landmarks:,} landmarks, each seen from up to {states:,} states"),
+            )
+
+    def _warn_unseen_classes(self, warnings: list[tuple[tuple[str | int, ...], str]] | None) -> None:
+        """A Look class that no landmark has, and that no annotation says is seen, is never seen."""
+        if warnings is None:
+            return
+        placed = {lm.class_ for lm in self.landmarks}
+        for name, sensor in self.sensors.items():
+            if not isinstance(sensor, LookSensor):
+                continue
+            annotated: set[str] = set()
+            for annotation in self.annotations:
+                reading = annotation.readings.get(name)
+                if isinstance(reading, (list, dict)):
+                    annotated.update(str(c) for c in reading)
+            for i, cls in enumerate(sensor.classes):
+                if cls not in placed and cls not in annotated:
+                    warnings.append(
+                        (("sensors", name, "classes", i), f"no landmark is a {cls!r}; the sensor will never see one")
+                    )
+
+    def _check_edges(self, name: str, sensor: LookSensor | ScanSensor) -> None:
+        """Bin edges print with 6 significant digits in observation names: two that print the same
+        would name a reading ``wall_0.2-0.2``."""
+        edges = sensor.bins if isinstance(sensor, ScanSensor) else sensor.angle_bins or []
+        at = observations.same_label(edges)
+        if at is None:
+            return
+        key, unit = ("bins", "m") if isinstance(sensor, ScanSensor) else ("angle_bins", "degrees")
+        before = edges[at - 1] if at > 0 else 0.0
+        shown = observations.label(edges[at])
+        raise FieldError(
+            ("sensors", name, key, at),
+            f"{edges[at]!r} {unit} prints as {shown} in observation names, as does the edge before it "
+            f"({before!r}), so a reading would be named like '{observations.label(before)}-{shown}'; "
+            "space the edges further apart",
+        )
 
     def _check_here(self, name: str, sensor: HereSensor) -> None:
         if sensor.labels is None:
@@ -522,8 +651,14 @@ class SemanticMap(_Strict):
 
     def _check_annotations(self) -> None:
         for i, annotation in enumerate(self.annotations):
-            if (annotation.state is None) == (annotation.states is None):
-                raise FieldError(("annotations", i), "give either state: 'r,c,h' or states: [...], not both")
+            if annotation.state is not None and annotation.states is not None:
+                raise FieldError(("annotations", i, "states"), "give either state: 'r,c,h' or states: [...], not both")
+            if annotation.state is None and annotation.states is None:
+                raise FieldError(
+                    ("annotations", i),
+                    "names no state: give state: 'r,c,h' (or 'r,c' for a whole cell) or states: [...], "
+                    "e.g. {state: '1,1,0', look: [chair]}",
+                )
             for name, where in annotation.targets:
                 try:
                     self.parse_state(name)
@@ -606,6 +741,13 @@ class SemanticMap(_Strict):
     def _check_room_polygons(self, polygons: dict[str, list[tuple[float, float]]]) -> None:
         if not polygons:
             raise FieldError(("rooms", "polygons"), "no rooms; e.g. dock: [[0, 0], [4, 0], [4, 3], [0, 3]]")
+        corners = sum(len(vertices) for vertices in polygons.values())
+        cells = self.grid.rows * self.grid.cols
+        if corners * cells > GEOMETRY_TESTS.value:
+            raise FieldError(
+                ("rooms", "polygons"),
+                _too_much_geometry(corners * cells, f"{corners:,} corners, each tested against {cells:,} cells"),
+            )
         for name, vertices in polygons.items():
             if len(vertices) < 3:
                 raise FieldError(("rooms", "polygons", name), f"room {name!r} needs at least three corners [x, y]")
@@ -712,6 +854,80 @@ class SemanticMap(_Strict):
                 )
 
 
+def _sensor_groups(name: str, sensor: Sensor, smap: SemanticMap) -> tuple[PartGroup, ...]:
+    """How many parts a sensor's observations have, and how many readings each: its sizes."""
+    at: tuple[str | int, ...] = ("sensors", name)
+    if isinstance(sensor, LookSensor):
+        n = len(sensor.angle_bins) + 1 if sensor.angle_bins else 2
+        return (PartGroup(name, n, len(sensor.classes), (*at, "classes")),)
+    if isinstance(sensor, ScanSensor):
+        return (PartGroup(name, len(sensor.bins) + 1, len(sensor.beams), (*at, "bins")),)
+    where = (*at, "legend") if sensor.legend is not None else (*at, "labels") if sensor.labels is not None else at
+    return (PartGroup(name, len(here_classes(sensor, smap)), 1, where),)
+
+
+def _sensor_parts(name: str, sensor: Sensor, smap: SemanticMap) -> tuple[PartSpec, ...]:
+    """The parts of a sensor's observations, named as :mod:`~beliefloc.semantic_map.compile` names them."""
+    at: tuple[str | int, ...] = ("sensors", name)
+    if isinstance(sensor, LookSensor):
+        parts = []
+        bins = sensor.angle_bins
+        for i, cls in enumerate(sensor.classes):
+            values, aliases = observations.look_values(cls, bins)
+            where = (*at, "classes", i)
+
+            def value_where(w: int, where: tuple[str | int, ...] = where) -> tuple[str | int, ...]:
+                return (*at, "angle_bins", w - 1) if bins and w > 0 else where
+
+            parts.append(PartSpec(f"{name}.{cls}", values, aliases, where, value_where, name))
+        return tuple(parts)
+    if isinstance(sensor, ScanSensor):
+        n_bins = len(sensor.bins)
+
+        def bin_where(w: int) -> tuple[str | int, ...]:
+            return (*at, "bins", w) if w < n_bins else (*at, "bins")
+
+        if not sensor.multi_beam:
+            return (PartSpec(name, observations.scan_values(sensor.bins), {}, (*at, "bins"), bin_where, name),)
+        return tuple(
+            PartSpec(
+                f"{name}@{observations.label(angle)}",
+                observations.scan_values(sensor.bins, observations.label(angle)),
+                {},
+                (*at, "beams", k),
+                bin_where,
+                name,
+            )
+            for k, angle in enumerate(sensor.beams)
+        )
+    where = (*at, "legend") if sensor.legend is not None else (*at, "labels") if sensor.labels is not None else at
+    return (PartSpec(name, tuple(here_classes(sensor, smap)), {}, where, lambda w: where, name),)
+
+
+def _defining_field(name: str, sensor: Sensor) -> tuple[str | int, ...]:
+    """The field that says how many observations a sensor has."""
+    if isinstance(sensor, LookSensor):
+        return ("sensors", name, "classes")
+    if isinstance(sensor, ScanSensor):
+        return ("sensors", name, "beams" if sensor.multi_beam and len(sensor.bins) < 2 else "bins")
+    return ("sensors", name, "legend" if sensor.legend is not None else "labels" if sensor.labels else "type")
+
+
+def _explain(sensor: Sensor, smap: SemanticMap) -> str:
+    """Why a sensor has as many observations as it has, for a message."""
+    if isinstance(sensor, LookSensor):
+        k = len(sensor.classes)
+        if sensor.angle_bins:
+            angles = len(sensor.angle_bins)
+            return f"{angles + 1}^{k}: not seen or one of {angles} angles, for each of {k} classes"
+        return f"2^{k}: one for each set of its {k} classes seen"
+    if isinstance(sensor, ScanSensor):
+        beams = len(sensor.beams)
+        per_beam = f"{len(sensor.bins) + 1:,} readings"
+        return f"{per_beam} for each of {beams} beams" if beams > 1 else per_beam
+    return f"{len(here_classes(sensor, smap)):,} classes"
+
+
 def _check_reading(
     sensor: LookSensor | ScanSensor | HereSensor, value: Any, path: tuple[str | int, ...], smap: SemanticMap
 ) -> None:
@@ -727,7 +943,11 @@ def _check_reading(
                 )
             classes = list(value)
             for cls_name, angle in value.items():
-                if not isinstance(angle, (int, float)) or not 0 <= abs(angle) <= sensor.angle_bins[-1]:
+                if (
+                    isinstance(angle, bool)
+                    or not isinstance(angle, (int, float))
+                    or not 0 <= abs(angle) <= sensor.angle_bins[-1]
+                ):
                     raise FieldError(
                         (*path, cls_name),
                         f"viewing angle must be a number of degrees within ±{sensor.angle_bins[-1]:g}",
@@ -747,7 +967,8 @@ def _check_reading(
             readings = [(value, path)]
         for reading, where in readings:
             if isinstance(reading, bool) or not (
-                (isinstance(reading, (int, float)) and reading >= 0) or (isinstance(reading, str) and reading in names)
+                (isinstance(reading, (int, float)) and 0 <= reading <= MAX_METRES)
+                or (isinstance(reading, str) and reading in names)
             ):
                 raise FieldError(where, f"should be a distance in meters or one of: {', '.join(names)}")
     else:
@@ -757,21 +978,76 @@ def _check_reading(
             )
 
 
+def _refuse_internal_names(data: dict[str, Any]) -> None:
+    """``class_`` and ``from_`` are the Python names of fields that files write ``class`` and
+    ``from``: refused where they are written, as ``room_spec`` is."""
+    landmarks = data.get("landmarks")
+    for i, landmark in enumerate(landmarks if isinstance(landmarks, list) else []):
+        _refuse_at(("landmarks", i), Landmark, landmark, "class_")
+    rooms = data.get("rooms")
+    rectangles = rooms.get("rectangles") if isinstance(rooms, dict) else None
+    for name, value in rectangles.items() if isinstance(rectangles, dict) else ():
+        if isinstance(value, list):
+            for k, rect in enumerate(value):
+                _refuse_at(("rooms", "rectangles", str(name), k), RoomRectangle, rect, "from_")
+        else:
+            _refuse_at(("rooms", "rectangles", str(name)), RoomRectangle, value, "from_")
+
+
+def _refuse_at(where: tuple[str | int, ...], model: type[BaseModel], data: Any, name: str) -> None:
+    try:
+        refuse_field_name(model, data, name)
+    except FieldError as exc:
+        raise FieldError((*where, *exc.path), exc.message) from None
+
+
 def _grid_from_occupancy(data: dict[str, Any], occupancy: OccupancyMap) -> dict[str, Any]:
     """The grid's rows and cols of a map with ``occupancy:``: as many cells of ``cell_size`` as it
-    takes to cover the image. The file must not give them."""
+    takes to cover the image. The file must not give them. Refused before any cell is laid out: a
+    cell size too small for the limits (:data:`~beliefloc.limits.MODEL_ENTRIES`), a robot radius
+    that would take too long to test (:data:`~beliefloc.limits.GEOMETRY_TESTS`)."""
     grid = data.get("grid")
     if not isinstance(grid, dict):
         return data  # the field validator says what is wrong
     for key in ("rows", "cols"):
         if key in grid:
             raise FieldError(("grid", key), f"comes from the occupancy image ({data.get('occupancy')}); drop it")
-    cell_size = grid.get("cell_size")
-    if not isinstance(cell_size, (int, float)) or isinstance(cell_size, bool) or not cell_size > 0:
-        return data
+    written = grid.get("cell_size", 1.0)
+    cell_size = _number(written)
+    if cell_size is None or not MIN_CELL_SIZE <= cell_size <= MAX_METRES:  # no size of the grid without it
+        shown = str(written).lower() if isinstance(written, bool) else repr(written)
+        raise FieldError(
+            ("grid", "cell_size"),
+            f"should be a number of metres from {MIN_CELL_SIZE:g} to {MAX_METRES:g}, got {shown}: the cells of "
+            f"the occupancy map {data.get('occupancy')} are laid out by it",
+        )
     height, width = occupancy.pixels.shape
-    rows, cols = grid_shape(height, width, occupancy.resolution, float(cell_size))
+    rows, cols = grid_shape(height, width, occupancy.resolution, cell_size)
+    headings = grid.get("headings", 4)
+    turns = headings if headings in (1, 4, 8) and not isinstance(headings, bool) else 8
+    observations.check_grid(rows, cols, turns, ("grid", "cell_size"))
+    radius = _number(grid.get("robot_radius"))
+    if radius is not None and 0 < radius <= MAX_METRES:
+        reach = math.ceil(radius / occupancy.resolution) + 1  # the offsets occupancy_grid.free_cells tries
+        tests = (2 * reach + 1) ** 2 * rows * cols
+        if tests > GEOMETRY_TESTS.value:
+            raise FieldError(
+                ("grid", "robot_radius"),
+                _too_much_geometry(
+                    tests,
+                    f"a robot radius of {radius:g} m is {radius / occupancy.resolution:,.0f} pixels of "
+                    f"{occupancy.resolution:g} m, tested around each of {rows * cols:,} cells",
+                ),
+            )
     return {**data, "grid": {**grid, "rows": rows, "cols": cols}}
+
+
+def _too_much_geometry(tests: int, lead: str) -> str:
+    limit = GEOMETRY_TESTS
+    return (
+        f"{lead}: {tests:,} {limit.what} is more than the limit of {limit.value:,}; "
+        f"if the input is what you meant, raise it with the environment variable {limit.variable}=N"
+    )
 
 
 def _landmark_cells(data: dict[str, Any], occupancy: OccupancyMap | None) -> dict[str, Any]:
@@ -820,7 +1096,9 @@ def _landmark_cells(data: dict[str, Any], occupancy: OccupancyMap | None) -> dic
         row = int(rows) - 1 - math.floor(float(gy) / size)  # rows and cols are whole: checked by the grid
         col = math.floor(float(gx) / size)
         if not (0 <= row < rows and 0 <= col < cols):
-            raise FieldError(("landmarks", i, "x"), f"({x:g}, {y:g}) is off the {rows}x{cols} grid of {size:g} m cells")
+            raise FieldError(
+                ("landmarks", i, "x"), f"({x:g}, {y:g}) is off the {rows:g}x{cols:g} grid of {size:g} m cells"
+            )
         filled.append({**landmark, "cell": [row, col]})
     return {**data, "landmarks": filled}
 
@@ -846,7 +1124,3 @@ def here_classes(sensor: HereSensor, smap: SemanticMap) -> list[str]:
 def _grid_lines(text: str) -> list[str]:
     """Rows of a character grid: blank lines dropped, surrounding spaces stripped."""
     return [line.strip() for line in text.splitlines() if line.strip()]
-
-
-def _fmt(value: float) -> str:
-    return f"{value:g}" if math.isfinite(value) else "inf"
