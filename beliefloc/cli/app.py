@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import typer
 
 from beliefloc import __version__
@@ -23,6 +25,40 @@ from beliefloc.cli import (
     simulate,
     track,
 )
+
+
+def _plain_help() -> None:
+    """Two changes to how typer lays out help, for text that can be copied from the terminal:
+
+    - lines never break inside a word at a hyphen (``--max-`` / ``actions``);
+    - an argument's metavar (``MAP|MODEL``, ``STEP...``) already says what it is, so typer's Python
+      type (``<path>``, ``<list[str]>``) is not added after it.
+
+    Both reach into typer's formatting: when a typer release moves them, help keeps typer's layout,
+    and ``tests/test_help.py``, which checks the result on every command, fails."""
+    import textwrap
+
+    try:
+        from typer._click import _textwrap
+        from typer.core import TyperArgument
+
+        shown_type = TyperArgument.display_type_rich
+    except (ImportError, AttributeError):  # pragma: no cover - another typer
+        return
+
+    class _Wrapper(_textwrap.TextWrapper):
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            kwargs.setdefault("break_on_hyphens", False)
+            textwrap.TextWrapper.__init__(self, *args, **kwargs)
+
+    def display_type(self: Any, ctx: Any) -> str | None:
+        return None if self.metavar is not None else shown_type(self, ctx)
+
+    _textwrap.TextWrapper = _Wrapper  # type: ignore[misc]
+    TyperArgument.display_type_rich = display_type  # type: ignore[method-assign]
+
+
+_plain_help()
 
 app = typer.Typer(
     name="beliefloc",

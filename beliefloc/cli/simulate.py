@@ -141,11 +141,14 @@ def simulate(
     Exit code 1 when an episode (of any strategy) does not end localized, or when the start belief
     lies on look-alike states that no strategy can tell apart (said before any episode runs).
 
-    Example: beliefloc simulate maps/kitchen.yaml --show
-    Example: beliefloc simulate maps/kitchen.yaml -n 50 -s bestfirst -s uniform -s random
-    Example: beliefloc simulate maps/corridors.yaml -n 20 -s ec2-macros -s ec2 --max-actions 500
-    Example: beliefloc simulate maps/apartment.yaml -n 20 --belief prior:domains/apartment.yaml --start prior
-    Example: beliefloc simulate maps/kitchen.yaml -n 3 --record episode.gif --record-episode 2
+    Examples:
+
+    \b
+      beliefloc simulate maps/kitchen.yaml --show
+      beliefloc simulate maps/kitchen.yaml -n 50 -s bestfirst -s uniform -s random
+      beliefloc simulate maps/corridors.yaml -n 20 -s ec2-macros -s ec2 --max-actions 500   # exits 1
+      beliefloc simulate maps/apartment.yaml -n 20 --belief prior:domains/apartment.yaml --start prior
+      beliefloc simulate maps/kitchen.yaml -n 3 --record episode.gif --record-episode 2
     """
     from beliefloc.render.belief_grid import belief_view
     from beliefloc.render.drawing import uses_color
