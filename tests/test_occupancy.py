@@ -404,7 +404,7 @@ BAD_FIELDS = [
     ({"origin": "0 0 0"}, _at("origin") + r"should be three numbers .*got '0 0 0'"),
     ({"origin": "[.inf, 0, 0]"}, _at("origin", "origin[0]") + "should be a finite number"),
     ({"origin": "[0, .nan, 0]"}, _at("origin", "origin[1]") + "should be a finite number"),
-    ({"origin": "[0, north, 0]"}, _at("origin", "origin[1]") + "should be a valid number"),
+    ({"origin": "[0, north, 0]"}, _at("origin", "origin[1]") + "should be a number, got 'north'"),
     ({"origin": "[0, 0, -.inf]"}, _at("origin", "origin[2]") + "the yaw should be a finite number of radians"),
     ({"negate": "2"}, _at("negate") + r"should be 0 or 1 \(or false / true\), got 2"),
     ({"occupied_thresh": "1.5"}, _at("occupied_thresh") + "should be less than or equal to 1, got 1.5"),

@@ -58,7 +58,7 @@ def test_messages_name_the_file_and_line() -> None:
 def test_read_step_file_guards_the_file(tmp_path: Path) -> None:
     with pytest.raises(InputFileError, match=r"missing.log: no such file"):
         read_step_file(tmp_path / "missing.log")
-    with pytest.raises(InputFileError, match=r": is a directory, not a file"):
+    with pytest.raises(InputFileError, match=r": is a folder, not a file"):
         read_step_file(tmp_path)
     (tmp_path / "bad.log").write_bytes(b"look=nothing\n\xff\n")
     with pytest.raises(InputFileError, match=r"bad.log:2: not UTF-8 text"):
