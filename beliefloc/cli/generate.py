@@ -86,7 +86,10 @@ def gridworld(
     turn, as in the authors' code). The same seed writes the same file, byte for byte; an existing
     file is replaced.
 
-    Example: beliefloc generate gridworld --states 1000 --seed 1 --seen-model states -o world.yaml
+    Example:
+
+    \b
+      beliefloc generate gridworld --states 1000 --seed 1 --seen-model states -o world.yaml
     """
     if output.suffix.lower() not in MAP_SUFFIXES:
         raise UsageError(f"{output}: a map file must end in .yaml or .yml")

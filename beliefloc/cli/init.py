@@ -34,7 +34,13 @@ def init_command(
     ],
     output: Annotated[
         Path | None,
-        typer.Option("-o", "--output", help="Write to this .yaml file instead of NAME.yaml here.", show_default=False),
+        typer.Option(
+            "-o",
+            "--output",
+            metavar="FILE.yaml",
+            help="Write to this .yaml file instead of NAME.yaml here.",
+            show_default=False,
+        ),
     ] = None,
     schema: Annotated[
         str | None,
@@ -59,9 +65,11 @@ def init_command(
     (so inside the beliefloc repository, the shipped schema); elsewhere at KIND.schema.json beside
     the file, which 'beliefloc schema KIND -o FILE' writes (init says so).
 
-    Example: beliefloc init map lab
+    Examples:
 
-    Example: beliefloc init domain office -o office-domain.yaml
+    \b
+      beliefloc init map lab
+      beliefloc init domain office -o office-domain.yaml
     """
     if kind not in KINDS:
         raise UsageError(f"unknown kind {kind!r}: 'beliefloc init map NAME' or 'beliefloc init domain NAME'")

@@ -22,6 +22,7 @@ from beliefloc.cli.options import (
     PlanTimeLimitOption,
     ThresholdOption,
     resolve_heuristic,
+    whole,
 )
 from beliefloc.errors import EXIT_NEGATIVE, BeliefLocError, ReplyError, UsageError
 from beliefloc.planning.settings import (
@@ -64,7 +65,7 @@ def localize(
     max_expansions: MaxExpansionsOption = DEFAULT_MAX_EXPANSIONS,
     time_limit: PlanTimeLimitOption = DEFAULT_TIME_LIMIT,
     max_steps: Annotated[
-        int, typer.Option("--max-steps", min=1, help="Stop after this many actions.")
+        int, typer.Option("--max-steps", parser=whole(low=1), metavar="N", help="Stop after this many actions.")
     ] = DEFAULT_MAX_STEPS,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
     belief_out: Annotated[
@@ -91,11 +92,12 @@ def localize(
     Exit code 0 localized; 1 not localized (no plan, gave up, step limit, an impossible observation);
     2 a bad map or option, or a reply that is not valid (the message names the line).
 
-    Example: beliefloc localize maps/kitchen.yaml   (started by the robot's program, stdin and stdout piped)
+    Examples:
 
-    Example: beliefloc localize maps/hallway.yaml --threshold 0.9 --max-steps 50 --quiet
-
-    Example: beliefloc localize maps/depot.yaml --belief-out belief.json
+    \b
+      printf '%s\n' '{"seq": 1, "readings": {"look": []}}' '{"seq": 2, "readings": {}}' > replies.jsonl
+      beliefloc localize maps/window-2x2-perfect.yaml < replies.jsonl   # a robot that saw no window, then moved
+      beliefloc localize maps/window-2x2-perfect.yaml --quiet --belief-out belief.json < replies.jsonl
     """
     from beliefloc.line_protocol import LineRobot, error_message
     from beliefloc.localize import localize as run

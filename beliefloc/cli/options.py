@@ -89,6 +89,7 @@ MacrosOption = Annotated[
     Path | None,
     typer.Option(
         "--macros",
+        metavar="FILE.npz",
         help="A macro table from 'beliefloc macros build' (ec2-macros: default built for the model in memory).",
         show_default=False,
     ),

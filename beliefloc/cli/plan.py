@@ -78,9 +78,12 @@ def plan_command(
     the perceptions starred and numbered by step, and the step table (action, expected observation,
     max belief, cost) under the map.
 
-    Example: beliefloc plan maps/kitchen.yaml --threshold 0.95
-    Example: beliefloc plan maps/apartment.yaml --belief prior:domains/apartment.yaml
-    Example: beliefloc plan maps/kitchen.yaml -o kitchen-plan.svg
+    Examples:
+
+    \b
+      beliefloc plan maps/kitchen.yaml --threshold 0.95
+      beliefloc plan maps/apartment.yaml --belief prior:domains/apartment.yaml
+      beliefloc plan maps/kitchen.yaml -o kitchen-plan.svg
     """
     from beliefloc.planning.best_first import PlanStatus, plan
     from beliefloc.render.plan import effort_line, plan_table

@@ -34,7 +34,8 @@ def pose_command(
         ),
     ] = PoseFormat.JSON,
     frame_id: Annotated[
-        str, typer.Option("--frame-id", help="The header's frame_id in --format ros (the map's frame).")
+        str,
+        typer.Option("--frame-id", metavar="FRAME", help="The header's frame_id in --format ros (the map's frame)."),
     ] = "map",
 ) -> None:
     """The belief as a pose in the map frame: the most likely state's cell centre and heading yaw,
@@ -44,13 +45,17 @@ def pose_command(
     a cell and within a heading sector, so it is never singular. A model without a grid (an
     imported .pomdp) has no poses: exit 2.
 
-    Example: beliefloc track maps/kitchen.yaml --json look=nothing > belief.json
+    Examples:
 
-    Example: beliefloc pose maps/kitchen.yaml --belief belief.json
+    \b
+      beliefloc track maps/kitchen.yaml --json look=nothing > belief.json
+      beliefloc pose maps/kitchen.yaml --belief belief.json
+      beliefloc pose maps/kitchen.yaml --belief belief.json --format ros > initialpose.yaml
 
-    Example: beliefloc pose maps/kitchen.yaml --belief belief.json --format ros > initialpose.yaml
+    Then, on a ROS 2 machine, set the robot's initial pose (Nav2's AMCL listens on /initialpose):
 
-    Example: ros2 topic pub --once /initialpose geometry_msgs/msg/PoseWithCovarianceStamped "$(cat initialpose.yaml)"
+    \b
+      ros2 topic pub --once /initialpose geometry_msgs/msg/PoseWithCovarianceStamped "$(cat initialpose.yaml)"
     """
     import yaml
 

@@ -56,7 +56,11 @@ def schema_command(
     output: Annotated[
         Path | None,
         typer.Option(
-            "-o", "--output", help="Write the schema to this .json file instead of stdout.", show_default=False
+            "-o",
+            "--output",
+            metavar="FILE.json",
+            help="Write the schema to this .json file instead of stdout.",
+            show_default=False,
         ),
     ] = None,
 ) -> None:
@@ -68,9 +72,11 @@ def schema_command(
     the YAML file). The shipped schemas/map.schema.json and schemas/domain.schema.json are this
     output. Layout characters and cross references are left to 'beliefloc validate'.
 
-    Example: beliefloc schema map -o map.schema.json
+    Examples:
 
-    Example: beliefloc schema domain
+    \b
+      beliefloc schema map -o map.schema.json
+      beliefloc schema domain
     """
     if kind not in KINDS:
         raise UsageError(f"unknown kind {kind!r}: 'beliefloc schema map' or 'beliefloc schema domain'")

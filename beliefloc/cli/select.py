@@ -7,7 +7,7 @@ from typing import Annotated, Any
 import typer
 
 from beliefloc.cli.common import boundary, initial_belief, open_model, print_json
-from beliefloc.cli.options import BeliefOption, GammaOption, JsonOption, MacrosOption, ModelArgument
+from beliefloc.cli.options import BeliefOption, GammaOption, JsonOption, MacrosOption, ModelArgument, whole
 from beliefloc.errors import EXIT_NEGATIVE
 from beliefloc.planning.settings import DEFAULT_MAX_HYPOTHESES, SelectionRule
 from beliefloc.render import stderr_console, stdout_console
@@ -26,7 +26,13 @@ def select_command(
     macros: MacrosOption = None,
     gamma: GammaOption = None,
     max_hypotheses: Annotated[
-        int, typer.Option("--max-hypotheses", min=2, help="Keep at most this many most likely states (Sec. VII-B).")
+        int,
+        typer.Option(
+            "--max-hypotheses",
+            parser=whole(low=2),
+            metavar="N",
+            help="Keep at most this many most likely states (Sec. VII-B).",
+        ),
     ] = DEFAULT_MAX_HYPOTHESES,
     explain: Annotated[bool, typer.Option("--explain", help="Show the edges (pairs) behind each weight.")] = False,
     json_output: JsonOption = False,
@@ -37,7 +43,11 @@ def select_command(
     Bel(s_i) Bel(s_j) min(p(f*(s_i,a)|s_i,a), p(f*(s_j,a)|s_j,a)) / C(s_i,s_j,a).
     Exit code 1 when no candidate has a positive weight (Algorithm 1 would then move at random).
 
-    Example: beliefloc select maps/khalvati-example1.yaml --belief s1-s4.json --explain
+    Example:
+
+    \b
+      printf '{"1,1": 0.2, "3,1": 0.2, "2,3": 0.1, "3,4": 0.5}' > s1-s4.json
+      beliefloc select maps/khalvati-example1.yaml --belief s1-s4.json --explain
     """
     from beliefloc.planning.ec2 import edges, pair_context, select
     from beliefloc.planning.macros import macro_candidates

@@ -59,9 +59,12 @@ def show(
     rooms, landmarks, a triangle per state shaded darker for more probability, the most likely
     state's arrow) instead of the terminal grid, and one line says so; --json still prints its JSON.
 
-    Example: beliefloc show maps/window-2x2.yaml --compact
-    Example: beliefloc show maps/apartment.yaml --belief prior:domains/apartment.yaml
-    Example: beliefloc show maps/kitchen.yaml -o kitchen.png
+    Examples:
+
+    \b
+      beliefloc show maps/window-2x2.yaml --compact
+      beliefloc show maps/apartment.yaml --belief prior:domains/apartment.yaml
+      beliefloc show maps/kitchen.yaml -o kitchen.png
     """
     from beliefloc.belief import by_state_name, entropy, most_likely
     from beliefloc.pose import pose_json

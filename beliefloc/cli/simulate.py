@@ -84,6 +84,7 @@ def simulate(
         typer.Option(
             "--strategy",
             "-s",
+            metavar="NAME",
             help=f"Repeat to compare: {', '.join(s.value for s in StrategyName)}.",
             show_default=StrategyName.BESTFIRST.value,
         ),
@@ -108,7 +109,12 @@ def simulate(
     gamma: GammaOption = None,
     world: Annotated[
         Path | None,
-        typer.Option("--world", help="Simulate the robot in this model instead (same states).", show_default=False),
+        typer.Option(
+            "--world",
+            metavar="MAP|MODEL",
+            help="Simulate the robot in this model instead (same states).",
+            show_default=False,
+        ),
     ] = None,
     show: Annotated[bool, typer.Option("--show", help="Print the belief grid after every step.")] = False,
     record: Annotated[

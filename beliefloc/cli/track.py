@@ -56,11 +56,13 @@ def track(
     Prints the belief after every step, with p(o | a, b), the probability of what was observed;
     --json also gives the final belief's most likely state as a map-frame pose with a covariance.
 
-    Example: beliefloc track maps/window-2x2.yaml look=window_seen right
+    Examples:
 
-    Example: beliefloc track maps/kitchen.yaml --steps run.log   (a step per line, # comments)
-
-    Example: cat run.log | beliefloc track maps/kitchen.yaml --steps - --json
+    \b
+      beliefloc track maps/window-2x2.yaml look=window_seen right
+      printf 'look=nothing   # a step per line, # comments\nforward\n' > run.log
+      beliefloc track maps/kitchen.yaml --steps run.log
+      cat run.log | beliefloc track maps/kitchen.yaml --steps - --json
     """
     from beliefloc.belief import by_state_name
     from beliefloc.pose import pose_json

@@ -1,0 +1,98 @@
+"""Every command's help: laid out to be read and copied, and every example in it runs as written."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+import typer.main
+
+from beliefloc.cli.app import app
+
+from .conftest import ROOT
+
+_PLACEHOLDER = re.compile(r"<(?:str|int|float|bool|path|list\[[^\]]*\]|[a-z]+ range)>")
+"""A Python type where a metavar belongs (choices, ``<json|ros>``, are fine)."""
+_EXITS = re.compile(r"#\s*exits (\d)")
+
+
+def _commands() -> list[tuple[list[str], Any]]:
+    """Every command, groups and leaves, in the order ``beliefloc --help`` lists them (typer's own
+    click: a group is what has subcommands)."""
+    found: list[tuple[list[str], Any]] = []
+
+    def walk(path: list[str], command: Any) -> None:
+        found.append((path, command))
+        for name, sub in getattr(command, "commands", {}).items():
+            walk([*path, name], sub)
+
+    walk([], typer.main.get_command(app))
+    return found
+
+
+COMMANDS = _commands()
+LEAVES = [(path, c) for path, c in COMMANDS if not hasattr(c, "commands")]
+
+
+def _help(runner, path: list[str]) -> str:
+    result = runner.invoke(app, [*path, "--help"], env={"COLUMNS": "80"})
+    assert result.exit_code == 0, result.output
+    return result.stdout
+
+
+def examples_of(text: str) -> list[str]:
+    """The lines of the block that follows ``Example:`` or ``Examples:`` in a help text."""
+    lines = text.splitlines()
+    for index, line in enumerate(lines):
+        if line.strip() in ("Example:", "Examples:"):
+            block = []
+            for following in lines[index + 1 :]:
+                if block and not following.strip():
+                    break
+                if following.strip():
+                    block.append(following.strip())
+            return block
+    return []
+
+
+@pytest.mark.parametrize("path", [p for p, _ in COMMANDS], ids=lambda p: " ".join(p) or "beliefloc")
+def test_help_reads_well(runner, path):
+    text = _help(runner, path)
+    listing = text.split("Commands:", 1)[1] if "Commands:" in text else ""
+    assert "..." not in listing, f"a summary is cut short:\n{listing}"
+    options = text.split("Arguments:", 1)[-1] if "Arguments:" in text else text.split("Options:", 1)[-1]
+    assert not _PLACEHOLDER.findall(options), f"a Python type shows as a placeholder:\n{options}"
+    broken = [line for line in text.splitlines() if re.search(r"\w-$", line)]
+    assert not broken, f"lines broken at a hyphen: {broken}"
+
+
+@pytest.mark.parametrize("path", [p for p, _ in LEAVES], ids=lambda p: " ".join(p))
+def test_every_command_shows_an_example(runner, path):
+    assert examples_of(_help(runner, path)), f"beliefloc {' '.join(path)} --help has no example"
+
+
+def test_every_help_example_runs_as_written(runner, tmp_path: Path):
+    """In one folder holding the bundled maps, domains and knowledge bases, in the order the help
+    lists the commands (an example may use a file an earlier one wrote): each exits 0, or the code
+    its ``# exits N`` comment says."""
+    for folder in ("maps", "domains", "kb", "schemas"):
+        shutil.copytree(ROOT / folder, tmp_path / folder)
+    env = {**os.environ, "PATH": f"{Path(sys.executable).parent}{os.pathsep}{os.environ.get('PATH', '')}"}
+    env.pop("COLUMNS", None)
+    ran = 0
+    for path, _ in LEAVES:
+        for line in examples_of(_help(runner, path)):
+            expected = int(match.group(1)) if (match := _EXITS.search(line)) else 0
+            result = subprocess.run(
+                ["bash", "-c", line], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300
+            )
+            assert result.returncode == expected, f"{line}\nexit {result.returncode}\n{result.stderr[-2000:]}"
+            assert "Traceback" not in result.stderr, line
+            ran += 1
+    assert ran >= len(LEAVES)
