@@ -2,12 +2,16 @@
 
 Missing states get 0. ``"row,col"`` on a map with headings names the whole cell, its probability
 split evenly over the headings. A file whose probabilities do not sum to 1 is normalised and a
-warning is returned. The output of ``beliefloc track --json`` (``{"belief": {...}, ...}``) is
-accepted too, so a tracked belief can be fed to the next command.
+warning is returned; every probability must be a finite number >= 0, and their sum finite (1e308
+twice is not) and positive, else the error names the line. The output of ``beliefloc track
+--json`` (``{"belief": {...}, ...}``) is accepted too, so a tracked belief can be fed to the next
+command.
 """
 
 from __future__ import annotations
 
+import math
+import sys
 from pathlib import Path
 from typing import Annotated
 
@@ -39,15 +43,24 @@ def load_belief(model: Model, path: str | Path) -> tuple[np.ndarray, list[str]]:
         raise BeliefFileError(f"{source.path}:1:1: a belief file maps states to probabilities, e.g. {{'0,0,1': 0.5}}")
     mapping = validate_source(inner, _BeliefMapping, BeliefFileError).root
     belief = np.zeros(model.n_states)
+    running = 0.0
     for name, probability in mapping.items():
         try:
             states = model.states.indices(str(name))
         except InvalidValueError as exc:
             raise inner.error((str(name),), str(exc), BeliefFileError, key=True) from None
+        running += probability
+        if not math.isfinite(running):
+            raise inner.error(
+                (str(name),),
+                f"the probabilities add up to more than {sys.float_info.max:.4g}, the largest number there is; "
+                "give probabilities (at most 1 each), or smaller weights",
+                BeliefFileError,
+            )
         belief[states] += probability / len(states)
     total = float(belief.sum())
-    if total <= 0.0:
-        raise BeliefFileError(f"{source.path}: every probability is 0; a belief needs some mass")
+    if not total > 0.0 or not math.isfinite(total):
+        raise inner.error((), "every probability is 0; a belief needs some mass", BeliefFileError)
     warnings = []
     if abs(total - 1.0) > _SUM_TOLERANCE:
         warnings.append(f"{source.path}: probabilities sum to {total:.6g}, not 1; normalised")

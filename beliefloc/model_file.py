@@ -1,26 +1,55 @@
 """Saving and loading compiled models: a versioned ``.npz`` file that records the hash of its map.
 
-A model file holds a JSON header (format, version, names, costs, the grid, the source map's path
-and sha256) and the arrays (CSR transitions, observation truths and confusion tables). Loading
-refuses a file of another format or version, and a model whose source map has changed since it
-was built (stale). Writes go to a temporary file renamed into place, so a failed write never
-leaves a half-written model.
+A model file holds a JSON header (format, version, names, costs, the grid, the source map's
+absolute path and sha256) and the arrays (CSR transitions, observation truths and confusion
+tables). Model files are shared like maps, so reading one trusts nothing in it:
+
+* the archive is read member by member, never with pickles, each member's size taken from the
+  zip directory and its ``.npy`` header and checked against :data:`~beliefloc.limits.MODEL_FILE_BYTES`
+  before a byte is decompressed;
+* the header is validated field by field (:class:`_ModelHeader`), and its sizes against
+  :data:`~beliefloc.limits.MODEL_ENTRIES`, before any array is read;
+* every array must be the one the header announces -- its key, type and shape -- and hold what a
+  model can use: CSR index arrays inside the states (scipy would write out of bounds otherwise),
+  ``indptr`` rising from 0 to the number of entries, finite probabilities in [0, 1], transition rows
+  and confusion rows summing to 1, true values inside their confusion table.
+
+Any problem is a :class:`~beliefloc.errors.ModelError` naming the file and the field. A file of
+another format is named (``x.npz is a macro table, not a compiled model``), one of another version
+refused with how to rebuild it, and a model whose source map has changed since it was built
+(stale) refused; when the map is gone, a warning says it cannot be checked.
+
+Writes go to a temporary file beside the output, renamed into place (:func:`write_atomically`), so a
+failed or interrupted write never leaves a half-written file -- nor, on SIGTERM, the temporary.
 """
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
+import math
 import os
+import re
+import signal
+import stat
+import struct
 import tempfile
+import threading
+import time
 import zipfile
+import zlib
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
-from typing import Any
+from types import FrameType
+from typing import Any, Literal, TypeVar
 
 import numpy as np
 import scipy.sparse as sp
+from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt, StrictStr, ValidationError
 
-from beliefloc.errors import ModelError
+from beliefloc import limits
+from beliefloc.errors import BeliefLocError, ModelError
 from beliefloc.model import (
     Action,
     ActionKind,
@@ -36,21 +65,128 @@ from beliefloc.model import (
 FORMAT = "beliefloc-model"
 VERSION = 1
 SUFFIX = ".npz"
+FILE_LABEL = "beliefloc model file"
+"""What a file that is not even an archive is said not to be."""
+TOLERANCE = 1e-6
+"""How far from 1 a row of a transition or confusion table may sum."""
+STALE_TEMPORARY_SECONDS = 3600
+"""A temporary of an output older than this is left over from a killed write: the next write of the
+same output removes it."""
+
+Warn = Callable[[str], None]
+
+# --- writing ---------------------------------------------------------------------------------------
+
+_TEMPORARY_MIDDLE = re.compile(r"[a-z0-9_]{8}\Z")
+"""What :func:`tempfile.mkstemp` puts between our prefix and suffix."""
+_SIGNALS = tuple(getattr(signal, name) for name in ("SIGTERM", "SIGHUP") if hasattr(signal, name))
+"""Signals that end the process during a write; the temporary is removed before it ends."""
 
 
 def write_atomically(path: Path, write: Any, *, binary: bool = True) -> None:
-    """Call ``write(file)`` on a temporary file beside ``path`` and rename it into place."""
+    """Call ``write(file)`` on a temporary file beside ``path`` and rename it into place.
+
+    On failure, Ctrl-C or SIGTERM the temporary file is removed (then the signal ends the process as
+    it would have); temporaries of ``path`` left over from a killed process, older than
+    :data:`STALE_TEMPORARY_SECONDS`, are removed first."""
     path = Path(path)
     directory = path.parent if str(path.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+    sweep_stale_temporaries(path)
+    with _removed_on_signal() as temporaries:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+        temporary = Path(tmp)
+        temporaries.append(temporary)
+        try:
+            with os.fdopen(fd, "wb" if binary else "w") as handle:
+                os.fchmod(handle.fileno(), _file_mode())  # as open() would create it, not mkstemp's 0600
+                write(handle)
+            os.replace(temporary, path)
+        except BaseException:
+            temporary.unlink(missing_ok=True)
+            raise
+
+
+def sweep_stale_temporaries(path: Path, older_than: float = STALE_TEMPORARY_SECONDS) -> list[Path]:
+    """Remove the temporaries ``.NAME.XXXXXXXX.tmp`` of output ``path`` older than ``older_than``
+    seconds (a write killed with SIGKILL leaves one); the paths removed. Never raises."""
+    path = Path(path)
+    directory = path.parent if str(path.parent) else Path(".")
+    prefix = f".{path.name}."
+    removed: list[Path] = []
+    now = time.time()
     try:
-        os.fchmod(fd, _file_mode())  # as open() would create it, not mkstemp's private 0600
-        with os.fdopen(fd, "wb" if binary else "w") as handle:
-            write(handle)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        entries = list(os.scandir(directory))
+    except OSError:
+        return removed
+    for entry in entries:
+        name = entry.name
+        if not (name.startswith(prefix) and name.endswith(".tmp")):
+            continue
+        if not _TEMPORARY_MIDDLE.match(name[len(prefix) : -len(".tmp")]):
+            continue
+        try:
+            info = entry.stat(follow_symlinks=False)
+            if stat.S_ISREG(info.st_mode) and now - info.st_mtime > older_than:
+                os.unlink(entry.path)
+                removed.append(Path(entry.path))
+        except OSError:
+            continue
+    return removed
+
+
+class _Terminated(BaseException):
+    """Raised by the signal handler inside a write, so the write's cleanup runs."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+
+@contextlib.contextmanager
+def _removed_on_signal() -> Iterator[list[Path]]:
+    """While a write runs, SIGTERM (and SIGHUP) remove the temporaries put in the list yielded, then
+    end the process as they would have: by the signal, or by the handler the process had set (if
+    that handler returns, the write fails with :class:`InterruptedError`). A signal the process
+    ignores is left ignored; only the main thread can install handlers, elsewhere none is."""
+    temporaries: list[Path] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield temporaries
+        return
+    previous: dict[int, Any] = {}
+
+    def handler(signum: int, frame: FrameType | None) -> None:
+        raise _Terminated(signum)
+
+    for signum in _SIGNALS:
+        try:
+            old = signal.getsignal(signum)
+            if old is signal.SIG_IGN:
+                continue
+            signal.signal(signum, handler)
+            previous[signum] = old
+        except (OSError, ValueError):
+            continue
+    try:
+        yield temporaries
+    except _Terminated as stop:
+        for temporary in temporaries:
+            temporary.unlink(missing_ok=True)
+        _restore(previous)
+        old = previous.get(stop.signum)
+        previous = {}
+        if callable(old):
+            old(stop.signum, None)
+            raise InterruptedError(f"the write was interrupted by signal {stop.signum}") from None
+        os.kill(os.getpid(), stop.signum)  # the default action: the process ends by the signal
+        raise SystemExit(128 + stop.signum) from None  # pragma: no cover - only if the signal is blocked
+    finally:
+        _restore(previous)
+
+
+def _restore(previous: dict[int, Any]) -> None:
+    for signum, old in previous.items():
+        with contextlib.suppress(OSError, ValueError, TypeError):
+            signal.signal(signum, old if old is not None else signal.SIG_DFL)
 
 
 def _file_mode() -> int:
@@ -62,7 +198,8 @@ def _file_mode() -> int:
 
 def write_versioned(path: str | Path, header: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
     """Write a JSON ``header`` (with its ``format`` and ``version``) and ``arrays`` as one ``.npz``."""
-    contents = {**arrays, "header": np.frombuffer(json.dumps(header).encode(), dtype=np.uint8)}
+    text = json.dumps(header, allow_nan=False).encode()
+    contents = {**arrays, "header": np.frombuffer(text, dtype=np.uint8)}
 
     def write(handle: Any) -> None:
         np.savez_compressed(handle, allow_pickle=False, **contents)
@@ -70,36 +207,387 @@ def write_versioned(path: str | Path, header: dict[str, Any], arrays: dict[str, 
     write_atomically(Path(path), write)
 
 
-def read_versioned(
-    path: str | Path, file_format: str, version: int, *, kind: str, rebuild: str
-) -> tuple[dict[str, Any], dict[str, np.ndarray]]:
-    """The header and arrays of a file written by :func:`write_versioned`; a :class:`ModelError`
-    if it is missing, not such a file (``kind``), or of another version (``rebuild`` says how to
-    make a new one)."""
+# --- reading an archive ----------------------------------------------------------------------------
+
+_HEADER_KEY = "header"
+_LISTED = 8
+"""How many array names a message lists."""
+
+_DECODE_ERRORS: tuple[type[BaseException], ...] = (
+    OSError,
+    ValueError,
+    EOFError,
+    zipfile.BadZipFile,
+    zlib.error,
+    NotImplementedError,
+    RuntimeError,  # an encrypted member
+    struct.error,
+    OverflowError,
+    KeyError,
+)
+try:  # pragma: no cover - lzma is optional in a Python build
+    import lzma
+
+    _DECODE_ERRORS = (*_DECODE_ERRORS, lzma.LZMAError)
+except ImportError:  # pragma: no cover
+    pass
+
+
+class _Prelude(BaseModel):
+    """What is read of a header before knowing what it is: its format and version."""
+
+    model_config = ConfigDict(extra="ignore")
+    format: Any = None
+    version: Any = None
+
+
+class Archive:
+    """A beliefloc ``.npz`` file opened for reading: the zip directory checked, the JSON header read
+    and of the expected format and version; arrays are read on demand, each checked as it is read.
+    Made by :func:`open_versioned`."""
+
+    def __init__(
+        self, path: Path, archive: zipfile.ZipFile, members: dict[str, zipfile.ZipInfo], rebuild: str, label: str
+    ) -> None:
+        self.path = path
+        self.label = label
+        self._zip = archive
+        self.members = members
+        """The ``.npy`` members by key (``header`` excluded once read)."""
+        self.rebuild = rebuild
+        self.header_bytes = b""
+
+    def broken(self, what: str) -> ModelError:
+        """The error for a file whose content is not what a beliefloc file holds."""
+        return ModelError(f"{self.path}: broken {self.label}: {what}; rebuild it with '{self.rebuild}'")
+
+    def validate(self, schema: type[_H]) -> _H:
+        """The header validated with the pydantic model ``schema``; an error names the field."""
+        try:
+            return schema.model_validate_json(self.header_bytes)
+        except ValidationError as exc:
+            error = exc.errors()[0]
+            field = _field_name(error["loc"])
+            where = f"header field {field}" if field else "the header"
+            raise self.broken(f"{where}: {error['msg']}") from None
+
+    def expect(self, keys: Sequence[str]) -> None:
+        """Refuse an archive that does not hold exactly the arrays ``keys``."""
+        wanted = set(keys)
+        missing = [key for key in keys if key not in self.members]
+        if missing:
+            raise self.broken(f"missing arrays: {_listing(missing)}")
+        extra = sorted(set(self.members) - wanted)
+        if extra:
+            raise self.broken(f"unexpected arrays: {_listing(extra)}")
+
+    def array(self, key: str, kinds: str, shape: Sequence[int | None]) -> np.ndarray:
+        """Member ``key``, checked against its ``.npy`` header before it is read: a dtype of one of
+        ``kinds`` (numpy kind letters: ``b`` bool, ``i``/``u`` integers, ``f`` floats) and ``shape``
+        (None: any length). Booleans come back as 0/1 booleans, other types in native byte order."""
+        info = self.members[key]
+        try:
+            with self._zip.open(info) as stream:
+                version = np.lib.format.read_magic(stream)
+                if version == (1, 0):
+                    found, fortran, dtype = np.lib.format.read_array_header_1_0(stream)
+                elif version == (2, 0):
+                    found, fortran, dtype = np.lib.format.read_array_header_2_0(stream)
+                else:
+                    raise self.broken(f"array {key}: .npy format version {version[0]}.{version[1]} is not supported")
+                self._check_type(key, dtype, kinds, found, shape)
+                nbytes = math.prod(found) * dtype.itemsize
+                offset = stream.tell()
+                if info.file_size != offset + nbytes:
+                    raise self.broken(
+                        f"array {key}: its header announces {nbytes:,} bytes of data but the archive member "
+                        f"holds {info.file_size - offset:,}"
+                    )
+                buffer = bytearray(nbytes)
+                view = memoryview(buffer)
+                done = 0
+                while done < nbytes:
+                    count = stream.readinto(view[done:])  # type: ignore[attr-defined]
+                    if not count:
+                        raise self.broken(f"array {key}: the data ends after {done:,} of {nbytes:,} bytes")
+                    done += count
+        except BeliefLocError:
+            raise
+        except _DECODE_ERRORS as exc:
+            raise self.broken(f"array {key} cannot be read ({_reason(exc)})") from None
+        array = np.frombuffer(buffer, dtype=dtype)
+        if dtype.kind == "b":
+            array = array.view(np.uint8) != 0  # a bool byte other than 0 or 1 is not a bool
+        elif not dtype.isnative:
+            array = array.astype(dtype.newbyteorder("="))
+        return array.reshape(found, order="F" if fortran else "C")
+
+    def _check_type(
+        self, key: str, dtype: np.dtype[Any], kinds: str, found: tuple[int, ...], shape: Sequence[int | None]
+    ) -> None:
+        if dtype.hasobject or dtype.fields is not None or dtype.subdtype is not None:
+            raise self.broken(f"array {key} holds Python objects or records ({dtype}); beliefloc files hold numbers")
+        if dtype.kind not in kinds or dtype.itemsize > 8:
+            expected = " or ".join(_KIND_NAMES[k] for k in kinds)
+            raise self.broken(f"array {key} holds {dtype}, not {expected}")
+        if len(found) != len(shape) or any(want not in (None, got) for want, got in zip(shape, found, strict=True)):
+            sizes = ", ".join("n" if s is None else str(s) for s in shape)
+            wanted = f"({sizes},)" if len(shape) == 1 else f"({sizes})"
+            raise self.broken(f"array {key} has shape {found}, expected {wanted}")
+
+    def read_header(self) -> None:
+        header = self.array(_HEADER_KEY, "u", (None,))
+        if header.dtype != np.uint8:
+            raise self.broken(f"array {_HEADER_KEY} holds {header.dtype}, not bytes (uint8)")
+        self.header_bytes = header.tobytes()
+
+    def integers(self, key: str, shape: Sequence[int | None]) -> np.ndarray:
+        """Integer member ``key``: int32 and int64 as saved (a model's fingerprint hashes its CSR
+        arrays as saved), any other integer type as int64, once its values are known to fit."""
+        array = self.array(key, "iu", shape)
+        if array.dtype in (np.int32, np.int64):
+            return array
+        if array.dtype == np.uint64 and array.size and int(array.max()) > np.iinfo(np.int64).max:
+            raise self.broken(f"array {key}: {int(array.max())} is out of range")
+        return array.astype(np.int64)
+
+
+_H = TypeVar("_H", bound=BaseModel)
+
+_KIND_NAMES = {"b": "booleans", "i": "integers", "u": "integers", "f": "floating-point numbers"}
+
+
+def _field_name(loc: Sequence[str | int]) -> str:
+    """``actions[2].cost`` for pydantic's ``('actions', 2, 'cost')``."""
+    text = ""
+    for part in loc:
+        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
+    return text
+
+
+def _listing(names: Sequence[str]) -> str:
+    shown = ", ".join(names[:_LISTED])
+    return shown + (f", ... ({len(names)} in all)" if len(names) > _LISTED else "")
+
+
+def _reason(exc: BaseException) -> str:
+    if isinstance(exc, OSError) and exc.strerror:
+        return exc.strerror.lower()
+    return str(exc) or type(exc).__name__
+
+
+@contextlib.contextmanager
+def open_versioned(
+    path: str | Path, file_format: str, version: int, *, label: str, kind: str, rebuild: str
+) -> Iterator[Archive]:
+    """The beliefloc ``.npz`` file ``path`` of ``file_format`` and ``version``, header read (see
+    :class:`Archive`). A :class:`ModelError` for a missing file, something that is not a zip
+    archive (not a ``label``), an archive of other arrays (not ``kind``, a noun phrase of
+    :mod:`beliefloc.file_kinds`), a beliefloc file of another kind (named), and another version
+    (``rebuild`` says how to make a new one); a :class:`~beliefloc.errors.LimitError` for an
+    archive larger than the limits, told from its directory before anything is decompressed."""
     path = Path(path)
     try:
-        with np.load(path, allow_pickle=False) as npz:
-            arrays = {key: npz[key] for key in npz.files}
+        info = os.stat(path)
     except FileNotFoundError:
         raise ModelError(f"{path}: no such file") from None
-    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
-        raise ModelError(f"{path}: not a {kind} ({exc})") from None
+    except (OSError, ValueError) as exc:
+        raise ModelError(f"{path}: cannot read it ({_reason(exc)})") from None
+    if stat.S_ISDIR(info.st_mode):
+        raise ModelError(f"{path}: is a folder, not a {label}")
+    if not stat.S_ISREG(info.st_mode):
+        raise ModelError(f"{path}: not a regular file, so not a {label}")
+    limits.MODEL_FILE_BYTES.check(info.st_size, str(path))
     try:
-        header = json.loads(arrays.pop("header").tobytes())
-    except (KeyError, ValueError):
-        raise ModelError(f"{path}: not a {kind} (no header)") from None
-    if not isinstance(header, dict) or header.get("format") != file_format:
-        raise ModelError(f"{path}: not a {kind}")
-    if header.get("version") != version:
+        handle = open(path, "rb")  # noqa: SIM115 - closed below, after the archive
+    except OSError as exc:
+        raise ModelError(f"{path}: cannot read it ({_reason(exc)})") from None
+    with handle:
+        _directory(path, handle, label)
+        try:
+            archive = zipfile.ZipFile(handle)
+        except _DECODE_ERRORS as exc:
+            raise ModelError(f"{path}: not a {label} ({_reason(exc)})") from None
+        with archive:
+            opened = Archive(path, archive, {}, rebuild, label)
+            opened.members = _members(opened, archive, kind)
+            opened.read_header()
+            del opened.members[_HEADER_KEY]
+            _check_prelude(opened, file_format, version, kind, rebuild)
+            yield opened
+
+
+def _directory(path: Path, handle: Any, label: str) -> None:
+    """Check the number of members the zip directory announces against the limit, before the
+    directory itself is read (a ModelError for a file that is not a zip archive)."""
+    try:
+        end = zipfile._EndRecData(handle)  # type: ignore[attr-defined]
+    except _DECODE_ERRORS as exc:
+        raise ModelError(f"{path}: not a {label} ({_reason(exc)})") from None
+    if end is None:
+        raise ModelError(f"{path}: not a {label} (not a zip archive, which a .npz file is)")
+    count = int(end[zipfile._ECD_ENTRIES_TOTAL])  # type: ignore[attr-defined]
+    limits.MODEL_FILE_ARRAYS.check(count, str(path))
+    handle.seek(0)
+
+
+def _members(archive: Archive, zipped: zipfile.ZipFile, kind: str) -> dict[str, zipfile.ZipInfo]:
+    """The ``.npy`` members by key: an archive of other files is not ``kind``; sizes checked."""
+    path = archive.path
+    infos = zipped.infolist()
+    limits.MODEL_FILE_ARRAYS.check(len(infos), str(path))
+    members: dict[str, zipfile.ZipInfo] = {}
+    others = []
+    for info in infos:
+        if info.filename.endswith(".npy"):
+            key = info.filename[: -len(".npy")]
+            if key in members:
+                raise archive.broken(f"the archive holds array {key} twice")
+            members[key] = info
+        else:
+            others.append(info.filename)
+    total = sum(info.file_size for info in infos)
+    limits.MODEL_FILE_BYTES.check(total, str(path))
+    if _HEADER_KEY not in members:
+        held = f"arrays: {_listing(sorted(members))}" if members else "no arrays"
+        if others:
+            held += f"; files: {_listing(sorted(others))}"
+        raise ModelError(f"{path} is not {_beliefloc(kind)} (it holds {held})")
+    if others:
+        raise archive.broken(f"the archive holds files that are not arrays: {_listing(sorted(others))}")
+    return members
+
+
+def _beliefloc(kind: str) -> str:
+    """``a beliefloc model`` for :data:`~beliefloc.file_kinds.MODEL` ``a compiled model``."""
+    from beliefloc.file_kinds import MACROS, MODEL
+
+    return {MODEL: "a beliefloc model", MACROS: "a beliefloc macro table"}.get(kind, kind)
+
+
+def _check_prelude(archive: Archive, file_format: str, version: int, kind: str, rebuild: str) -> None:
+    from beliefloc.file_kinds import kind_of_data, not_a
+
+    path = archive.path
+    try:
+        prelude = _Prelude.model_validate_json(archive.header_bytes)
+    except ValidationError as exc:
         raise ModelError(
-            f"{path}: {kind} version {header.get('version')}, but this beliefloc reads version {version}; "
-            f"rebuild it with '{rebuild}'"
+            f"{path} is not {_beliefloc(kind)} (its header is not a JSON object: {exc.errors()[0]['msg']})"
+        ) from None
+    if prelude.format != file_format:
+        found = kind_of_data({"format": prelude.format})
+        if found is not None and found != kind:
+            raise ModelError(not_a(path, found, kind) + _wrong_kind_hint(found))
+        raise ModelError(f"{path} is not {_beliefloc(kind)} (its header says format {prelude.format!r})")
+    if prelude.version != version:
+        raise ModelError(
+            f"{path}: {kind.removeprefix('a ')} of version {prelude.version}, but this beliefloc reads version "
+            f"{version}; rebuild it with '{rebuild}'"
         )
-    return header, arrays
+
+
+def _wrong_kind_hint(found: str) -> str:
+    """What to do when handed a file of the other kind."""
+    from beliefloc.file_kinds import MACROS, MODEL
+
+    if found == MACROS:
+        return "; give the map or the model it was built from, and the table with --macros"
+    if found == MODEL:
+        return "; a macro table is what 'beliefloc macros build MAP -o TABLE.npz' writes"
+    return ""
+
+
+def file_format(path: str | Path) -> str | None:
+    """The ``format`` an existing ``.npz`` file's header names (``beliefloc-model``,
+    ``beliefloc-macros``), or None when it is not a beliefloc archive or cannot be read. Reads
+    only the header, with the same limits as a load."""
+    path = Path(path)
+    try:
+        if not path.is_file():
+            return None
+        with open(path, "rb") as handle:
+            _directory(path, handle, FILE_LABEL)
+            with zipfile.ZipFile(handle) as zipped:
+                info = zipped.getinfo(f"{_HEADER_KEY}.npy")
+                if info.file_size > 64 * 1024**2:
+                    return None
+                archive = Archive(path, zipped, {_HEADER_KEY: info}, "", FILE_LABEL)
+                archive.read_header()
+        prelude = _Prelude.model_validate_json(archive.header_bytes)
+    except (BeliefLocError, ValidationError):
+        return None
+    except _DECODE_ERRORS:
+        return None
+    return prelude.format if isinstance(prelude.format, str) else None
+
+
+# --- the model header ------------------------------------------------------------------------------
+
+_Name = Field(min_length=1)
+_Finite = Field(allow_inf_nan=False)
+_SHA256 = Field(pattern=r"^[0-9a-f]{64}$")
+
+
+class StrictHeader(BaseModel):
+    """A JSON header's fields, validated strictly: no conversions, no NaN or infinity."""
+
+    model_config = ConfigDict(extra="ignore", strict=True, allow_inf_nan=False)
+
+
+class _PartHeader(StrictHeader):
+    name: StrictStr
+    values: list[StrictStr] = Field(min_length=1)
+    aliases: dict[StrictStr, StrictInt]
+
+
+class _ActionHeader(StrictHeader):
+    name: StrictStr = _Name
+    kind: Literal["actuation", "perception"]
+    cost: float = Field(ge=0.0, allow_inf_nan=False)
+    transition: StrictBool
+    parts: list[StrictInt]
+
+
+class _FrameHeader(StrictHeader):
+    x: float = 0.0
+    y: float = 0.0
+    yaw: float = 0.0
+
+
+class _GridHeader(StrictHeader):
+    rows: StrictInt = Field(ge=1)
+    cols: StrictInt = Field(ge=1)
+    headings: StrictInt = Field(ge=1)
+    cell_size: float = Field(gt=0.0, allow_inf_nan=False)
+    landmarks: list[tuple[StrictStr, StrictInt, StrictInt]] = []
+    frame: _FrameHeader = _FrameHeader()
+
+
+class _SourceHeader(StrictHeader):
+    path: StrictStr = _Name
+    sha256: StrictStr = _SHA256
+
+
+class _ModelHeader(StrictHeader):
+    format: Literal["beliefloc-model"]
+    version: Literal[1]
+    name: StrictStr
+    n_states: StrictInt = Field(ge=1)
+    state_names: list[StrictStr] | None
+    grid: _GridHeader | None
+    source: _SourceHeader | None
+    actions: list[_ActionHeader] = Field(min_length=1)
+    parts: list[_PartHeader]
+    fingerprint: StrictStr
+
+
+# --- saving and loading models ---------------------------------------------------------------------
 
 
 def save_model(model: Model, path: str | Path) -> None:
-    """Write ``model`` to ``path`` (conventionally ``*.npz``)."""
+    """Write ``model`` to ``path`` (conventionally ``*.npz``). The source map is recorded by its
+    absolute path, so the model can be checked against it from any folder."""
     arrays: dict[str, np.ndarray] = {}
     part_ids: dict[int, int] = {}  # passive parts are shared by actions: store each once
     parts_meta: list[dict[str, Any]] = []
@@ -131,6 +619,7 @@ def save_model(model: Model, path: str | Path) -> None:
     grid = model.grid
     if grid is not None:
         arrays["grid_free"] = grid.free
+    source = model.source
     header = {
         "format": FORMAT,
         "version": VERSION,
@@ -138,7 +627,7 @@ def save_model(model: Model, path: str | Path) -> None:
         "n_states": model.n_states,
         "state_names": None if grid is not None else model.states.names,
         "grid": None if grid is None else {**grid.describe(), "landmarks": [list(lm) for lm in grid.landmarks]},
-        "source": None if model.source is None else {"path": model.source.path, "sha256": model.source.sha256},
+        "source": None if source is None else {"path": absolute(source.path), "sha256": source.sha256},
         "actions": actions_meta,
         "parts": parts_meta,
         "fingerprint": model.fingerprint(),
@@ -146,67 +635,237 @@ def save_model(model: Model, path: str | Path) -> None:
     write_versioned(path, header, arrays)
 
 
-def load_model(path: str | Path, *, check_source: bool = True) -> Model:
-    """Read a model file. Raises :class:`ModelError` if it is not one, is of another version, or
-    (with ``check_source``) its source map has changed since it was built."""
+def absolute(path: str | Path) -> str:
+    """``path`` made absolute and canonical (symbolic links resolved), as files record their sources."""
+    return os.path.realpath(path)
+
+
+def load_model(path: str | Path, *, check_source: bool = True, on_warning: Warn | None = None) -> Model:
+    """Read a model file, checking every field and array (see the module docs). Raises
+    :class:`ModelError` if it is not one, is of another version, is broken, or (with
+    ``check_source``) its source map has changed since it was built; when that map is not there
+    any more, ``on_warning`` is told that the model cannot be checked."""
+    from beliefloc.file_kinds import MODEL
+
     path = Path(path)
-    header, arrays = read_versioned(
-        path, FORMAT, VERSION, kind="beliefloc model file", rebuild=f"beliefloc build MAP -o {path}"
-    )
-    model = _from_header(header, arrays)
+    with open_versioned(
+        path, FORMAT, VERSION, label=FILE_LABEL, kind=MODEL, rebuild=f"beliefloc build MAP -o {path}"
+    ) as archive:
+        header = archive.validate(_ModelHeader)
+        if header.source is not None:
+            archive.rebuild = f"beliefloc build {header.source.path} -o {path}"
+        model = _ModelReader(archive, header).model()
     if check_source and model.source is not None:
-        check_fresh(model.source, path)
+        check_fresh(model.source, path, on_warning=on_warning)
     return model
 
 
-def check_fresh(source: SourceInfo, model_path: Path) -> None:
-    """Raise if the map a model was built from has changed since (a stale model)."""
-    candidates = [Path(source.path), model_path.parent / Path(source.path).name]
+def check_fresh(source: SourceInfo, model_path: Path, *, on_warning: Warn | None = None) -> None:
+    """Raise if the map a model was built from has changed since (a stale model); tell
+    ``on_warning`` when that map is not there any more, so nothing can be checked.
+
+    The map is looked for where the model records it (an absolute path; an older model's relative
+    path from the working folder or the model's folder), then beside the model under its name,
+    which counts only when its content is the very same (the map moved with the model)."""
+    model_path = Path(model_path)
+    recorded = Path(source.path)
+    candidates = [recorded] if recorded.is_absolute() else [recorded, model_path.parent / recorded]
     for candidate in candidates:
-        if candidate.is_file():
-            digest = hashlib.sha256(candidate.read_bytes()).hexdigest()
-            if digest != source.sha256:
-                raise ModelError(
-                    f"{model_path}: stale model: {candidate} has changed since the model was built; "
-                    f"rebuild it with 'beliefloc build {candidate} -o {model_path}'"
-                )
-            return
-
-
-def _from_header(header: dict[str, Any], arrays: dict[str, np.ndarray]) -> Model:
-    n = int(header["n_states"])
-    parts = [
-        ObservationPart(
-            meta["name"],
-            tuple(meta["values"]),
-            arrays[f"part{j}_truth"],
-            arrays[f"part{j}_confusion"],
-            {str(k): int(v) for k, v in meta["aliases"].items()},
-        )
-        for j, meta in enumerate(header["parts"])
-    ]
-    actions = []
-    for i, meta in enumerate(header["actions"]):
-        transition = None
-        if meta["transition"]:
-            transition = sp.csr_matrix(
-                (arrays[f"action{i}_data"], arrays[f"action{i}_indices"], arrays[f"action{i}_indptr"]),
-                shape=(n, n),
+        digest = _digest(candidate)
+        if digest is None:
+            continue
+        if digest != source.sha256:
+            raise ModelError(
+                f"{model_path}: stale model: {candidate} has changed since the model was built; "
+                f"rebuild it with 'beliefloc build {candidate} -o {model_path}'"
             )
-        observation = ObservationModel(n, tuple(parts[j] for j in meta["parts"]))
-        actions.append(Action(meta["name"], ActionKind(meta["kind"]), float(meta["cost"]), transition, observation))
-    grid = None
-    if header["grid"] is not None:
-        g = header["grid"]
-        grid = GridLayout(
-            g["rows"],
-            g["cols"],
-            g["headings"],
-            g["cell_size"],
-            arrays["grid_free"].astype(bool),
-            tuple((str(c), int(r), int(k)) for c, r, k in g["landmarks"]),
-            MapFrame(**{k: float(v) for k, v in g.get("frame", {}).items()}),
+        return
+    beside = model_path.parent / recorded.name
+    note = ""
+    if all(beside != c for c in candidates):
+        digest = _digest(beside)
+        if digest == source.sha256:
+            return  # the map moved with the model
+        if digest is not None:
+            note = f" ({beside}, beside the model, has the same name but other content)"
+    if on_warning is not None:
+        on_warning(
+            f"{model_path}: cannot check whether the model is stale: the map it was built from, {recorded}, "
+            f"is not there any more (moved or deleted){note}; if that map changed, rebuild the model from it"
         )
-    states = StateSpace(n, grid=grid, names=header["state_names"])
-    source = None if header["source"] is None else SourceInfo(**header["source"])
-    return Model(header["name"], states, tuple(actions), grid, source)
+
+
+def _digest(path: Path) -> str | None:
+    """The sha256 of a regular file, read in chunks; None when there is no such file to read."""
+    try:
+        if not path.is_file():
+            return None
+        digest = hashlib.sha256()
+        with open(path, "rb") as handle:
+            for chunk in iter(lambda: handle.read(1 << 20), b""):
+                digest.update(chunk)
+    except (OSError, ValueError):
+        return None
+    return digest.hexdigest()
+
+
+class _ModelReader:
+    """The checks of a model file's header and arrays, in the order they can be made, and the model."""
+
+    def __init__(self, archive: Archive, header: _ModelHeader) -> None:
+        self.archive = archive
+        self.header = header
+        self.n = header.n_states
+        self.states: StateSpace | None = None
+        """Once the grid is read: for naming states in messages."""
+
+    def state(self, i: int) -> str:
+        """State ``i`` for a message: its name when known."""
+        return f"{i}" if self.states is None else self.states.name(i)
+
+    def broken(self, what: str) -> ModelError:
+        return self.archive.broken(what)
+
+    def model(self) -> Model:
+        h = self.header
+        self._check_header()
+        self.archive.expect(self._keys())
+        grid = self._grid()
+        states = self.states = StateSpace(self.n, grid=grid, names=h.state_names)
+        parts = [self._part(j, meta) for j, meta in enumerate(h.parts)]
+        actions = []
+        for i, meta in enumerate(h.actions):
+            transition = self._transition(i, meta.name) if meta.transition else None
+            observation = ObservationModel(self.n, tuple(parts[j] for j in meta.parts))
+            actions.append(Action(meta.name, ActionKind(meta.kind), float(meta.cost), transition, observation))
+        source = None if h.source is None else SourceInfo(h.source.path, h.source.sha256)
+        return Model(h.name, states, tuple(actions), grid, source)
+
+    # --- the header, before any array ----------------------------------------------------------
+    def _check_header(self) -> None:
+        h, n = self.header, self.n
+        if h.grid is None and h.state_names is None:
+            raise self.broken("the header has neither a grid nor state names")
+        if h.state_names is not None:
+            if len(h.state_names) != n:
+                raise self.broken(f"header field state_names: {len(h.state_names):,} names for {n:,} states")
+            if len(set(h.state_names)) != n:
+                raise self.broken("header field state_names: a name is given twice")
+        if h.grid is not None:
+            g = h.grid
+            limits.MODEL_ENTRIES.check(g.rows * g.cols * g.headings, f"{self.archive.path}: header field grid")
+            for k, (cls, r, c) in enumerate(g.landmarks):
+                if not (0 <= r < g.rows and 0 <= c < g.cols):
+                    raise self.broken(
+                        f"header field grid.landmarks[{k}]: {cls} at [{r}, {c}] is outside the {g.rows}x{g.cols} grid"
+                    )
+        names = [a.name for a in h.actions]
+        if len(set(names)) != len(names):
+            twice = next(name for name in names if names.count(name) > 1)
+            raise self.broken(f"header field actions: two actions are named {twice!r}")
+        for j, part in enumerate(h.parts):
+            if len(set(part.values)) != len(part.values):
+                raise self.broken(f"header field parts[{j}].values: a value is listed twice")
+            for alias, w in part.aliases.items():
+                if not 0 <= w < len(part.values):
+                    raise self.broken(
+                        f"header field parts[{j}].aliases.{alias}: {w} is not one of the {len(part.values)} values"
+                    )
+        observations = 0
+        for i, action in enumerate(h.actions):
+            if action.transition != (action.kind == "actuation"):
+                has = "has" if action.transition else "has no"
+                raise self.broken(f"header field actions[{i}]: a {action.kind} action that {has} transition table")
+            for k, j in enumerate(action.parts):
+                if not 0 <= j < len(h.parts):
+                    raise self.broken(f"header field actions[{i}].parts[{k}]: no part {j} (there are {len(h.parts)})")
+            if len(set(action.parts)) != len(action.parts):
+                raise self.broken(f"header field actions[{i}].parts: a part is listed twice")
+            observations += math.prod(len(h.parts[j].values) for j in action.parts)
+        limits.MODEL_ENTRIES.check(n * observations, f"{self.archive.path}: {n:,} states")
+
+    def _keys(self) -> list[str]:
+        h = self.header
+        keys = [f"part{j}_{what}" for j in range(len(h.parts)) for what in ("truth", "confusion")]
+        keys += [f"action{i}_{what}" for i, a in enumerate(h.actions) if a.transition for what in _CSR]
+        if h.grid is not None:
+            keys.append("grid_free")
+        return keys
+
+    # --- the arrays ----------------------------------------------------------------------------
+    def _grid(self) -> GridLayout | None:
+        g = self.header.grid
+        if g is None:
+            return None
+        free = self.archive.array("grid_free", "biu", (g.rows, g.cols))
+        if free.dtype.kind != "b":
+            if free.size and not np.isin(free, (0, 1)).all():
+                raise self.broken("array grid_free holds numbers other than 0 and 1")
+            free = free.astype(bool)
+        if int(free.sum()) * g.headings != self.n:
+            raise self.broken(
+                f"array grid_free has {int(free.sum()):,} free cells, which with {g.headings} "
+                f"heading{'s' if g.headings != 1 else ''} are not the {self.n:,} states of header field n_states"
+            )
+        frame = MapFrame(g.frame.x, g.frame.y, g.frame.yaw)
+        return GridLayout(g.rows, g.cols, g.headings, g.cell_size, free, tuple(g.landmarks), frame)
+
+    def _part(self, j: int, meta: _PartHeader) -> ObservationPart:
+        values = len(meta.values)
+        truth = self.archive.integers(f"part{j}_truth", (self.n,))
+        confusion = self.archive.array(f"part{j}_confusion", "f", (None, values)).astype(np.float64, copy=False)
+        rows = confusion.shape[0]
+        if rows == 0:
+            raise self.broken(f"array part{j}_confusion has no rows")
+        _check_probabilities(self, f"part{j}_confusion", confusion.ravel())
+        sums = confusion.sum(axis=1)
+        wrong = np.flatnonzero(np.abs(sums - 1.0) > TOLERANCE)
+        if len(wrong):
+            v = int(wrong[0])
+            raise self.broken(f"array part{j}_confusion: row {v} sums to {sums[v]:.9g}, not 1")
+        if truth.size:
+            low, high = int(truth.min()), int(truth.max())
+            if low < 0 or high >= rows:
+                bad = int(np.flatnonzero((truth < 0) | (truth >= rows))[0])
+                raise self.broken(
+                    f"array part{j}_truth: state {self.state(bad)} has true value {int(truth[bad])}, "
+                    f"outside the {rows} rows of part{j}_confusion"
+                )
+        return ObservationPart(meta.name, tuple(meta.values), truth, confusion, dict(meta.aliases))
+
+    def _transition(self, i: int, name: str) -> sp.csr_matrix:
+        n, archive = self.n, self.archive
+        indptr = archive.integers(f"action{i}_indptr", (n + 1,))
+        nnz = int(indptr[-1])
+        if int(indptr[0]) != 0:
+            raise self.broken(f"array action{i}_indptr ({name}) starts at {int(indptr[0])}, not 0")
+        steps = np.diff(indptr)
+        if len(steps) and int(steps.min()) < 0:
+            row = int(np.flatnonzero(steps < 0)[0])
+            raise self.broken(f"array action{i}_indptr ({name}) decreases at state {self.state(row)}")
+        indices = archive.integers(f"action{i}_indices", (nnz,))  # as many as action{i}_indptr says
+        if nnz and (int(indices.min()) < 0 or int(indices.max()) >= n):
+            k = int(np.flatnonzero((indices < 0) | (indices >= n))[0])
+            raise self.broken(
+                f"array action{i}_indices ({name}): entry {k} is state {int(indices[k])}, outside the {n:,} states"
+            )
+        data = archive.array(f"action{i}_data", "f", (nnz,)).astype(np.float64, copy=False)
+        _check_probabilities(self, f"action{i}_data ({name})", data)
+        sums = np.bincount(np.repeat(np.arange(n), steps), weights=data, minlength=n)
+        wrong = np.flatnonzero(np.abs(sums - 1.0) > TOLERANCE)
+        if len(wrong):
+            row = int(wrong[0])
+            raise self.broken(
+                f"array action{i}_data ({name}): the probabilities of the next states from state "
+                f"{self.state(row)} sum to {sums[row]:.9g}, not 1"
+            )
+        return sp.csr_matrix((data, indices, indptr), shape=(n, n))
+
+
+_CSR = ("indptr", "indices", "data")
+
+
+def _check_probabilities(reader: _ModelReader, name: str, values: np.ndarray) -> None:
+    bad = np.flatnonzero(~((values >= 0.0) & (values <= 1.0)))  # NaN fails both
+    if len(bad):
+        raise reader.broken(f"array {name}: entry {int(bad[0])} is {float(values[bad[0]])!r}, not a probability")

@@ -23,7 +23,8 @@ MODEL_SUFFIX = ".npz"
 
 def open_model(path: Path, *, on_warning: Callable[[str], None] | None = None) -> Model:
     """A model from a map (``.yaml``), a compiled model (``.npz``) or a Cassandra ``.pomdp`` file;
-    what reading a map has to say goes to ``on_warning``."""
+    what reading a map has to say goes to ``on_warning``, and so does a compiled model whose map
+    is gone (it cannot be checked for staleness)."""
     suffix = path.suffix.lower()
     if suffix in MAP_SUFFIXES:
         from beliefloc.semantic_map import compile_model, load_map
@@ -32,7 +33,7 @@ def open_model(path: Path, *, on_warning: Callable[[str], None] | None = None) -
     if suffix == MODEL_SUFFIX:
         from beliefloc.model_file import load_model
 
-        return load_model(path)
+        return load_model(path, on_warning=on_warning)
     if suffix == POMDP_SUFFIX:
         from beliefloc.pomdp_format import read_pomdp
 

@@ -109,19 +109,81 @@ def open_model(path: Path) -> Model:
     return open_any(path, on_warning=warn)
 
 
-def check_output(option: str, path: Path, suffixes: tuple[str, ...], inputs: tuple[Path, ...] = ()) -> None:
-    """An output file a command is about to write: a known suffix, an existing folder, not one of the
-    command's inputs and not a folder. Checked before any work, so that nothing is half written."""
+def check_output(
+    option: str, path: Path, suffixes: tuple[str, ...], inputs: tuple[Path, ...] = (), kind: str | None = None
+) -> None:
+    """An output file a command is about to write, checked before any work so that nothing is half
+    done: a known suffix, an existing folder that can be written in, not a folder, not one of the
+    command's ``inputs`` (a hard link to one counts), and not an existing file of another kind.
+
+    ``kind`` (a noun phrase of :mod:`beliefloc.file_kinds`: ``MODEL``, ``MACROS``, ``MAP``...) is
+    what the command writes: an existing file of that kind is replaced, any other refused (an empty
+    file is always replaced). Without ``kind``, the suffix says what is written, and an existing
+    file that is recognisably something else -- a map, a domain, a belief file, a model -- is refused."""
+    import os
+
+    from beliefloc.file_kinds import kind_of_path, not_a
+
     if path.suffix.lower() not in suffixes:
         raise UsageError(f"{option} {path}: unknown kind of file; expected one of: {', '.join(suffixes)}")
-    if not path.parent.is_dir():
-        raise UsageError(f"{option} {path}: the folder {path.parent} does not exist")
+    folder = path.parent
+    if not folder.is_dir():
+        raise UsageError(f"{option} {path}: the folder {folder} does not exist")
     if path.is_dir():
         raise UsageError(f"{option} {path}: is a folder; name a file in it")
     resolved = path.resolve()
     for source in inputs:
-        if resolved == source.resolve():
+        same = resolved == source.resolve()
+        if not same and path.exists() and source.exists():
+            try:
+                same = os.path.samefile(path, source)
+            except OSError:
+                same = False
+        if same:
             raise UsageError(f"{option} {path}: is an input of the command; name another file")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise UsageError(f"{option} {path}: cannot write in the folder {folder} (permission denied)")
+    if not (path.exists() or path.is_symlink()):
+        return
+    if not path.is_file():
+        raise UsageError(f"{option} {path}: exists and is not a regular file; name another file")
+    if not os.access(path, os.W_OK):
+        raise UsageError(f"{option} {path}: the file is read-only; name another file, or make it writable")
+    if path.stat().st_size == 0:
+        return
+    found = existing_kind(path)
+    if kind is not None and found != kind:
+        what = not_a(path, found, kind) if found is not None else f"the file exists and is not {kind}"
+        raise UsageError(f"{option} {path}: {what}; name another file (or remove it first)")
+    if kind is None and found is not None and found != kind_of_path(path):
+        raise UsageError(f"{option} {path}: {path} is {found}; name another file (or remove it first)")
+
+
+def existing_kind(path: Path) -> str | None:
+    """What an existing file is, as a noun phrase of :mod:`beliefloc.file_kinds`: a ``.npz`` file by
+    its header (a model, a macro table, or an archive beliefloc did not write), a YAML or JSON file
+    by its content (a map, a domain, a belief file...), anything else by its suffix; None when it
+    cannot be told (an unreadable or unrecognisable YAML file, an unknown suffix)."""
+    from beliefloc import file_kinds
+    from beliefloc.errors import InputFileError
+
+    by_suffix = file_kinds.kind_of_path(path)
+    if by_suffix == file_kinds.MODEL_OR_MACROS:
+        from beliefloc.model_file import file_format
+
+        found = file_kinds.kind_of_data({"format": file_format(path)})
+        return found if found is not None else "an .npz archive that beliefloc did not write"
+    if by_suffix is not None:
+        return by_suffix
+    if path.suffix.lower() not in (".yaml", ".yml", ".json"):
+        return None
+    from beliefloc.source import read_source
+
+    try:
+        data = read_source(path, InputFileError).data
+    except BeliefLocError:
+        return None
+    return file_kinds.kind_of_data(data)
 
 
 def positive_int(option: str, text: str) -> int:
@@ -138,25 +200,31 @@ def positive_int(option: str, text: str) -> int:
 def check_record(option: str, path: Path, inputs: tuple[Path, ...] = ()) -> bool:
     """An animation a command is about to write, checked before any work: True for an animated GIF,
     False for a folder of PNG frames (created, or one holding nothing but frames). A UsageError when
-    it cannot be written: an input of the command, an unknown suffix, a missing parent folder, a
+    it cannot be written: an input of the command, an unknown suffix, a missing parent folder or one
+    that cannot be written in (the frames are made beside the folder, then renamed into place), a
     file where frames go, a folder holding other files."""
+    import os
+
+    from beliefloc.file_kinds import IMAGE
     from beliefloc.render.picture_episode import holds_only_frames
 
     if any(path.resolve() == source.resolve() for source in inputs):
         raise UsageError(f"{option} {path}: is an input of the command; name another file")
     if path.suffix.lower() == ".gif":
-        check_output(option, path, (".gif",), inputs)
+        check_output(option, path, (".gif",), inputs, IMAGE)
         return True
     if path.is_dir():
         if not holds_only_frames(path):
             raise UsageError(f"{option} {path}: the folder holds other files than frames; name a new folder")
-        return False
-    if path.suffix:
+    elif path.suffix:
         raise UsageError(f"{option} {path}: unknown kind of file; expected FILE.gif, or a folder DIR for PNG frames")
-    if path.exists():
+    elif path.exists() or path.is_symlink():
         raise UsageError(f"{option} {path}: is a file; name a folder for the frames, or FILE.gif")
-    if not path.parent.is_dir():
-        raise UsageError(f"{option} {path}: the folder {path.parent} does not exist")
+    folder = path.parent
+    if not folder.is_dir():
+        raise UsageError(f"{option} {path}: the folder {folder} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK) or (path.is_dir() and not os.access(path, os.W_OK | os.X_OK)):
+        raise UsageError(f"{option} {path}: cannot write the frames there (permission denied)")
     return False
 
 

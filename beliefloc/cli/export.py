@@ -8,7 +8,7 @@ from typing import Annotated
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import boundary, open_model, print_json
+from beliefloc.cli.common import boundary, check_output, open_model, print_json
 from beliefloc.cli.options import JsonOption, ModelArgument
 from beliefloc.errors import UsageError
 from beliefloc.model_sources import POMDP_SUFFIX
@@ -29,9 +29,14 @@ def export(
 
     Example: beliefloc export maps/window-2x2.yaml -o window.pomdp
     """
-    if output.suffix.lower() != POMDP_SUFFIX:
-        raise UsageError(f"{output}: the exported file must end in {POMDP_SUFFIX}")
+    from beliefloc.file_kinds import POMDP
     from beliefloc.pomdp_format import write_pomdp
+
+    if output.suffix.lower() != POMDP_SUFFIX:
+        raise UsageError(f"-o {output}: the exported file must end in {POMDP_SUFFIX}")
+    if not output.parent.is_dir():
+        raise UsageError(f"-o {output}: cannot write there: the folder {output.parent} does not exist")
+    check_output("-o", output, (POMDP_SUFFIX,), (source,), POMDP)
 
     model = open_model(source)
     summary = write_pomdp(model, output)

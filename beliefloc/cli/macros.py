@@ -10,7 +10,7 @@ from rich.markup import escape
 
 from beliefloc.cli.common import boundary, check_output, for_option, open_model, print_json
 from beliefloc.cli.options import GammaOption, JsonOption, ModelArgument
-from beliefloc.errors import EXIT_NEGATIVE, UsageError
+from beliefloc.errors import EXIT_NEGATIVE, ModelError, UsageError
 from beliefloc.render import stderr_console, stdout_console
 
 if TYPE_CHECKING:
@@ -41,11 +41,14 @@ def build(
 
     Example: beliefloc macros build maps/corridors.yaml -o corridors-macros.npz
     """
+    from beliefloc.file_kinds import MACROS
     from beliefloc.macro_file import save_macros
+    from beliefloc.model_sources import MODEL_SUFFIX
     from beliefloc.planning.macros import build_macros
     from beliefloc.render.ec2 import classes_table, macro_summary_table
     from beliefloc.render.progress import progress_bar
 
+    check_output("-o", output, (MODEL_SUFFIX,), (source,), MACROS)
     model = open_model(source)
     with progress_bar(stderr_console()) as progress:
         task = progress.add_task("pairs settled", total=None)
@@ -55,7 +58,10 @@ def build(
 
         with for_option("--gamma"):
             table = build_macros(model, gamma, progress=advance)
-    save_macros(table, output, model=model)
+    try:
+        save_macros(table, output, model=model)
+    except OSError as exc:
+        raise ModelError(f"-o {output}: cannot write the macro table ({exc.strerror or exc})") from None
     summary = table.summary()
     classes = [[model.states.name(s) for s in c] for c in table.never_classes()]
     if json_output:
@@ -118,9 +124,11 @@ def show(
     from beliefloc.render.ec2 import longest_macros_table, macro_path_table, macro_summary_table
 
     if output is not None:
+        from beliefloc.file_kinds import IMAGE
         from beliefloc.render.figures import PICTURE_SUFFIXES, pyplot
 
-        check_output("-o", output, PICTURE_SUFFIXES, (macros, *(() if model_path is None else (model_path,))))
+        inputs = (macros, *(() if model_path is None else (model_path,)))
+        check_output("-o", output, PICTURE_SUFFIXES, inputs, IMAGE)
         pyplot()  # matplotlib missing: say so before any work
     header, _ = read_header(macros)
     if model_path is None:

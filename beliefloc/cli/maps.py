@@ -9,9 +9,9 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import boundary, open_model, print_json, report_error, warn
+from beliefloc.cli.common import boundary, check_output, open_model, print_json, report_error, warn
 from beliefloc.cli.options import JsonOption, ModelArgument
-from beliefloc.errors import EXIT_BAD_INPUT, BeliefLocError, UsageError
+from beliefloc.errors import EXIT_BAD_INPUT, BeliefLocError, ModelError, UsageError
 from beliefloc.model_sources import MODEL_SUFFIX
 from beliefloc.render import stdout_console
 
@@ -94,16 +94,21 @@ def build(
 
     Example: beliefloc build maps/kitchen.yaml -o kitchen.npz
     """
+    from beliefloc.file_kinds import MODEL
     from beliefloc.model import model_summary
     from beliefloc.model_file import save_model
     from beliefloc.render.tables import model_table
 
     if output.suffix.lower() != MODEL_SUFFIX:
-        raise UsageError(f"{output}: a model file must end in {MODEL_SUFFIX}")
+        raise UsageError(f"-o {output}: a model file must end in {MODEL_SUFFIX}")
+    check_output("-o", output, (MODEL_SUFFIX,), (map_file,), MODEL)
     start = time.perf_counter()
     model = open_model(map_file)
     seconds = time.perf_counter() - start
-    save_model(model, output)
+    try:
+        save_model(model, output)
+    except OSError as exc:
+        raise ModelError(f"-o {output}: cannot write the model ({exc.strerror or exc})") from None
     summary = model_summary(model)
     if json_output:
         print_json({**summary, "output": str(output), "seconds": seconds})

@@ -9,10 +9,16 @@ the declarations is checked when the model is built.
 from __future__ import annotations
 
 import json
+import math
+import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+import numpy as np
+
+from beliefloc import limits
+from beliefloc.errors import LimitError
 from beliefloc.pomdp_format.names import FORMAT_VERSION, KINDS, SINGULAR
 from beliefloc.pomdp_format.statements import Comment
 
@@ -40,26 +46,55 @@ def read_comment(notes: Annotations, comment: Comment) -> None:
         if rest != str(FORMAT_VERSION):
             raise comment.error(f"beliefloc-format {rest}: this beliefloc reads version {FORMAT_VERSION} comments")
         return
+    depth = nesting(rest)
+    if depth > limits.NESTING.value:
+        raise LimitError(limits.exceeded(limits.NESTING, depth, f"{comment.path}:{comment.line}: {keyword}"))
     try:
         reader = _READERS.get(keyword)
         if reader is None:
             raise ValueError(f"unknown beliefloc comment {keyword!r}")
         reader(notes, rest, comment.line)
-    except (ValueError, TypeError) as exc:  # json.JSONDecodeError is a ValueError
+    except (ValueError, TypeError, RecursionError) as exc:  # json.JSONDecodeError is a ValueError
         raise comment.error(f"{keyword}: {exc}") from None
 
 
+_JSON_STRING = re.compile(r'"(?:[^"\\]|\\.)*"')
+
+
+def nesting(text: str) -> int:
+    """How deeply the brackets of JSON ``text`` nest (outside its strings), counted without
+    parsing it: a line of ten thousand ``[`` must not reach the recursive parser."""
+    if "[" not in text and "{" not in text:
+        return 0
+    codes = np.frombuffer(_JSON_STRING.sub("", text).encode("utf-8", "replace"), dtype=np.uint8)
+    steps = np.isin(codes, (ord("["), ord("{"))).astype(np.int64) - np.isin(codes, (ord("]"), ord("}")))
+    return int(np.cumsum(steps).max(initial=0))
+
+
+def _loads(text: str) -> Any:
+    """JSON without ``NaN`` and ``Infinity``, which the format's numbers never are."""
+    return json.loads(text, parse_constant=_no_constant)
+
+
+def _no_constant(name: str) -> Any:
+    raise ValueError(f"{name} is not a number")
+
+
 def _model(notes: Annotations, rest: str, line: int) -> None:
-    notes.model_name = _json_str(json.loads(rest))
+    notes.model_name = _json_str(_loads(rest))
 
 
 def _grid(notes: Annotations, rest: str, line: int) -> None:
-    grid = json.loads(rest)
+    grid = _loads(rest)
     if not isinstance(grid, dict) or set(grid) != {"rows", "cols", "headings", "cell_size"}:
         raise ValueError('expected {"rows", "cols", "headings", "cell_size"}')
-    if not all(isinstance(grid[k], int) and grid[k] >= 1 for k in ("rows", "cols", "headings")):
+    if not all(
+        isinstance(grid[k], int) and not isinstance(grid[k], bool) and grid[k] >= 1
+        for k in ("rows", "cols", "headings")
+    ):
         raise ValueError("rows, cols and headings must be positive integers")
-    if not isinstance(grid["cell_size"], (int, float)) or not grid["cell_size"] > 0:
+    size = grid["cell_size"]
+    if isinstance(size, bool) or not isinstance(size, (int, float)) or not (size > 0 and math.isfinite(size)):
         raise ValueError("cell_size must be a positive number")
     notes.grid, notes.grid_line = grid, line
 
@@ -71,7 +106,7 @@ def _layout(notes: Annotations, rest: str, line: int) -> None:
 
 
 def _landmark(notes: Annotations, rest: str, line: int) -> None:
-    value = json.loads(rest)
+    value = _loads(rest)
     if not (
         isinstance(value, list)
         and len(value) == 3
@@ -91,11 +126,11 @@ def _name(notes: Annotations, rest: str, line: int) -> None:
     names = notes.names[kinds[kind]]
     if ident in names:
         raise ValueError(f"{kind} {ident!r} is named twice (first on line {names[ident][1]})")
-    names[ident] = (_json_str(json.loads(original)), line)
+    names[ident] = (_json_str(_loads(original)), line)
 
 
 def _action(notes: Annotations, rest: str, line: int) -> None:
-    info = json.loads(rest)
+    info = _loads(rest)
     if not (
         isinstance(info, dict)
         and isinstance(info.get("action"), str)

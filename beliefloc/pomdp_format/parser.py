@@ -46,10 +46,11 @@ class ParsedFile:
     def error(self, line: int, message: str) -> ModelError:
         return located(self.path, line, message)
 
-    def begin_body(self, head: str, line: int) -> Body:
+    def begin_body(self, head: str, line: int, statement: Statement | None = None) -> Body:
         """The body; statement ``head`` on ``line`` starts it if it is the first ``T:``, ``O:`` or ``R:``.
 
-        The body is sized by the declarations, so they must all come first.
+        The body is sized by the declarations, so they must all come first, and are checked against
+        the limits before it is made.
         """
         if self.body is None:
             missing = [k for k in KINDS if k not in self.preamble.declared]
@@ -60,6 +61,7 @@ class ParsedFile:
                     "the preamble (discount:, values:, states:, actions:, observations:) must come first",
                 )
             n_actions = self.preamble.size("actions")
+            self.preamble.check_sizes(statement or Statement([head], line, self.path))
             self.body = Body(
                 line,
                 transitions=[Entries() for _ in range(n_actions)],
@@ -85,7 +87,7 @@ def _read_statement(parsed: ParsedFile, st: Statement) -> None:
     head = st.tokens[0]
     preamble = parsed.preamble
     if head in ("T", "O", "R"):
-        body = parsed.begin_body(head, st.line)
+        body = parsed.begin_body(head, st.line, st)
         actions = preamble.actions_of(st)
         if head == "R":
             reward = read_reward(st, preamble)

@@ -12,6 +12,8 @@ from typing import NamedTuple
 
 import numpy as np
 
+from beliefloc import limits
+from beliefloc.errors import LimitError
 from beliefloc.pomdp_format.names import IDENTIFIER, NUMBER, RESERVED, SINGULAR, TOLERANCE
 from beliefloc.pomdp_format.statements import Statement, expect_colon, numbers
 
@@ -38,6 +40,8 @@ class Preamble:
         """``values: cost``: the R: numbers are costs, not rewards."""
         self.start: np.ndarray | None = None
         """The start belief, if ``start:`` gave one (only ``reset`` uses it)."""
+        self.entries = 0
+        """How many table entries the T: and O: statements have given so far (see :meth:`spend`)."""
 
     def size(self, kind: str) -> int:
         return len(self.declared[kind].names)
@@ -59,12 +63,13 @@ class Preamble:
         if token == "*":
             return None
         names = self.declared[kind].names
-        if token.isdigit():
-            if int(token) < len(names):
+        if token.isascii() and token.isdigit():
+            if len(token) <= _MAX_DIGITS and int(token) < len(names):
                 return int(token)
             raise st.error(
                 st.line_at(i),
-                f"{SINGULAR[kind]} number {token} is out of range: there are {len(names)} {kind} (0..{len(names) - 1})",
+                f"{SINGULAR[kind]} number {_shown(token)} is out of range: there are {len(names)} {kind} "
+                f"(0..{len(names) - 1})",
             )
         raise st.error(st.line_at(i), f"unknown {SINGULAR[kind]} {token!r}; {self.describe(kind)}")
 
@@ -91,16 +96,44 @@ class Preamble:
         items = st.tokens[2:]
         if not items:
             raise st.error(st.line, f"{kind}: needs a number or a list of names")
-        if len(items) == 1 and items[0].isdigit():
-            count = int(items[0])
-            if count < 1:
+        if len(items) == 1 and items[0].isascii() and items[0].isdigit():
+            count = int(items[0]) if len(items[0]) <= _MAX_DIGITS else None
+            if count is not None and count < 1:
                 raise st.error(st.line, f"{kind}: there must be at least one, found {count}")
-            names, numbered = [str(i) for i in range(count)], True
+            _check_count(st, kind, count)
+            names, numbered = [str(i) for i in range(count or 0)], True
         else:
+            _check_count(st, kind, len(items))
             _check_names(st, kind, items)
             names, numbered = items, False
         self.declared[kind] = Declared(names, st.line, numbered)
         self.lookup[kind] = {name: i for i, name in enumerate(names)}
+
+    def check_sizes(self, st: Statement) -> None:
+        """Once states, actions and observations are all declared (``st`` is the first statement
+        after them): every action's T and O have a row per state, O a column per observation, so the
+        sizes are checked against :data:`~beliefloc.limits.MODEL_ENTRIES` before any table is made."""
+        n, a, k = self.size("states"), self.size("actions"), self.size("observations")
+        limit = limits.MODEL_ENTRIES
+        for count, what in ((n * k, f"{n:,} states × {k:,} observations"), (n * a, f"{n:,} states × {a:,} actions")):
+            if count > limit.value:
+                raise LimitError(
+                    f"{st.path}:{st.line}: the declared {what} make {count:,} table entries, more than the limit of "
+                    f"{limit.value:,} {limit.what}; if the input is what you meant, raise it with the environment "
+                    f"variable {limit.variable}=N"
+                )
+
+    def spend(self, st: Statement, count: int) -> None:
+        """Count ``count`` more table entries given by ``st`` (a ``*`` or a whole matrix gives many),
+        refused past :data:`~beliefloc.limits.MODEL_ENTRIES` before they are made."""
+        self.entries += count
+        limit = limits.MODEL_ENTRIES
+        if self.entries > limit.value:
+            raise LimitError(
+                f"{st.path}:{st.line}: the T: and O: statements so far give {self.entries:,} entries, more than the "
+                f"limit of {limit.value:,} ({limit.what}); if the input is what you meant, raise it with the "
+                f"environment variable {limit.variable}=N"
+            )
 
     def discount(self, st: Statement) -> None:
         """``discount: F``: checked, then ignored (localization has no discount of its own)."""
@@ -155,6 +188,26 @@ class Preamble:
             raise st.error(st.line, "start exclude: leaves no state")
         start: np.ndarray = chosen / chosen.sum()
         return start
+
+
+_MAX_DIGITS = 18
+"""A count or number longer than this is out of any range (and ``int()`` of 5,000 digits raises)."""
+
+
+def _shown(token: str) -> str:
+    """A number as a message shows it: ``12345...(5,000 digits)`` when it is long."""
+    return token if len(token) <= _MAX_DIGITS else f"{token[:_MAX_DIGITS]}...({len(token):,} digits)"
+
+
+def _check_count(st: Statement, kind: str, count: int | None) -> None:
+    """Refuse more elements than :data:`~beliefloc.limits.MODEL_ELEMENTS` (None: too many digits to count)."""
+    limit = limits.MODEL_ELEMENTS
+    if count is None or count > limit.value:
+        amount = f"{count:,} {kind}" if count is not None else f"a count of {len(st.tokens[2]):,} digits"
+        raise LimitError(
+            f"{st.path}:{st.line}: {kind}: {amount} is more than the limit of {limit.value:,} {limit.what}; "
+            f"if the input is what you meant, raise it with the environment variable {limit.variable}=N"
+        )
 
 
 def _check_names(st: Statement, kind: str, names: list[str]) -> None:

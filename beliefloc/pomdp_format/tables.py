@@ -8,7 +8,9 @@ T, observations for O) and in the keywords a row may be (``reset`` only for T):
 * ``T: a`` and a whole matrix, ``uniform`` or ``identity`` (which replaces every earlier entry).
 
 Entries are only collected here; their checks (probabilities, rows summing to 1) are made when the
-model is built, where the last entry given for a cell is known.
+model is built, where the last entry given for a cell is known. How many a statement gives (a ``*``
+or a whole matrix gives many) is counted against :data:`~beliefloc.limits.MODEL_ENTRIES` before
+they are made (:meth:`~beliefloc.pomdp_format.preamble.Preamble.spend`).
 """
 
 from __future__ import annotations
@@ -115,6 +117,9 @@ def read_table(st: Statement, preamble: Preamble, actions: list[int], tables: li
 def _read_entry(st: Statement, preamble: Preamble, table: Table, row: int | None, targets: list[Entries]) -> None:
     """``T: a : s : s' p``: one entry, or a block of entries when ``s`` or ``s'`` is ``*``."""
     col = preamble.ref(table.columns, st, 6)
+    n_rows = preamble.size("states") if row is None else 1
+    n_cols = preamble.size(table.columns) if col is None else 1
+    preamble.spend(st, n_rows * n_cols * len(targets))
     if len(st.tokens) == 8 and row is not None and col is not None:
         try:  # the fast path for the one-entry lines that make up most of a large file
             p = float(st.tokens[7])
@@ -132,6 +137,7 @@ def _read_entry(st: Statement, preamble: Preamble, table: Table, row: int | None
 def _read_row(st: Statement, preamble: Preamble, table: Table, row: int | None, targets: list[Entries]) -> None:
     """``T: a : s`` and a row: ``s``'s row, or every row for ``*``."""
     n, k = preamble.size("states"), preamble.size(table.columns)
+    preamble.spend(st, k * (n if row is None else 1) * len(targets))
     values = _row(st, preamble, 5, k, st.head(5), table.row_keywords)
     starts = np.arange(n) if row is None else np.array([row])
     rows = np.repeat(starts, k)
@@ -143,6 +149,7 @@ def _read_row(st: Statement, preamble: Preamble, table: Table, row: int | None, 
 def _read_matrix(st: Statement, preamble: Preamble, table: Table, targets: list[Entries]) -> None:
     """``T: a`` and a whole matrix, ``uniform`` or ``identity``."""
     n, k = preamble.size("states"), preamble.size(table.columns)
+    preamble.spend(st, (n if st.tokens[3:] == ["identity"] else n * k) * len(targets))
     if st.tokens[3:] == ["identity"]:
         if k != n:  # only O can have another number of columns
             raise st.error(st.line, f"O: identity needs as many observations as states ({n}), but there are {k}")
