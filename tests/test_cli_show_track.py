@@ -271,7 +271,7 @@ def test_show_unknown_file_kind_exits_2(runner: CliRunner, tmp_path: Path) -> No
 def test_help_has_an_example(runner: CliRunner, command: str) -> None:
     result = runner.invoke(app, [command, "--help"])
     assert result.exit_code == 0
-    assert f"Example: beliefloc {command} maps/window-2x2.yaml" in result.stdout
+    assert f"Examples:\n\n    beliefloc {command} maps/window-2x2.yaml" in result.stdout
 
 
 def test_show_and_track_a_model_without_grid(runner: CliRunner, monkeypatch: pytest.MonkeyPatch) -> None:

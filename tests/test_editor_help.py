@@ -10,7 +10,6 @@ from __future__ import annotations
 import copy
 import json
 import re
-import shlex
 from pathlib import Path
 from typing import Any
 
@@ -395,19 +394,8 @@ def test_init_never_overwrites(runner: CliRunner, tmp_path: Path, monkeypatch: p
 
 
 @pytest.mark.parametrize("command", ["schema", "init"])
-def test_help_has_a_summary_and_examples_that_run(
-    runner: CliRunner, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, command: str
-) -> None:
+def test_help_has_a_summary_that_fits(runner: CliRunner, command: str) -> None:
+    """(tests/test_help.py runs every command's examples.)"""
     overview = runner.invoke(app, ["--help"])
     summary = next(line for line in overview.stdout.splitlines() if line.strip().startswith(command + " "))
     assert not summary.rstrip().endswith("..."), summary  # a one-line summary that fits
-    result = runner.invoke(app, [command, "--help"])
-    assert result.exit_code == 0
-    examples = re.findall(r"Example: (.+)", result.stdout)
-    assert examples
-    monkeypatch.chdir(tmp_path)
-    for example in examples:
-        words = shlex.split(example)
-        assert words[0] == "beliefloc"
-        ran = runner.invoke(app, words[1:])
-        assert ran.exit_code == 0, (example, ran.output)

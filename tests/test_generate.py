@@ -274,6 +274,9 @@ def test_cli_json_and_overwrite(runner, tmp_path: Path) -> None:
     output = tmp_path / "world.yaml"
     output.write_text("old contents")
     args = ["generate", "gridworld", "--states", "100", "--seed", "2", "--seen-model", "states", "-o", str(output)]
+    refused = runner.invoke(app, args)  # a file that is not a map is never replaced
+    assert refused.exit_code == 2 and "is not a map" in refused.stderr and output.read_text() == "old contents"
+    output.write_text(_text(100, 1, SeenModel.STATES))  # an older map is
     result = runner.invoke(app, [*args, "--json"])
     assert result.exit_code == 0, result.output
     data = json.loads(result.stdout)
@@ -320,5 +323,5 @@ def test_cli_refuses_a_file_that_is_not_a_map(runner, tmp_path: Path) -> None:
 def test_cli_help_has_an_example(runner) -> None:
     result = runner.invoke(app, ["generate", "gridworld", "--help"])
     assert result.exit_code == 0
-    assert "Example: beliefloc generate gridworld" in result.output
+    assert "Example:\n\n    beliefloc generate gridworld" in result.output
     assert "generate" in runner.invoke(app, ["--help"]).output

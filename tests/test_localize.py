@@ -251,7 +251,8 @@ def test_help_reads_well(runner: CliRunner) -> None:
     result = runner.invoke(app, ["localize", "--help"])
     assert result.exit_code == 0
     text = " ".join(result.stdout.split())
-    assert "Example: beliefloc localize maps/kitchen.yaml" in text
+    assert "Examples: printf" in text and "| beliefloc localize" not in text
+    assert "beliefloc localize maps/window-2x2-perfect.yaml < replies.jsonl" in text
     assert "docs/localize-protocol.md" in text
     for option in ("--belief", "--threshold", "--planner", "--heuristic", "--h-weight", "--max-expansions"):
         assert option in text

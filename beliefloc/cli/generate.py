@@ -10,7 +10,7 @@ import numpy as np
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import boundary, for_option, print_json
+from beliefloc.cli.common import boundary, check_output, for_option, print_json
 from beliefloc.cli.options import JsonOption
 from beliefloc.errors import UsageError
 from beliefloc.generate import CLASSES, MOVE_FAILURE, SeenModel, generate_gridworld, grid_side, gridworld_yaml
@@ -93,10 +93,10 @@ def gridworld(
     """
     if output.suffix.lower() not in MAP_SUFFIXES:
         raise UsageError(f"{output}: a map file must end in .yaml or .yml")
-    directory = output.parent
-    if not directory.is_dir():
-        raise UsageError(f"{output}: the directory {directory} does not exist")
+    from beliefloc import file_kinds
     from beliefloc.model_file import write_atomically
+
+    check_output("-o", output, MAP_SUFFIXES, (), file_kinds.MAP)
 
     with for_option("--states"):
         grid_side(states)

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import boundary, initial_belief, warn
+from beliefloc.cli.common import belief_inputs, boundary, check_output, initial_belief, warn
 from beliefloc.cli.options import (
     BeliefOption,
     HeuristicOption,
@@ -95,7 +95,7 @@ def localize(
     Examples:
 
     \b
-      printf '%s\n' '{"seq": 1, "readings": {"look": []}}' '{"seq": 2, "readings": {}}' > replies.jsonl
+      printf '%s\\n' '{"seq": 1, "readings": {"look": []}}' '{"seq": 2, "readings": {}}' > replies.jsonl
       beliefloc localize maps/window-2x2-perfect.yaml < replies.jsonl   # a robot that saw no window, then moved
       beliefloc localize maps/window-2x2-perfect.yaml --quiet --belief-out belief.json < replies.jsonl
     """
@@ -106,10 +106,10 @@ def localize(
 
     chosen = resolve_heuristic(planner, heuristic, h_weight)
     if belief_out is not None:
-        if not belief_out.parent.is_dir():
-            raise UsageError(f"--belief-out {belief_out}: the folder {belief_out.parent} does not exist")
-        if belief_out.resolve() == map_file.resolve() or belief_out.is_dir():
-            raise UsageError(f"--belief-out {belief_out}: would write over the map or a folder; name a new file")
+        from beliefloc import file_kinds
+
+        inputs = (map_file, *belief_inputs(belief))
+        check_output("--belief-out", belief_out, (".json", ".yaml", ".yml"), inputs, file_kinds.BELIEF)
     smap, model = _open_map(map_file)
     binner = ReadingBinner(smap, model)
     start = initial_belief(model, belief, smap)
@@ -178,7 +178,7 @@ def _open_map(path: Path) -> tuple[SemanticMap, Model]:
     if suffix == MODEL_SUFFIX:
         from beliefloc.model_file import load_model
 
-        model = load_model(path)
+        model = load_model(path, on_warning=warn)
         return source_map(model), model
     raise UsageError(
         f"MAP {path}: localize needs a map (.yaml), whose sensors' specifications bin the robot's raw readings "

@@ -60,7 +60,7 @@ def track(
 
     \b
       beliefloc track maps/window-2x2.yaml look=window_seen right
-      printf 'look=nothing   # a step per line, # comments\nforward\n' > run.log
+      printf 'look=nothing   # a step per line, # comments\\nforward\\n' > run.log
       beliefloc track maps/kitchen.yaml --steps run.log
       cat run.log | beliefloc track maps/kitchen.yaml --steps - --json
     """
