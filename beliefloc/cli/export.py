@@ -18,7 +18,9 @@ from beliefloc.render import stdout_console
 @boundary
 def export(
     source: ModelArgument,
-    output: Annotated[Path, typer.Option("-o", "--output", help="The .pomdp file to write.", show_default=False)],
+    output: Annotated[
+        Path, typer.Option("-o", "--output", metavar="FILE.pomdp", help="The file to write.", show_default=False)
+    ],
     json_output: JsonOption = False,
 ) -> None:
     """Write a model in Cassandra's .pomdp format (pomdp-solve, SARSOP, POMDPs.jl, pomdp_py).
@@ -27,7 +29,10 @@ def export(
     Names are turned into identifiers the format accepts (state 1,2,0 becomes s1_2_0); comment
     lines keep the original names and the grid, so beliefloc reads the file back exactly.
 
-    Example: beliefloc export maps/window-2x2.yaml -o window.pomdp
+    Example:
+
+    \b
+      beliefloc export maps/window-2x2.yaml -o window.pomdp
     """
     from beliefloc.file_kinds import POMDP
     from beliefloc.pomdp_format import write_pomdp
@@ -51,4 +56,4 @@ def export(
 
 def register(app: typer.Typer) -> None:
     """Adds the command to the app."""
-    app.command()(export)
+    app.command(short_help="Write a model as a Cassandra .pomdp file.")(export)

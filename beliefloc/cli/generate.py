@@ -20,6 +20,7 @@ from beliefloc.render import stdout_console
 generate_app = typer.Typer(
     name="generate",
     help="Make maps at random (the random grid worlds of Colledanchise et al. 2020, Sec. VII-A).",
+    short_help="Make random maps (Colledanchise et al.'s grid worlds).",
     no_args_is_help=True,
     rich_markup_mode=None,
 )
@@ -42,7 +43,7 @@ def parse_count(text: str) -> int:
     return base * power if scientific else power
 
 
-@generate_app.command()
+@generate_app.command(short_help="Write a random grid world as a map file.")
 @boundary
 def gridworld(
     states: Annotated[

@@ -213,4 +213,4 @@ def _silence_stdout() -> None:
 
 
 def register(app: typer.Typer) -> None:
-    app.command()(localize)
+    app.command(short_help="Localize a real robot over a line protocol.")(localize)

@@ -20,16 +20,17 @@ if TYPE_CHECKING:
 macros_app = typer.Typer(
     name="macros",
     help="Macro actions over pairs of states that no sensor tells apart, and the localizability test.",
+    short_help="Macro actions for look-alike states; is a map localizable?",
     no_args_is_help=True,
     rich_markup_mode=None,
 )
 
 
-@macros_app.command("build")
+@macros_app.command("build", short_help="Build a map's macro table and say if it is localizable.")
 @boundary
 def build(
     source: ModelArgument,
-    output: Annotated[Path, typer.Option("--output", "-o", help="Where to write the macro table (.npz).")],
+    output: Annotated[Path, typer.Option("--output", "-o", metavar="FILE.npz", help="Where to write the macro table.")],
     gamma: GammaOption = None,
     json_output: JsonOption = False,
 ) -> None:
@@ -39,7 +40,11 @@ def build(
     states that no sequence of actions ever tells apart (in the noise-free model). The table is
     written either way; exit code 1 when the map is not fully localizable.
 
-    Example: beliefloc macros build maps/corridors.yaml -o corridors-macros.npz
+    Examples:
+
+    \b
+      beliefloc macros build maps/corridors.yaml -o corridors-macros.npz
+      beliefloc macros build maps/ladder-symmetric.yaml -o ladder-macros.npz   # exits 1: half-turn twins
     """
     from beliefloc.file_kinds import MACROS
     from beliefloc.macro_file import save_macros
@@ -82,7 +87,7 @@ def build(
         raise typer.Exit(EXIT_NEGATIVE)
 
 
-@macros_app.command("show")
+@macros_app.command("show", short_help="Summarise a macro table or explain one pair's macro.")
 @boundary
 def show(
     macros: Annotated[Path, typer.Argument(metavar="MACROS", help="A table from 'macros build'.", show_default=False)],
@@ -93,7 +98,10 @@ def show(
     model_path: Annotated[
         Path | None,
         typer.Option(
-            "--model", help="The map or model it was built from (default: the one it names).", show_default=False
+            "--model",
+            metavar="MAP|MODEL",
+            help="The map or model it was built from (default: the one it names).",
+            show_default=False,
         ),
     ] = None,
     output: Annotated[
@@ -115,9 +123,11 @@ def show(
     With -o the states the robot can never tell apart are also drawn on the map, and one line says
     what was written.
 
-    Example: beliefloc macros show corridors-macros.npz --pair 1,2,1 1,12,1
+    Examples:
 
-    Example: beliefloc macros show ladder-macros.npz -o ladder-never.png
+    \b
+      beliefloc macros show corridors-macros.npz --pair 1,2,1 1,12,1
+      beliefloc macros show ladder-macros.npz -o ladder-never.png
     """
     from beliefloc.macro_file import load_macros, read_header
     from beliefloc.planning.macros import explain_pair, longest_macros

@@ -20,13 +20,16 @@ if TYPE_CHECKING:
 
 
 def validate(
-    maps: Annotated[list[Path], typer.Argument(help="Map files to check.", show_default=False)],
+    maps: Annotated[list[Path], typer.Argument(metavar="MAP...", help="Map files to check.", show_default=False)],
     json_output: JsonOption = False,
 ) -> None:
     """Check map files and print a one-line summary of each valid one (its grid, states, actions,
     sensors and rooms).
 
-    Example: beliefloc validate maps/*.yaml
+    Example:
+
+    \b
+      beliefloc validate maps/*.yaml
     """
     from beliefloc.semantic_map import describe_map, load_map
 
@@ -87,12 +90,17 @@ def _rooms_summary(smap: SemanticMap) -> str:
 @boundary
 def build(
     map_file: Annotated[Path, typer.Argument(metavar="MAP", help="The map to compile.", show_default=False)],
-    output: Annotated[Path, typer.Option("-o", "--output", help="Model file to write (.npz).", show_default=False)],
+    output: Annotated[
+        Path, typer.Option("-o", "--output", metavar="FILE.npz", help="Model file to write.", show_default=False)
+    ],
     json_output: JsonOption = False,
 ) -> None:
     """Compile a map into a model file (transition and observation matrices).
 
-    Example: beliefloc build maps/kitchen.yaml -o kitchen.npz
+    Example:
+
+    \b
+      beliefloc build maps/kitchen.yaml -o kitchen.npz
     """
     from beliefloc.file_kinds import MODEL
     from beliefloc.model import model_summary
@@ -125,7 +133,10 @@ def inspect(
 ) -> None:
     """Show a model's states, actions, observations, sizes, sparsity and build time.
 
-    Example: beliefloc inspect maps/kitchen.yaml
+    Example:
+
+    \b
+      beliefloc inspect maps/kitchen.yaml
     """
     from beliefloc.model import model_summary
     from beliefloc.render.tables import model_table
@@ -141,6 +152,6 @@ def inspect(
 
 
 def register(app: typer.Typer) -> None:
-    app.command()(validate)
-    app.command()(build)
-    app.command()(inspect)
+    app.command(short_help="Check map files; summarise each valid one.")(validate)
+    app.command(short_help="Compile a map into a model file (.npz).")(build)
+    app.command(short_help="Show a model's states, actions, observations and sizes.")(inspect)

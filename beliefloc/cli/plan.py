@@ -148,4 +148,4 @@ def plan_command(
 
 
 def register(app: typer.Typer) -> None:
-    app.command("plan")(plan_command)
+    app.command("plan", short_help="Plan actions until one state holds the threshold.")(plan_command)

@@ -78,4 +78,4 @@ def pose_command(
 
 
 def register(app: typer.Typer) -> None:
-    app.command("pose")(pose_command)
+    app.command("pose", short_help="The belief as a map-frame pose with its covariance.")(pose_command)

@@ -104,4 +104,4 @@ def select_command(
 
 
 def register(app: typer.Typer) -> None:
-    app.command("select")(select_command)
+    app.command("select", short_help="Choose an action by pairwise edge weights (Khalvati).")(select_command)

@@ -144,4 +144,4 @@ def _room_letters(smap: SemanticMap) -> dict[str, str] | None:
 
 
 def register(app: typer.Typer) -> None:
-    app.command()(show)
+    app.command(short_help="Draw a belief on the map.")(show)

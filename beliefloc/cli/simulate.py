@@ -346,4 +346,4 @@ def _episode_line(r: EpisodeRecord) -> str:
 
 
 def register(app: typer.Typer) -> None:
-    app.command()(simulate)
+    app.command(short_help="Run localization episodes; compare strategies.")(simulate)

@@ -128,4 +128,4 @@ def _steps(arguments: list[str] | None, steps_file: str | None) -> list[str] | l
 
 
 def register(app: typer.Typer) -> None:
-    app.command()(track)
+    app.command(short_help="Update a belief over a log of actions and observations.")(track)
