@@ -31,8 +31,16 @@ class _BeliefMapping(RootModel[dict[str, Annotated[float, Field(ge=0.0, allow_in
 
 def load_belief(model: Model, path: str | Path) -> tuple[np.ndarray, list[str]]:
     """The belief in ``path`` as a vector over ``model``'s states, and any warnings."""
+    from beliefloc import file_kinds
+
+    by_suffix = file_kinds.kind_of_path(path)
+    if by_suffix is not None:
+        raise BeliefFileError(file_kinds.not_a(path, by_suffix, file_kinds.BELIEF))
     source = read_source(path, BeliefFileError)
     data = source.data
+    found = file_kinds.kind_of_data(data)
+    if found is not None and found != file_kinds.BELIEF:
+        raise BeliefFileError(file_kinds.not_a(path, found, file_kinds.BELIEF))
     prefix: tuple[str, ...] = ()
     if isinstance(data, dict) and isinstance(data.get("belief"), dict):
         data, prefix = data["belief"], ("belief",)

@@ -177,7 +177,21 @@ class _Checks:
 def load_macros(path: str | Path, model: Model) -> MacroTable:
     """The macro table in ``path``, refused unless it was built for exactly ``model``: a table for
     another map says so, one for this map as it was before an edit is *stale*."""
+    from beliefloc import file_kinds
+
     path = Path(path)
+    by_suffix = file_kinds.kind_of_path(path)
+    if by_suffix not in (None, file_kinds.MODEL_OR_MACROS):
+        raise ModelError(file_kinds.not_a(path, by_suffix, file_kinds.MACROS))
+    if path.suffix.lower() in (".yaml", ".yml", ".json"):  # a hand-written file: say which kind
+        from beliefloc.errors import InputFileError
+        from beliefloc.source import read_source
+
+        try:
+            found = file_kinds.kind_of_data(read_source(path, InputFileError).data) or "a text file"
+        except InputFileError:
+            found = "a text file"
+        raise ModelError(file_kinds.not_a(path, found, file_kinds.MACROS))
     header, arrays = _read(path)
     names = tuple(a.name for a in model.actions)
     if header.fingerprint != model.fingerprint() or header.n_states != model.n_states or tuple(header.actions) != names:

@@ -88,6 +88,10 @@ def initial_belief(model: Model, spec: str, smap: SemanticMap | None = None) -> 
     if spec.startswith(PRIOR_PREFIX):
         from beliefloc.knowledge import load_domain, robot_start_belief
 
+        if not spec.removeprefix(PRIOR_PREFIX).strip():
+            raise UsageError(
+                f"--belief {spec}: names no domain; write prior:DOMAIN, e.g. prior:domains/apartment.yaml"
+            )
         domain_file = Path(spec.removeprefix(PRIOR_PREFIX))
         domain = load_domain(domain_file)
         with for_option(f"--belief {PRIOR_PREFIX}{domain_file}"):
