@@ -60,8 +60,9 @@ YAML_NODES = Limit("YAML values (after expanding aliases)", 20_000_000, "BELIEFL
 file of nested aliases would otherwise expand to gigabytes."""
 
 MODEL_ENTRIES = Limit("states × observations", 100_000_000, "BELIEFLOC_MAX_MODEL_ENTRIES")
-"""The largest observation table a model may have (8 bytes an entry: 800 MB at the default); the
-size of a model is checked against it before any table is allocated."""
+"""The largest model: states times the observations of every action, summed over the actions, plus
+each sensor part's table of readings (8 bytes an entry: 800 MB at the default). A map's size is
+checked against it before any table is allocated; a .pomdp file's when its header has been read."""
 
 MODEL_FILE_BYTES = Limit("bytes in a model or macro file, uncompressed", 4 * 1024**3, "BELIEFLOC_MAX_MODEL_BYTES")
 """.npz arrays are checked against it from their headers, before they are decompressed."""

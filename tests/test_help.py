@@ -96,3 +96,13 @@ def test_every_help_example_runs_as_written(runner, tmp_path: Path):
             assert "Traceback" not in result.stderr, line
             ran += 1
     assert ran >= len(LEAVES)
+
+
+def test_every_limit_is_documented_in_the_readme():
+    from beliefloc import limits
+
+    readme = (ROOT / "README.md").read_text()
+    bounds = [value for value in vars(limits).values() if isinstance(value, limits.Limit)]
+    assert len(bounds) >= 10
+    for bound in bounds:
+        assert f"`{bound.variable}`" in readme, f"{bound.variable} is not in the README's table of limits"
