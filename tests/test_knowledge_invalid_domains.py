@@ -40,7 +40,7 @@ CASES = [
     Case("unknown_key.yaml", 6, 1, r"object: unknown key 'object'; expected one of: classes, defaults"),
     Case("unknown_parent.yaml", 5, 9, r"classes\.book: unknown parent class 'objet'"),
     Case("two_roots.yaml", 6, 9, r"classes\.thing: several root classes \(object, thing\)"),
-    Case("bad_name.yaml", 2, 8, r"rooms: .*should match pattern"),
+    Case("bad_name.yaml", 2, 9, r"rooms\.Study: should start with a lowercase letter"),
     Case("default_unknown_room.yaml", 9, 11, r"defaults\.books_in_study\.room: unknown room 'libary'"),
     Case("exception_unknown_class.yaml", 10, 29, r"weak_exceptions\[1\]: unknown class 'cokbook'"),
     Case("room_and_class.yaml", 5, 10, r"classes\.study: 'study' is both a room and a class"),

@@ -211,20 +211,39 @@ GammaOption = Annotated[
 
 # --- knowledge bases (prior, kb, search) -----------------------------------------------------------
 
+AllowOutsideOption = Annotated[
+    bool,
+    typer.Option(
+        "--allow-outside",
+        help="Read the domain's kb: files and the #include of every .lp file even when they are outside the "
+        "folder of the file that names them (an absolute path, ../..): only for files you trust.",
+    ),
+]
+"""Every command that reads a domain's knowledge base takes it (kb, prior, search)."""
 TargetOption = Annotated[
     str | None,
-    typer.Option("--target", "-t", help="The class searched for (default: the domain's `target`).", show_default=False),
+    typer.Option(
+        "--target",
+        "-t",
+        metavar="CLASS",
+        help="The class searched for (default: the domain's `target`).",
+        show_default=False,
+    ),
 ]
 KbOption = Annotated[
     list[Path] | None,
     typer.Option(
-        "--kb", help="An extra .lp file, added to kb/axioms.lp and the domain's own (repeatable).", show_default=False
+        "--kb",
+        metavar="FILE.lp",
+        help="An extra .lp file, added to kb/axioms.lp and the domain's own (repeatable).",
+        show_default=False,
     ),
 ]
 SeenOption = Annotated[
     list[str] | None,
     typer.Option(
         "--seen",
+        metavar="OBJECT=ROOM",
         help="An observed fact OBJECT=ROOM (OBJECT:CLASS=ROOM for a new object), at the last step (repeatable).",
         show_default=False,
     ),

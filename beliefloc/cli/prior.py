@@ -12,7 +12,16 @@ import typer
 from rich.markup import escape
 
 from beliefloc.cli.common import boundary, for_option, print_json, target_option, warn
-from beliefloc.cli.options import DefaultsOption, DomainArgument, JsonOption, KbOption, SeenOption, TargetOption
+from beliefloc.cli.options import (
+    AllowOutsideOption,
+    DefaultsOption,
+    DomainArgument,
+    JsonOption,
+    KbOption,
+    SeenOption,
+    TargetOption,
+    number,
+)
 from beliefloc.errors import UsageError
 
 if TYPE_CHECKING:
@@ -37,6 +46,8 @@ def prior(
         float | None,
         typer.Option(
             "--weight",
+            parser=number(),
+            metavar="W",
             help="--robot: w, the share of the rooms the knowledge base puts the robot in, 0 < w <= 1 "
             "(default: the domain's robot.weight, else 0.9).",
             show_default=False,
@@ -45,36 +56,51 @@ def prior(
     kb: KbOption = None,
     seen: SeenOption = None,
     defaults: DefaultsOption = True,
-    floor: Annotated[float, typer.Option("--floor", help="Prior of a room with no support (below 1/rooms).")] = 0.01,
+    floor: Annotated[
+        float,
+        typer.Option(
+            "--floor", parser=number(above=0.0), metavar="P", help="Prior of a room with no support (below 1/rooms)."
+        ),
+    ] = 0.01,
     explain: Annotated[
         bool, typer.Option("--explain", help="Show every psi term: class, count, LCA, H, the W's.")
     ] = False,
+    allow_outside: AllowOutsideOption = False,
     json_output: JsonOption = False,
 ) -> None:
     """The prior over rooms for a target class: alpha (Eq. 4) and alpha / alpha_0 (Eq. 5); with
     --robot, the prior over rooms of where the robot is.
 
-    Example: beliefloc prior domains/printer-example.yaml --target printer --explain
-    Example: beliefloc prior domains/apartment.yaml --robot
+    The first example is the paper's worked example (Sec. III-C1): alpha = [0.250, 1.141, 0.375],
+    prior [0.142, 0.646, 0.212].
+
+    Examples:
+
+    \b
+      beliefloc prior domains/printer-example.yaml --target printer --explain
+      beliefloc prior domains/home.yaml --target printer --seen textbook1=bedroom --json
+      beliefloc prior domains/apartment.yaml --robot
     """
     from beliefloc.knowledge import KnowledgeBase, load_domain
     from beliefloc.render import stdout_console
     from beliefloc.render.knowledge import prior_table, psi_table
 
-    domain = load_domain(domain_file)
+    domain = load_domain(domain_file, allow_outside=allow_outside)
+    observations = _observations(seen)
     if robot:
         if target is not None or explain:
             raise UsageError("--robot prints where the robot is; drop --target and --explain (they are about objects)")
-        _robot_prior(domain, kb, _observations(seen), defaults, weight, json_output)
+        _robot_prior(domain, kb, observations, defaults, weight, json_output)
         return
     if weight is not None:
         raise UsageError("--weight is the robot's prior weight: use it with --robot")
     with for_option(target_option(target)):
         chosen = domain.resolve_target(target)
     base = KnowledgeBase(domain, kb or [], use_defaults=defaults)
-    for observation in _observations(seen):
+    for observation in observations:
         base.observe(observation)
-    result = base.prior(chosen, floor=floor)
+    with for_option(f"--floor {floor:g}"):
+        result = base.prior(chosen, floor=floor)
     for message in base.warnings:
         warn(f"clingo: {message}")
     if result.message:
@@ -128,4 +154,4 @@ def _robot_prior(
 
 
 def register(app: typer.Typer) -> None:
-    app.command()(prior)
+    app.command(short_help="The prior over rooms of a target class, or of the robot.")(prior)

@@ -28,12 +28,15 @@ from beliefloc.cli.common import (
 )
 from beliefloc.cli.options import (
     DEFAULT_RECORD_FRAMES,
+    AllowOutsideOption,
     DefaultsOption,
     DomainArgument,
     RecordFramesOption,
     SeedOption,
     TargetOption,
     TimingsOption,
+    number,
+    whole,
 )
 from beliefloc.errors import EXIT_NEGATIVE, UsageError
 from beliefloc.object_search.settings import (
@@ -57,6 +60,7 @@ if TYPE_CHECKING:
 search_app = typer.Typer(
     name="search",
     help="Knowledge-guided object search: an ASP room prior, a belief over cells, early termination.",
+    short_help="Search a domain for an object with a simulated robot.",
     no_args_is_help=True,
     rich_markup_mode=None,
 )
@@ -82,22 +86,39 @@ DynamicOption = Annotated[
         "--commit-threshold are committed and the target's prior recomputed (Algorithm 1, lines 7-10).",
     ),
 ]
+# every float option refuses NaN and infinity (``number``), naming the option; ranges that depend on
+# each other are checked by the library (``for_option``)
 CommitOption = Annotated[
     float,
     typer.Option(
-        "--commit-threshold", help="--dynamic-kb: an object's room belief above which it is committed (in (0.5, 1))."
+        "--commit-threshold",
+        parser=number(),
+        metavar="P",
+        help="--dynamic-kb: an object's room belief above which it is committed (in (0.5, 1)).",
     ),
 ]
 TrustWeightOption = Annotated[
-    float, typer.Option("--trust-weight", help="trust-factor revision: the weight w of the KB's belief (in [0, 1]).")
+    float,
+    typer.Option(
+        "--trust-weight", metavar="W", help="trust-factor revision: the weight w of the KB's belief (in [0, 1])."
+    ),
 ]
 TrustROption = Annotated[
     float,
-    typer.Option("--trust-r", help="trust-factor revision: the r of the r-norm (0 logarithmic, 1 linear; r >= 0)."),
+    typer.Option(
+        "--trust-r", metavar="R", help="trust-factor revision: the r of the r-norm (0 logarithmic, 1 linear; r >= 0)."
+    ),
 ]
+"""The trust factor checks both (NaN and infinity too) and names them together."""
 TimeLimitOption = Annotated[
     float | None,
-    typer.Option("--time-limit", help="Time units (default: the domain's search.time_limit).", show_default=False),
+    typer.Option(
+        "--time-limit",
+        parser=number(),
+        metavar="T",
+        help="Time units (default: the domain's search.time_limit).",
+        show_default=False,
+    ),
 ]
 """``--record-frames``: as ``simulate --record``'s, two minutes of GIF at 0.6 s a frame."""
 
@@ -150,20 +171,21 @@ def _warn_closed_rooms(space: SearchSpace) -> None:
         )
 
 
-@search_app.command()
+@search_app.command(short_help="Search a domain for a target, step by step; print the verdict.")
 @boundary
 def run(
     domain_file: DomainArgument,
     target: TargetOption = None,
     metareasoning: Annotated[
-        str, typer.Option("--metareasoning", "--strategy", help=METAREASONING_HELP)
+        str, typer.Option("--metareasoning", "--strategy", metavar="NAME", help=METAREASONING_HELP)
     ] = Metareasoning.EXPECTATION.value,
-    policy: Annotated[str, typer.Option("--policy", help=POLICY_HELP)] = PolicyName.POMDP.value,
+    policy: Annotated[str, typer.Option("--policy", metavar="NAME", help=POLICY_HELP)] = PolicyName.POMDP.value,
     seed: SeedOption = 0,
     target_cell: Annotated[
         str | None,
         typer.Option(
             "--target-cell",
+            metavar="ROOM:ROW,COL",
             help="Put the target at ROOM:ROW,COL: inside the room on a plane of rooms, the map's row and column "
             "for a domain with map: (default: a random cell).",
             show_default=False,
@@ -171,8 +193,9 @@ def run(
     ] = None,
     absent: Annotated[bool, typer.Option("--absent", help="The target is nowhere in the domain.")] = False,
     defaults: DefaultsOption = True,
+    allow_outside: AllowOutsideOption = False,
     dynamic_kb: DynamicOption = False,
-    revision: Annotated[str, typer.Option("--revision", help=REVISION_HELP)] = Revision.REUSE.value,
+    revision: Annotated[str, typer.Option("--revision", metavar="NAME", help=REVISION_HELP)] = Revision.REUSE.value,
     commit_threshold: CommitOption = COMMIT_THRESHOLD,
     trust_weight: TrustWeightOption = 0.5,
     trust_r: TrustROption = 0.0,
@@ -218,13 +241,13 @@ def run(
 
     Exit code 0 when found, 1 when the robot gives up (not found) or runs out of time.
 
-    Example: beliefloc search run domains/home.yaml --target printer --seed 3 --show
+    Examples:
 
-    Example: beliefloc search run domains/home.yaml --dynamic-kb --revision discard
-
-    Example: beliefloc search run domains/apartment.yaml --target-cell kitchen:7,9 --show
-
-    Example: beliefloc search run domains/home.yaml --seed 3 -o search.png --record search.gif
+    \b
+      beliefloc search run domains/home.yaml --target printer --seed 3 --show
+      beliefloc search run domains/home.yaml --dynamic-kb --revision discard   # exits 1
+      beliefloc search run domains/apartment.yaml --target-cell kitchen:7,9 --show
+      beliefloc search run domains/home.yaml --seed 3 -o search.png --record search.gif
     """
     from beliefloc.knowledge import KnowledgeBase, load_domain
     from beliefloc.object_search.domain_space import search_space
@@ -242,7 +265,7 @@ def run(
     trust = _trust(trust_weight, trust_r)
     if absent and target_cell is not None:
         raise UsageError("--absent and --target-cell contradict each other; give one")
-    domain = load_domain(domain_file)
+    domain = load_domain(domain_file, allow_outside=allow_outside)
     with for_option(target_option(target)):
         chosen = domain.resolve_target(target)
     space = search_space(domain)
@@ -370,18 +393,24 @@ def _write_recording(
     said.print(escape(f"recorded the search in {len(frames)} frames{kept} → {path}"), soft_wrap=True)
 
 
-@search_app.command()
+@search_app.command(short_help="Paired trials of search strategies, with statistics.")
 @boundary
 def simulate(
     domain_file: DomainArgument,
-    trials: Annotated[int, typer.Option("--trials", "-n", min=1, help="How many paired trials.")] = 10,
+    trials: Annotated[
+        int, typer.Option("--trials", "-n", parser=whole(low=1), metavar="N", help="How many paired trials.")
+    ] = 10,
     knowledge: Annotated[
         float,
         typer.Option(
-            "--knowledge", min=0.0, max=1.0, help="Fraction of the other objects whose true room the robot knows."
+            "--knowledge",
+            parser=number(low=0.0, high=1.0),
+            metavar="F",
+            help="Fraction of the other objects whose true room the robot knows.",
         ),
     ] = 0.4,
     defaults: DefaultsOption = True,
+    allow_outside: AllowOutsideOption = False,
     dynamic_kb: DynamicOption = False,
     metareasoning: Annotated[
         list[str] | None,
@@ -390,6 +419,7 @@ def simulate(
             "-m",
             "--strategy",
             "-s",
+            metavar="NAME,...",
             help=f"Repeat or list with commas to compare: {_names(Metareasoning)}.",
             show_default=Metareasoning.EXPECTATION.value,
         ),
@@ -399,6 +429,7 @@ def simulate(
         typer.Option(
             "--policy",
             "-p",
+            metavar="NAME,...",
             help=f"Repeat or list with commas: {_names(PolicyName)}.",
             show_default=PolicyName.POMDP.value,
         ),
@@ -407,6 +438,7 @@ def simulate(
         list[str] | None,
         typer.Option(
             "--revision",
+            metavar="NAME,...",
             help=f"Repeat or list with commas: {_names(Revision)}.",
             show_default=Revision.REUSE.value,
         ),
@@ -416,13 +448,19 @@ def simulate(
         typer.Option(
             "--target",
             "-t",
+            metavar="CLASS|any",
             help="The target class, or 'any' for a random object per trial (default: the domain's `target`, else any).",
             show_default=False,
         ),
     ] = None,
     absent_fraction: Annotated[
         float,
-        typer.Option("--absent-fraction", min=0.0, max=1.0, help="Probability that a trial's target is absent."),
+        typer.Option(
+            "--absent-fraction",
+            parser=number(low=0.0, high=1.0),
+            metavar="P",
+            help="Probability that a trial's target is absent.",
+        ),
     ] = 0.0,
     time_limit: TimeLimitOption = None,
     commit_threshold: CommitOption = COMMIT_THRESHOLD,
@@ -441,9 +479,11 @@ def simulate(
     the true rooms of a random --knowledge fraction of the others. Prints localisation time,
     accuracy and verdicts per arm.
 
-    Example: beliefloc search simulate domains/home.yaml -n 200 -m none,expectation,sampling --absent-fraction 0.5
+    Examples:
 
-    Example: beliefloc search simulate domains/home.yaml -n 100 --knowledge 0.2 --no-defaults --dynamic-kb
+    \b
+      beliefloc search simulate domains/home.yaml -n 200 -m none,expectation,sampling --absent-fraction 0.5
+      beliefloc search simulate domains/home.yaml -n 100 --knowledge 0.2 --no-defaults --dynamic-kb
     """
     from beliefloc.knowledge import load_domain
     from beliefloc.object_search.domain_space import search_space
@@ -456,7 +496,7 @@ def simulate(
     revisions = _choices(revision, Revision.REUSE, "--revision")
     _check_search_options(revisions, dynamic_kb, commit_threshold, time_limit)
     trust = _trust(trust_weight, trust_r)
-    domain = load_domain(domain_file)
+    domain = load_domain(domain_file, allow_outside=allow_outside)
     with for_option(target_option(target)):
         chosen = domain.resolve_target(target, allow_any=True)
     space = search_space(domain)

@@ -14,7 +14,10 @@ rooms, and the ``search:`` section takes its geometry from the map (:class:`MapS
 
 from __future__ import annotations
 
+import bisect
+import heapq
 import os
+import re
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, Literal, overload
 
@@ -23,15 +26,17 @@ from pydantic import (
     ConfigDict,
     Field,
     PrivateAttr,
+    ValidationError,
     ValidationInfo,
     ValidatorFunctionWrapHandler,
     field_validator,
     model_validator,
 )
 
-from beliefloc.errors import DomainError, FieldError, InvalidValueError, MapError
+from beliefloc.errors import DomainError, FieldError, InvalidValueError, KnowledgeBaseError, MapError
+from beliefloc.file_kinds import DOMAIN, kind_of_data, not_a
 from beliefloc.knowledge.robot import DEFAULT_WEIGHT, ROBOT
-from beliefloc.source import Source, read_source, refuse_field_name, validate_source
+from beliefloc.source import Source, format_path, read_source, refuse_field_name, validate_source
 
 if TYPE_CHECKING:
     from beliefloc.semantic_map import SemanticMap
@@ -39,14 +44,30 @@ if TYPE_CHECKING:
 AspName = Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*$", max_length=64)]
 """Rooms, classes, objects and defaults become clingo constants: a lowercase letter, then
 lowercase letters, digits and ``_`` (the paper's ``computer-access`` is written ``computer_access``)."""
+ASP_NAME = re.compile(r"[a-z][a-z0-9_]{0,63}")
+""":data:`AspName` as a regular expression (``fullmatch``), for names given on the command line."""
+
+# Numbers are strict: ``true`` is not 1 and ``1.5`` is no count (a strict float still takes an int);
+# NaN and infinity are refused everywhere, and every number has a range.
+Flag = Annotated[bool, Field(strict=True)]
+Count = Annotated[int, Field(strict=True)]
+Probability = Annotated[float, Field(strict=True, allow_inf_nan=False)]
+MAX_COST = 1e6
+"""The largest cost, time limit or Beta parameter a domain may give (docs/map-format.md's bound on costs)."""
+Amount = Annotated[float, Field(strict=True, allow_inf_nan=False, le=MAX_COST)]
 
 
 class _Strict(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
 
 
+def aliased_fields(model: type[BaseModel]) -> list[str]:
+    """The Python names of ``model``'s fields that files write by another name (their alias)."""
+    return [name for name, info in model.model_fields.items() if info.alias is not None and info.alias != name]
+
+
 class Room(_Strict):
-    accessible: bool = True
+    accessible: Flag = True
     """The basic fluent ``accessible(R)`` at step 1 (``-holds(accessible(R), 1)`` when false)."""
 
 
@@ -73,9 +94,11 @@ class Default(_Strict):
     """Classes whose instances are known NOT to be in ``room`` (the paper's strong exception)."""
 
 
-Pair = tuple[Annotated[int, Field(ge=0)], Annotated[int, Field(ge=0)]]
+MAX_PLACE = 1_000_000
+"""The largest row or column of a cell on a plane of rooms."""
+Pair = tuple[Annotated[Count, Field(ge=0, le=MAX_PLACE)], Annotated[Count, Field(ge=0, le=MAX_PLACE)]]
 """``[row, col]`` on the plane, in cells."""
-Size = tuple[Annotated[int, Field(ge=1, le=1000)], Annotated[int, Field(ge=1, le=1000)]]
+Size = tuple[Annotated[Count, Field(ge=1, le=1000)], Annotated[Count, Field(ge=1, le=1000)]]
 """``[rows, cols]`` of a room, in cells."""
 
 
@@ -88,28 +111,28 @@ class RobotStart(_Strict):
 class DetectorSettings(_Strict):
     """The detector analysing one view: ``p(present | target in view)`` and ``p(present | not)``."""
 
-    true_positive: Annotated[float, Field(gt=0, le=1)] = 0.9
-    false_positive: Annotated[float, Field(ge=0, lt=1)] = 0.1
+    true_positive: Annotated[Probability, Field(gt=0, le=1)] = 0.9
+    false_positive: Annotated[Probability, Field(ge=0, lt=1)] = 0.1
     """p(FP); the true-negative rate p(TN) is 1 - p(FP)."""
-    view: Annotated[int, Field(ge=1, le=99)] = 3
+    view: Annotated[Count, Field(ge=1, le=99)] = 3
     """The side of the square of cells a view covers, centred on the robot's cell (odd): a camera does
     not see through walls -- on a plane of rooms the square is clipped to the robot's room, on a map
     a cell behind a blocked cell is not seen."""
 
 
 class Costs(_Strict):
-    travel: Annotated[float, Field(ge=0)] = 0.5
+    travel: Annotated[Amount, Field(ge=0)] = 0.5
     """Time units per cell of distance between view points: straight-line on a plane of rooms, the
     shortest path through free cells on a map (a diagonal step counts sqrt 2)."""
-    analysis: Annotated[float, Field(gt=0)] = 1.0
+    analysis: Annotated[Amount, Field(gt=0)] = 1.0
     """Time units to analyse one view."""
 
 
 class Existence(_Strict):
     """The Beta(alpha', beta') prior of the target existing in the domain (Eq. 8)."""
 
-    alpha: Annotated[float, Field(gt=0)] = 6.0
-    beta: Annotated[float, Field(gt=0)] = 2.0
+    alpha: Annotated[Amount, Field(gt=0)] = 6.0
+    beta: Annotated[Amount, Field(gt=0)] = 2.0
 
 
 class SearchSettings(_Strict):
@@ -117,11 +140,11 @@ class SearchSettings(_Strict):
 
     sensor: DetectorSettings = Field(default_factory=DetectorSettings)
     costs: Costs = Field(default_factory=Costs)
-    time_limit: Annotated[float, Field(gt=0)] = 100.0
+    time_limit: Annotated[Amount, Field(gt=0)] = 100.0
     existence: Existence = Field(default_factory=Existence)
-    tau_found: Annotated[float, Field(gt=0, lt=1)] = 0.8
+    tau_found: Annotated[Probability, Field(gt=0, lt=1)] = 0.8
     """tau+: stop with Found when one cell's belief exceeds it."""
-    tau_absent: Annotated[float, Field(gt=0, lt=1)] = 0.7
+    tau_absent: Annotated[Probability, Field(gt=0, lt=1)] = 0.7
     """tau-: stop with NotFound when p(not E) exceeds it."""
 
 
@@ -175,9 +198,9 @@ class RobotKnowledge(_Strict):
     """The room of the robot's dock: the default "the robot is usually at its dock" (step 1)."""
     last_seen: AspName | None = None
     """Where the robot was last seen: ``holds(in(robot, R), 1)``, which beats the default."""
-    carried: bool = False
+    carried: Flag = False
     """The robot was carried off its dock: a weak exception, the dock default says nothing."""
-    weight: Annotated[float, Field(gt=0.0, le=1.0)] = DEFAULT_WEIGHT
+    weight: Annotated[Probability, Field(gt=0.0, le=1.0)] = DEFAULT_WEIGHT
     """w: the share of the start belief on the rooms the knowledge base puts the robot in."""
 
 
@@ -193,7 +216,7 @@ class Domain(_Strict):
     defaults: dict[AspName, Default] = Field(default_factory=dict)
     target: AspName | None = None
     """The class searched for when none is named (see :meth:`resolve_target`)."""
-    steps: int = Field(default=2, ge=1, le=100)
+    steps: Count = Field(default=2, ge=1, le=100)
     """Time steps 1..steps: step 1 is the initial knowledge; observations go to the last step."""
     kb: list[str] = Field(default_factory=list)
     """Extra ``.lp`` files of this domain, relative to the domain file."""
@@ -210,6 +233,7 @@ class Domain(_Strict):
 
     _path: Path | None = PrivateAttr(default=None)
     _map: SemanticMap | None = PrivateAttr(default=None)
+    _allow_outside: bool = PrivateAttr(default=False)
 
     # ``search:`` is read as one of two models, chosen by whether the domain has ``map:`` (declared
     # above, so validated first); both fields are named ``search`` in the file and in messages.
@@ -226,7 +250,22 @@ class Domain(_Strict):
     @model_validator(mode="before")
     @classmethod
     def _no_internal_names(cls, data: Any) -> Any:
-        refuse_field_name(cls, data, "map_search")  # files write ``search:``
+        """The Python names of fields that files write by another name -- ``map_search`` (files
+        write ``search:``), ``class_`` of an object or a default -- refused where they are written.
+        Here, for the whole file: a nested model's own check would lose the path (and code may
+        still build an :class:`ObjectInstance` by its Python names)."""
+        if not isinstance(data, dict):
+            return data
+        for name in aliased_fields(cls):
+            refuse_field_name(cls, data, name)
+        for section, model in (("objects", ObjectInstance), ("defaults", Default)):
+            entries = data.get(section)
+            for key, value in entries.items() if isinstance(entries, dict) else ():
+                for name in aliased_fields(model):
+                    try:
+                        refuse_field_name(model, value, name)
+                    except FieldError as exc:
+                        raise FieldError((section, key, *exc.path), exc.message) from None
         return data
 
     @field_validator("rooms", mode="before")
@@ -236,7 +275,18 @@ class Domain(_Strict):
         if isinstance(value, dict):
             return {k: ({} if v is None else v) for k, v in value.items()}
         if isinstance(value, list):
+            for index, name in enumerate(value):
+                if isinstance(name, str) and name in value[:index]:
+                    raise FieldError(("rooms", index), f"room {name!r} is listed twice")
             return {k: {} for k in value}
+        return value
+
+    @field_validator("kb", mode="before")
+    @classmethod
+    def _kb_names(cls, value: Any) -> Any:
+        for index, name in enumerate(value if isinstance(value, list) else []):
+            if isinstance(name, str) and (not name.strip() or "\0" in name):
+                raise FieldError(("kb", index), "not a usable file name")
         return value
 
     @model_validator(mode="after")
@@ -331,14 +381,10 @@ class Domain(_Strict):
             raise FieldError(
                 ("search", "placement"), f"every room needs a place on the plane; missing: {', '.join(missing)}"
             )
-        boxes = {room: (*search.placement[room], *search.size_of(room)) for room in self.rooms}
-        names = list(boxes)
-        for i, first in enumerate(names):
-            r1, c1, h1, w1 = boxes[first]
-            for second in names[:i]:
-                r2, c2, h2, w2 = boxes[second]
-                if r1 < r2 + h2 and r2 < r1 + h1 and c1 < c2 + w2 and c2 < c1 + w1:
-                    raise FieldError(("search", "placement", first), f"room {first!r} overlaps room {second!r}")
+        overlap = _overlapping({room: (*search.placement[room], *search.size_of(room)) for room in self.rooms})
+        if overlap is not None:
+            first, second = overlap
+            raise FieldError(("search", "placement", first), f"room {first!r} overlaps room {second!r}")
         _check_sensor(search.sensor)
         start = search.robot_start
         if start.room not in self.rooms:
@@ -353,20 +399,35 @@ class Domain(_Strict):
             )
 
     def _raise_cycle(self) -> None:
+        """A cycle of the hierarchy, named from the first class that leads into it; linear: a class
+        whose way up was walked once is not walked again."""
+        done: set[str] = set()
         for start in self.classes:
-            seen = [start]
-            current = self.classes[start]
-            while current is not None:
-                if current in seen:
-                    cycle = [*seen[seen.index(current) :], current]
+            path: dict[str, int] = {}
+            current: str | None = start
+            while current is not None and current not in done:
+                if current in path:
+                    cycle = [*list(path)[path[current] :], current]
                     raise FieldError(("classes", start), f"cycle in the class hierarchy: {' -> '.join(cycle)}")
-                seen.append(current)
+                path[current] = len(path)
                 current = self.classes.get(current)
+            done.update(path)
 
     @property
     def path(self) -> Path | None:
         """The file the domain was read from (None when built in code)."""
         return self._path
+
+    @property
+    def folder(self) -> Path:
+        """The folder of the domain file (the working folder when built in code): its ``kb:`` files
+        and their ``#include`` must be in this folder's tree unless :attr:`allow_outside`."""
+        return self._path.parent if self._path is not None else Path.cwd()
+
+    @property
+    def allow_outside(self) -> bool:
+        """Whether the knowledge base may read files outside :attr:`folder`'s tree (``--allow-outside``)."""
+        return self._allow_outside
 
     @property
     def map_file(self) -> Path | None:
@@ -388,8 +449,7 @@ class Domain(_Strict):
 
     def kb_files(self) -> list[Path]:
         """The domain's own ``.lp`` files, resolved relative to the domain file."""
-        base = self._path.parent if self._path is not None else Path.cwd()
-        return [base / name for name in self.kb]
+        return [self.folder / name for name in self.kb]
 
     @overload
     def resolve_target(self, target: str | None, *, allow_any: Literal[False] = False) -> str: ...
@@ -473,36 +533,102 @@ def check_against_map(domain: Domain, smap: SemanticMap, label: str) -> None:
             )
 
 
+def _overlapping(boxes: dict[str, tuple[int, int, int, int]]) -> tuple[str, str] | None:
+    """Two rooms whose boxes (row, col, rows, cols) overlap, the one listed later first; None when
+    none do. A sweep over the rows: the boxes that span the current row cannot overlap each other,
+    so their column ranges are disjoint and sorted, and a new box is checked against one neighbour
+    (n log n, where every pair would be n²)."""
+    order = {room: index for index, room in enumerate(boxes)}
+    spans: list[tuple[int, int, str]] = []  # (first column, end column, room) of the active boxes, sorted
+    ending: list[tuple[int, int, int, str]] = []  # (end row, first column, end column, room)
+    for room in sorted(boxes, key=lambda r: (boxes[r][0], order[r])):
+        row, col, rows, cols = boxes[room]
+        while ending and ending[0][0] <= row:
+            _, c, e, gone = heapq.heappop(ending)
+            spans.pop(bisect.bisect_left(spans, (c, e, gone)))
+        at = bisect.bisect_left(spans, (col + cols,))  # the spans starting before this box ends
+        if at > 0 and spans[at - 1][1] > col:
+            other = spans[at - 1][2]
+            return (room, other) if order[room] > order[other] else (other, room)
+        bisect.insort(spans, (col, col + cols, room))
+        heapq.heappush(ending, (row + rows, col, col + cols, room))
+    return None
+
+
+def check_kb_name(name: str, folder: Path, owner: str, *, allow_outside: bool) -> str | None:
+    """Why the ``kb:`` file ``name`` of a domain in ``folder`` cannot be used (None: it can): outside
+    the folder's tree (unless ``allow_outside``), missing, a folder or a special file."""
+    from beliefloc.knowledge.files import check_file, check_place
+
+    problem = check_place(name, folder, folder, owner, allow_outside=allow_outside)
+    if problem is not None:
+        return f"{name} {problem}"
+    try:
+        check_file(folder / name, name)
+    except KnowledgeBaseError as exc:
+        return str(exc)
+    return None
+
+
 def _hint(name: str, known: Any) -> str:
     options = sorted(known)
     shown = ", ".join(options[:12]) + (", ..." if len(options) > 12 else "")
     return f"; expected one of: {shown}"
 
 
-def load_domain(path: str | Path) -> Domain:
-    """Read and validate a domain file; raises :class:`DomainError` naming file, line and field."""
+def load_domain(path: str | Path, *, allow_outside: bool = False) -> Domain:
+    """Read and validate a domain file; raises :class:`DomainError` naming file, line and field.
+
+    The ``kb:`` files must be in the domain file's folder tree (``../../etc/passwd`` and absolute
+    paths are refused) unless ``allow_outside`` (the command line's ``--allow-outside``); a
+    missing file, a folder or a special file (a FIFO, ``/dev/zero``) is refused here, naming its line.
+    """
     source = read_source(path, DomainError)
+    kind = kind_of_data(source.data)
+    if kind is not None and kind != DOMAIN:
+        raise DomainError(
+            f"{not_a(source.path, kind, DOMAIN)} (a domain has rooms:, classes:, objects:, ...: docs/domain-format.md)"
+        )
     if not isinstance(source.data, dict):
         raise DomainError(f"{source.path}:1:1: a domain file is a YAML mapping (name:, rooms:, classes:, ...)")
     domain = validate_source(source, Domain, DomainError)
     domain._path = Path(path)
+    domain._allow_outside = allow_outside
+    _check_kb(domain, source)
     _attach_map(domain, source)
     return domain
 
 
-def domain_from_data(data: dict[str, Any], path: Path | None = None) -> Domain:
+def domain_from_data(data: dict[str, Any], path: Path | None = None, *, allow_outside: bool = False) -> Domain:
     """A domain from plain data (tests, generated domains); errors without line numbers.
 
-    ``path`` is where the domain would live: a ``map:`` is resolved relative to it."""
+    ``path`` is where the domain would live: a ``map:`` and the ``kb:`` files are resolved relative to it."""
     try:
         domain = Domain.model_validate(data)
     except FieldError as exc:
-        raise DomainError(f"{'.'.join(str(p) for p in exc.path)}: {exc.message}") from None
+        raise DomainError(f"{format_path(exc.path)}: {exc.message}") from None
+    except ValidationError as exc:
+        problems = [f"{format_path(tuple(e['loc']))}: {e['msg']}" for e in exc.errors()]
+        raise DomainError("\n".join(problems[:6])) from None
     except ValueError as exc:
         raise DomainError(str(exc)) from None
     domain._path = path
+    domain._allow_outside = allow_outside
+    _check_kb(domain, None)
     _attach_map(domain, None)
     return domain
+
+
+def _check_kb(domain: Domain, source: Source | None) -> None:
+    """Every ``kb:`` file is a regular file in the domain's folder tree (:func:`check_kb_name`)."""
+    owner = f"the domain file {domain.path}" if domain.path is not None else "the working folder"
+    for index, name in enumerate(domain.kb):
+        problem = check_kb_name(name, domain.folder, owner, allow_outside=domain.allow_outside)
+        if problem is not None:
+            where: tuple[str | int, ...] = ("kb", index)
+            if source is None:
+                raise DomainError(f"kb[{index}]: {problem}")
+            raise DomainError(source.format(where, problem))
 
 
 def _attach_map(domain: Domain, source: Source | None) -> None:

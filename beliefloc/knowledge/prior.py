@@ -133,10 +133,12 @@ def children(parents: Mapping[str, str]) -> dict[str, list[str]]:
 def ancestors(parents: Mapping[str, str], cls: str) -> list[str]:
     """``cls`` and its ancestors up to the root, in that order."""
     chain = [cls]
+    seen = {cls: 0}
     while chain[-1] in parents:
         nxt = parents[chain[-1]]
-        if nxt in chain:  # a cycle written in a .lp file (domain files are checked at load)
-            raise ValueError(f"cycle in the class hierarchy: {' -> '.join([*chain[chain.index(nxt) :], nxt])}")
+        if nxt in seen:  # a cycle written in a .lp file (domain files are checked at load)
+            raise ValueError(f"cycle in the class hierarchy: {' -> '.join([*chain[seen[nxt] :], nxt])}")
+        seen[nxt] = len(chain)
         chain.append(nxt)
     return chain
 
@@ -156,7 +158,7 @@ def psi(count: int, weights: Sequence[int], xi: float = XI) -> float:
     """Eq. 3: ``(ln(count) + xi) / prod(weights)``, 0 when ``count`` is 0."""
     if count <= 0:
         return 0.0
-    return (math.log(count) + xi) / math.prod(weights)
+    return (math.log(count) + xi) / math.prod(float(w) for w in weights)  # a deep, wide path: inf, so 0
 
 
 def room_prior(
@@ -176,7 +178,7 @@ def room_prior(
     """
     if not rooms:
         raise ValueError("no rooms: a prior over rooms needs at least one")
-    if floor <= 0.0 or floor * len(rooms) >= 1.0:
+    if not (floor > 0.0 and floor * len(rooms) < 1.0):  # NaN too
         raise ValueError(f"the floor must be above 0 and below 1/{len(rooms)} (1 / number of rooms), got {floor:g}")
     kids = children(parents)
     terms: list[PsiTerm] = []

@@ -10,10 +10,20 @@ with ``holds(in(O, R), I) :- observed(O, R, I).``; observing an object that the 
 its external true and solves again, without grounding again. An object the domain does not know
 needs new ground rules, so the program is grounded afresh with it. ``benchmarks/bench_prior.py``
 measures both.
+
+The program's files are read and checked by :mod:`beliefloc.knowledge.files` before clingo sees
+them (clingo loads private copies). The first grounding and search of a knowledge base run under a
+budget of time and memory (:mod:`beliefloc.knowledge.budget`), in a child process; once a program
+has been grounded within the budget in this process, knowledge bases that differ from it only in
+where objects are known to be (the trials of ``search simulate``, a dynamic knowledge base's
+revisions) and re-groundings after an observation run in the process itself, where the time budget
+(and Ctrl-C) stop a search but not a grounding.
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 import re
 import time
 from collections.abc import Iterable, Sequence
@@ -23,10 +33,14 @@ from typing import Any
 
 import clingo
 
+from beliefloc import limits
 from beliefloc.errors import InvalidValueError, KnowledgeBaseError
 from beliefloc.knowledge.answer import AnswerSet, Literal, Timings
-from beliefloc.knowledge.domain import Domain
+from beliefloc.knowledge.budget import run_budgeted, wait_solved
+from beliefloc.knowledge.domain import ASP_NAME, Domain
+from beliefloc.knowledge.files import NOT_LP, Program, Root, read_program
 from beliefloc.knowledge.prior import DEFAULT_FLOOR, RoomPrior, room_prior
+from beliefloc.knowledge.robot import ROBOT
 
 _SHIPPED = Path(__file__).parent / "lp"
 """The axioms ship inside the package as links to the repository's hand-edited ``kb/`` files; a
@@ -58,6 +72,10 @@ _PARTS = """
 holds(in(O, R), I) :- observed(O, R, I).
 """
 _PARTS_NAME = "<beliefloc facts>"
+_PROVEN: set[str] = set()
+"""The shapes (:meth:`KnowledgeBase._shape`) of programs grounded and solved within the budget in
+this process: another knowledge base of the same shape is grounded in the process itself."""
+_PROVEN_KEPT = 256
 _LOCATION = re.compile(r"^(?P<file>.+?):(?P<line>\d+):(?P<col>\d+)(?:-\d+(?::\d+)?)?: (?P<text>.*)$", re.DOTALL)
 
 
@@ -79,6 +97,13 @@ class Observation:
         obj, _, class_ = what.partition(":")
         if not sep or not obj.strip() or not room.strip():
             raise InvalidValueError("write OBJECT=ROOM or OBJECT:CLASS=ROOM, e.g. book5=kitchen")
+        names = [obj.strip(), room.strip(), *([class_.strip()] if class_.strip() else [])]
+        for name in names:
+            if not ASP_NAME.fullmatch(name):
+                raise InvalidValueError(
+                    f"{name!r} is not a name of the knowledge base: a lowercase letter, then lowercase letters, "
+                    "digits and _ (at most 64)"
+                )
         return cls(obj.strip(), room.strip(), class_.strip() or None)
 
     def describe(self, step: int) -> str:
@@ -139,14 +164,20 @@ class KnowledgeBase:
         self.domain = domain
         self.use_defaults = use_defaults
         """False: leave out the domain file's ``defaults:`` (defaults written in .lp files stay)."""
-        files = [AXIOMS, ROBOT_AXIOMS, *domain.kb_files(), *kb_files]
+        roots = [Root(AXIOMS, None), Root(ROBOT_AXIOMS, None)]
+        folder = domain.folder
+        owner = f"the domain file {domain.path}" if domain.path is not None else "the working folder"
+        roots += [Root(path, folder, owner, contains_self=True) for path in domain.kb_files()]
+        roots += [Root(path, path.parent, f"the file {path}") for path in kb_files]
         seen: set[Path] = set()
         self.files: list[Path] = []
-        for path in files:
-            key = path.resolve()
+        for root in roots:
+            key = root.path.resolve()
             if key not in seen:
                 seen.add(key)
-                self.files.append(path)
+                self.files.append(root.path)
+        self.program: Program = read_program(roots, allow_outside=domain.allow_outside)
+        """The files clingo loads, read and checked (:func:`~beliefloc.knowledge.files.read_program`)."""
         self.warnings: list[str] = []
         self._errors: list[str] = []
         self.last_changed: list[str] = []
@@ -154,48 +185,111 @@ class KnowledgeBase:
         self._new_objects: dict[str, str] = {}
         self._observations: list[Observation] = []
         self._answer: AnswerSet | None = None
-        self._control = self._ground()
+        self._control: clingo.Control | None = None
+        self._first_answer()
         for observation in observations:
             self.observe(observation)
 
     # grounding
     def _log(self, code: clingo.MessageCode, message: str) -> None:
-        text = message.strip()
+        text = self.program.shown(message.strip())
         if code == clingo.MessageCode.RuntimeError:
             self._errors.append(text)
         elif text not in self.warnings:
             self.warnings.append(text)
 
+    @property
+    def label(self) -> str:
+        """The knowledge base in messages: the domain file (or name) and the program's own files."""
+        where = str(self.domain.path) if self.domain.path is not None else f"domain {self.domain.name!r}"
+        own = [str(path) for path in self.files if path not in (AXIOMS, ROBOT_AXIOMS)]
+        return f"{where} (with {', '.join(own)})" if own else where
+
+    def _first_answer(self) -> None:
+        """Ground and solve for the first time: under the budget in a child process, unless a
+        program of the same shape was grounded within it already (:data:`_PROVEN`)."""
+        key = self._shape()
+        if key in _PROVEN:
+            self._control = self._ground()
+            self._answer = self._solve()
+            return
+        found = run_budgeted(self._answer_texts, self.label)
+        for message in found["warnings"]:
+            if message not in self.warnings:
+                self.warnings.append(message)
+        self.timings = Timings(found["ground"], found["solve"])
+        rooms = list(self.domain.rooms)
+        self._answer = _to_answer(found["atoms"], rooms, self.domain.steps, found["models"], self.timings)
+        if len(_PROVEN) >= _PROVEN_KEPT:
+            _PROVEN.clear()
+        _PROVEN.add(key)
+
+    def _answer_texts(self) -> dict[str, Any]:
+        """Ground and solve here (in the budget's child process): the answer as JSON data."""
+        self._control = self._ground()
+        atoms, models = self._search()
+        return {
+            "atoms": atoms,
+            "models": models,
+            "warnings": self.warnings,
+            "ground": self.timings.ground,
+            "solve": self.timings.solve,
+        }
+
+    def _shape(self) -> str:
+        """What decides how large the grounding is: the program's files and the domain's facts, but
+        for where objects are known to be (which the trials of a simulation vary)."""
+        d = self.domain
+        facts = {
+            "rooms": {name: room.accessible for name, room in d.rooms.items()},
+            "classes": d.classes,
+            "objects": {name: obj.class_ for name, obj in d.objects.items()},
+            "defaults": {name: default.model_dump(by_alias=True) for name, default in d.defaults.items()}
+            if self.use_defaults
+            else {},
+            "robot": d.robot.model_dump() if d.robot is not None else None,
+            "steps": d.steps,
+        }
+        text = json.dumps(facts, sort_keys=True) + self.program.digest
+        return hashlib.sha256(text.encode()).hexdigest()
+
+    def _control_ready(self) -> clingo.Control:
+        """The grounded program in this process (grounded now when the first answer came from the
+        budget's child process)."""
+        if self._control is None:
+            self._control = self._ground()
+        return self._control
+
     def _ground(self) -> clingo.Control:
         self._errors = []
         ctl = clingo.Control(["--models=0", "--enum-mode=cautious"], logger=self._log, message_limit=100)
-        for path in self.files:
-            if not path.is_file():
-                raise KnowledgeBaseError(f"{path}: no such knowledge-base file")
+        for loaded, path in zip(self.program.top, self.files, strict=True):
             try:
-                ctl.load(str(path))
-            except RuntimeError:
-                raise KnowledgeBaseError(self._error_text(f"{path}: cannot be parsed")) from None
+                ctl.load(str(loaded))
+            except RuntimeError as exc:
+                raise KnowledgeBaseError(self._error_text(f"{path}: cannot be parsed", exc)) from None
         try:
             ctl.add("base", [], _PARTS)
-        except RuntimeError:  # pragma: no cover - the fixed program text is tested
-            raise KnowledgeBaseError(self._error_text("internal program")) from None
+        except RuntimeError as exc:  # pragma: no cover - the fixed program text is tested
+            raise KnowledgeBaseError(self._error_text("internal program", exc)) from None
         start = time.perf_counter()
         try:
             ctl.ground(self._fact_parts())
-        except RuntimeError:
-            raise KnowledgeBaseError(self._error_text("grounding failed")) from None
+        except RuntimeError as exc:
+            raise KnowledgeBaseError(self._error_text("grounding failed", exc)) from None
         self.timings = Timings(ground=time.perf_counter() - start)
         return ctl
 
-    def _error_text(self, fallback: str) -> str:
-        """clingo's first error as ``file:line:col: message``."""
-        for text in self._errors:
-            match = _LOCATION.match(text)
+    def _error_text(self, fallback: str, exc: BaseException | None = None) -> str:
+        """clingo's first error as ``file:line:col: message`` (the files' own names, not the copies')."""
+        for text in [*self._errors, *([str(exc)] if exc is not None else [])]:
+            match = _LOCATION.match(self.program.shown(text.strip()))
             if match:
                 body = match["text"].removeprefix("error: ").strip()
-                return f"{match['file']}:{match['line']}:{match['col']}: {body}"
-        return self._errors[0] if self._errors else fallback
+                file = match["file"]
+                hint = "" if file.endswith(".lp") or file.startswith("<") else f"; {NOT_LP.format(file)}"
+                return f"{file}:{match['line']}:{match['col']}: {body}{hint}"
+        return self.program.shown(self._errors[0]) if self._errors else fallback
 
     def _fact_parts(self) -> list[tuple[str, Sequence[clingo.Symbol]]]:
         d = self.domain
@@ -242,22 +336,32 @@ class KnowledgeBase:
         return self._answer
 
     def _solve(self) -> AnswerSet:
+        atoms, models = self._search()
+        return _to_answer(atoms, list(self.domain.rooms), self.domain.steps, models, self.timings)
+
+    def _search(self) -> tuple[list[str], int]:
+        """Solve the grounded program (cautious consequences): the shown atoms as text, and how many
+        models were found; raises when there is none. Waited for in slices, so that Ctrl-C and the
+        time budget (:data:`~beliefloc.limits.GROUNDING_SECONDS`) stop it."""
+        control = self._control_ready()
         start = time.perf_counter()
-        models = 0
-        symbols: Sequence[clingo.Symbol] = ()
-        with self._control.solve(yield_=True) as handle:
-            for model in handle:  # cautious mode: each model is a smaller intersection; keep the last
-                models += 1
-                symbols = model.symbols(shown=True)
-        solve_seconds = time.perf_counter() - start
-        texts = [str(symbol) for symbol in symbols]
-        self.timings = Timings(self.timings.ground, solve_seconds)
-        if models == 0:
+        found: dict[str, Any] = {"models": 0, "atoms": []}
+
+        def on_model(model: clingo.Model) -> None:  # cautious mode: each model a smaller intersection
+            found["models"] += 1
+            found["atoms"] = [str(symbol) for symbol in model.symbols(shown=True)]
+
+        deadline = time.monotonic() + limits.GROUNDING_SECONDS.value
+        with control.solve(on_model=on_model, async_=True) as handle:
+            wait_solved(handle, deadline, self.label)
+            handle.get()
+        self.timings = Timings(self.timings.ground, time.perf_counter() - start)
+        if found["models"] == 0:
             what = "; ".join(self.last_changed) if self.last_changed else "the domain's facts and the axioms"
             raise KnowledgeBaseError(
                 f"the knowledge base is inconsistent (it has no answer set); the facts that last changed it: {what}"
             )
-        return _to_answer(texts, list(self.domain.rooms), self.domain.steps, models, self.timings)
+        return found["atoms"], found["models"]
 
     # revision
     def observe(self, observation: Observation) -> bool:
@@ -276,12 +380,16 @@ class KnowledgeBase:
         key = Observation(observation.obj, observation.room, None, step)
         if key in self._observations:
             return False
-        known = self._control.symbolic_atoms[self._observed(key)] is not None  # also objects from .lp files
+        control = self._control_ready()
+        known = control.symbolic_atoms[self._observed(key)] is not None  # also objects from .lp files
         if not known:
             if observation.cls is None:
                 raise KnowledgeBaseError(f"unknown object {observation.obj!r}: give its class to add it")
             if observation.cls not in self.domain.classes:
                 raise KnowledgeBaseError(f"unknown class {observation.cls!r} for the new object {observation.obj!r}")
+            clash = self._name_clash(observation.obj)
+            if clash:
+                raise KnowledgeBaseError(f"the new object {observation.obj!r} {clash}; give it another name")
         previous = (self._control, dict(self._new_objects), self.timings)
         self._observations.append(key)
         self.last_changed = [key.describe(step)]
@@ -303,13 +411,24 @@ class KnowledgeBase:
             raise
         return True
 
+    def _name_clash(self, name: str) -> str | None:
+        """Why a new object may not be called ``name`` (None: it may)."""
+        d = self.domain
+        if name == ROBOT:
+            return "is the robot itself (kb/robot.lp)"
+        if name in d.rooms:
+            return "is a room"
+        if name in d.classes:
+            return "is a class"
+        return None
+
     @staticmethod
     def _observed(observation: Observation) -> clingo.Symbol:
         step = clingo.Number(observation.step or 1)
         return _fn("observed", _const(observation.obj), _const(observation.room), step)
 
     def _switch(self, observation: Observation, value: bool) -> None:
-        self._control.assign_external(self._observed(observation), value)
+        self._control_ready().assign_external(self._observed(observation), value)
 
     @property
     def observations(self) -> tuple[Observation, ...]:
@@ -330,6 +449,9 @@ def room_prior_from_answer(answer: AnswerSet, target: str, *, floor: float = DEF
     if target not in answer.classes:
         shown = ", ".join(sorted(answer.classes))
         raise KnowledgeBaseError(f"unknown target class {target!r}; expected one of: {shown}")
+    n = len(answer.rooms)
+    if n and not (floor > 0.0 and floor * n < 1.0):  # NaN too
+        raise InvalidValueError(f"the floor must be above 0 and below 1/{n} (1 / number of rooms), got {floor:g}")
     try:
         return room_prior(answer.rooms, answer.parents, answer.counts(), target, floor=floor, models=answer.models)
     except ValueError as exc:

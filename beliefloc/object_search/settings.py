@@ -69,8 +69,8 @@ _POLICY_DESCRIPTIONS = {
 
 def check_time_limit(time_limit: float) -> float:
     """A search's time limit, in simulation time units: a positive number."""
-    if not time_limit > 0:
-        raise InvalidValueError(f"a time limit must be positive, got {time_limit:g}")
+    if not (time_limit > 0 and math.isfinite(time_limit)):
+        raise InvalidValueError(f"a time limit must be positive and finite, got {time_limit:g}")
     return time_limit
 
 
