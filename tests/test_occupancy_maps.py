@@ -275,7 +275,7 @@ def test_the_depot_as_shipped() -> None:
 
 def test_the_cli_localizes_on_the_arena(tmp_path: Path) -> None:
     """tb3-sandbox.yaml is localizable, as its comment says: macros build exits 0."""
-    result = CliRunner().invoke(app, ["macros", "build", str(MAPS / "tb3-sandbox.yaml"), "-o", str(tmp_path / "m")])
+    result = CliRunner().invoke(app, ["macros", "build", str(MAPS / "tb3-sandbox.yaml"), "-o", str(tmp_path / "m.npz")])
     assert result.exit_code == 0, result.output
     assert "localizable: every pair of states can be told apart" in " ".join(result.stdout.split())
 

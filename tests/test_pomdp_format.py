@@ -659,12 +659,6 @@ def test_infinite_cost_is_refused_before_writing(tmp_path: Path, window: Model) 
     assert list(tmp_path.iterdir()) == []
 
 
-def test_export_help_has_an_example(runner) -> None:
-    result = runner.invoke(app, ["export", "--help"])
-    assert result.exit_code == 0
-    assert "Example: beliefloc export" in result.stdout
-
-
 # --- size ----------------------------------------------------------------------------------------------
 
 BIG_MAP = """\

@@ -353,11 +353,6 @@ def test_pose_of_a_model_without_a_grid_is_refused(runner: CliRunner) -> None:
     assert "Traceback" not in result.output
 
 
-def test_pose_help_has_examples(runner: CliRunner) -> None:
-    result = runner.invoke(app, ["pose", "--help"])
-    assert result.exit_code == 0 and "Example: beliefloc pose maps/kitchen.yaml" in result.stdout
-
-
 # --- the "pose" of the other --json outputs --------------------------------------------------------
 
 
