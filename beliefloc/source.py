@@ -172,7 +172,7 @@ def format_path(path: Path) -> str:
 _READ_CHUNK = 1 << 20
 
 
-def _not_regular(mode: int) -> str | None:
+def not_regular_file(mode: int) -> str | None:
     """Why a file of this ``st_mode`` cannot be read as text, or None for a regular file."""
     if stat.S_ISREG(mode):
         return None
@@ -212,7 +212,7 @@ def read_text(path: str | FilePath, error_cls: type[BeliefLocError]) -> tuple[st
         if isinstance(exc, ValueError):
             raise error_cls(f"{file_path!r}: not a usable file name") from None
         raise error_cls(_cannot_read(file_path, exc)) from None
-    problem = _not_regular(info.st_mode)
+    problem = not_regular_file(info.st_mode)
     if problem is not None:
         raise error_cls(f"{file_path}: {problem}")
     limit.check(info.st_size, str(file_path))
@@ -220,7 +220,7 @@ def read_text(path: str | FilePath, error_cls: type[BeliefLocError]) -> tuple[st
     try:
         fd = os.open(file_path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
         with os.fdopen(fd, "rb", buffering=0) as stream:
-            problem = _not_regular(os.fstat(stream.fileno()).st_mode)  # what was opened: it may have changed
+            problem = not_regular_file(os.fstat(stream.fileno()).st_mode)  # what was opened: it may have changed
             if problem is not None:
                 raise error_cls(f"{file_path}: {problem}")
             chunks: list[bytes] = []

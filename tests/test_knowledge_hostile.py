@@ -149,7 +149,7 @@ def test_special_files_are_refused_before_reading(tmp_path: Path, runner: CliRun
     text = refused(runner.invoke(app, ["kb", "check", str(HOME), "--kb", str(fifo)]))
     assert f"{fifo}: is a named pipe (FIFO), not a regular file" in text
     text = refused(runner.invoke(app, ["kb", "check", str(HOME), "--kb", "/dev/zero"]))
-    assert "/dev/zero: is a device (like /dev/zero), not a regular file" in text
+    assert "/dev/zero: is a character device (like /dev/zero or a terminal), not a regular file" in text
     write(tmp_path / "via.lp", '#include "pipe.lp".\n')
     with pytest.raises(KnowledgeBaseError, match=r'via\.lp:1:1: #include "pipe\.lp": \S*pipe\.lp: is a named pipe'):
         KnowledgeBase(load_domain(PRINTER), [tmp_path / "via.lp"])
@@ -160,7 +160,7 @@ def test_special_files_are_refused_before_reading(tmp_path: Path, runner: CliRun
     zero = write(tmp_path / "z.yaml", "name: z\nrooms: [kitchen]\nclasses: {object: null}\nkb: [zero.lp]\n")
     with pytest.raises(DomainError, match=r"z\.yaml:4:6: kb\[0\]: zero\.lp is outside the folder"):
         load_domain(zero)
-    with pytest.raises(DomainError, match=r"z\.yaml:4:6: kb\[0\]: zero\.lp: is a device"):
+    with pytest.raises(DomainError, match=r"z\.yaml:4:6: kb\[0\]: zero\.lp: is a character device"):
         load_domain(zero, allow_outside=True)
 
 
@@ -319,7 +319,7 @@ def test_commented_directives_are_not_directives() -> None:
     [
         ("kb_outside.yaml", "4:6", r"kb\[0\]: \.\./\S*etc/passwd is outside the folder \S*domains of the domain file"),
         ("kb_absolute.yaml", "4:6", r"kb\[0\]: /etc/passwd is an absolute path; name the file relative"),
-        ("kb_folder.yaml", "4:6", r"kb\[0\]: \.: is a folder, not a knowledge-base file"),
+        ("kb_folder.yaml", "4:6", r"kb\[0\]: \.: is a folder, not a file"),
         ("kb_missing.yaml", "4:6", r"kb\[0\]: nowhere\.lp: no such knowledge-base file"),
         ("kb_script_outside.yaml", "4:6", r"kb\[0\]: \.\./kb/script_python\.lp is outside the folder"),
     ],

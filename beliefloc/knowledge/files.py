@@ -28,7 +28,6 @@ import hashlib
 import os
 import re
 import shutil
-import stat
 import tempfile
 from collections.abc import Iterable
 from dataclasses import dataclass, field
@@ -37,7 +36,7 @@ from pathlib import Path
 from beliefloc import limits
 from beliefloc.errors import KnowledgeBaseError, LimitError
 from beliefloc.file_kinds import KNOWLEDGE_BASE, kind_of_path
-from beliefloc.source import read_text
+from beliefloc.source import not_regular_file, read_text
 
 NOT_LP = "is {} a knowledge base? --kb and kb: take ASP programs (kb/*.lp)"
 OUTSIDE_HINT = "--allow-outside reads it anyway"
@@ -328,24 +327,12 @@ def check_file(path: Path, shown: str) -> None:
     except (OSError, ValueError) as exc:
         text = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
         raise KnowledgeBaseError(f"{shown}: cannot be read ({text})") from None
-    problem = _special(info.st_mode)
+    problem = not_regular_file(info.st_mode)
     if problem is not None:
         raise KnowledgeBaseError(f"{shown}: {problem}")
     kind = kind_of_path(path)
     if kind is not None and kind != KNOWLEDGE_BASE:
         raise KnowledgeBaseError(f"{shown} is {kind}, not {KNOWLEDGE_BASE}")
-
-
-def _special(mode: int) -> str | None:
-    if stat.S_ISREG(mode):
-        return None
-    if stat.S_ISDIR(mode):
-        return "is a folder, not a knowledge-base file"
-    if stat.S_ISFIFO(mode):
-        return "is a named pipe (FIFO), not a regular file"
-    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
-        return "is a device (like /dev/zero), not a regular file"
-    return "is not a regular file"
 
 
 def read_program(roots: Iterable[Root], *, allow_outside: bool = False) -> Program:
