@@ -59,6 +59,15 @@ class InvalidValueError(BeliefLocError, ValueError):
     command-line option: the CLI adds the option's name (``cli.common.for_option``)."""
 
 
+class OutputError(BeliefLocError):
+    """A file cannot be written (a folder that vanished, a full disk, no permission); nothing was
+    left half written. ``reason`` is the system's word for why."""
+
+    def __init__(self, message: str, reason: str = "") -> None:
+        super().__init__(message)
+        self.reason = reason
+
+
 class LimitError(BeliefLocError):
     """An input is larger than a documented bound (:mod:`beliefloc.limits`); the message names the
     bound and the environment variable that raises it."""

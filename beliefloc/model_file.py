@@ -49,7 +49,7 @@ import scipy.sparse as sp
 from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt, StrictStr, ValidationError
 
 from beliefloc import limits
-from beliefloc.errors import BeliefLocError, ModelError
+from beliefloc.errors import BeliefLocError, ModelError, OutputError
 from beliefloc.model import (
     Action,
     ActionKind,
@@ -93,17 +93,28 @@ def write_atomically(path: Path, write: Any, *, binary: bool = True) -> None:
     directory = path.parent if str(path.parent) else Path(".")
     sweep_stale_temporaries(path)
     with _removed_on_signal() as temporaries:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+        try:
+            fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+        except OSError as exc:
+            raise _cannot_write(path, exc) from None
         temporary = Path(tmp)
         temporaries.append(temporary)
         try:
             with os.fdopen(fd, "wb" if binary else "w") as handle:
-                os.fchmod(handle.fileno(), _file_mode())  # as open() would create it, not mkstemp's 0600
+                os.fchmod(handle.fileno(), usual_file_mode())  # as open() would create it, not mkstemp's 0600
                 write(handle)
             os.replace(temporary, path)
+        except OSError as exc:
+            temporary.unlink(missing_ok=True)
+            raise _cannot_write(path, exc) from None
         except BaseException:
             temporary.unlink(missing_ok=True)
             raise
+
+
+def _cannot_write(path: Path, exc: OSError) -> OutputError:
+    reason = exc.strerror or str(exc)
+    return OutputError(f"{path}: cannot be written ({reason}); nothing was written", reason)
 
 
 def sweep_stale_temporaries(path: Path, older_than: float = STALE_TEMPORARY_SECONDS) -> list[Path]:
@@ -189,8 +200,8 @@ def _restore(previous: dict[int, Any]) -> None:
             signal.signal(signum, old if old is not None else signal.SIG_DFL)
 
 
-def _file_mode() -> int:
-    """0o666 less the umask."""
+def usual_file_mode() -> int:
+    """0o666 less the umask: the mode open() gives a new file, not mkstemp's private 0600."""
     umask = os.umask(0)
     os.umask(umask)
     return 0o666 & ~umask

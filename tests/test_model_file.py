@@ -11,7 +11,7 @@ import pytest
 
 from beliefloc import compile_model, load_map, uniform, update
 from beliefloc.cli.app import app
-from beliefloc.errors import ModelError
+from beliefloc.errors import ModelError, OutputError
 from beliefloc.model_file import load_model, save_model
 
 from .conftest import MAPS
@@ -73,7 +73,7 @@ def test_failed_write_leaves_no_file(tmp_path: Path, window_copy: Path, monkeypa
         raise OSError("disk full")
 
     monkeypatch.setattr(np, "savez_compressed", broken)
-    with pytest.raises(OSError, match="disk full"):
+    with pytest.raises(OutputError, match="disk full"):
         save_model(model, tmp_path / "w.npz")
     assert list(tmp_path.iterdir()) == [window_copy]
 

@@ -14,6 +14,7 @@ A command needs a valid invocation around the path under test: :data:`BASE` give
 from __future__ import annotations
 
 import hashlib
+import os
 import shutil
 import tempfile
 from collections.abc import Iterator
@@ -245,7 +246,8 @@ def _other_kind(param: Param, files: Files) -> Path | None:
     return None
 
 
-OUTPUT_CASES = ("missing-folder", "folder", "read-only", "input", "other-kind")
+OUTPUT_CASES = ("missing-folder", "folder", "read-only", "proc", "input", "other-kind")
+"""``proc``: a folder no process may create files in, root included (/proc): the write itself fails."""
 INPUT_CASES = ("missing-folder", "folder", "unreadable")
 
 
@@ -266,6 +268,8 @@ def _value(param: Param, case: str, files: Files) -> str | None:
         folder.mkdir()
         folder.chmod(0o555)
         return str(folder / f"x{suffix}")
+    if case == "proc":
+        return f"/proc/beliefloc-test-{os.getpid()}{suffix}" if Path("/proc").is_dir() else None
     if case == "unreadable":
         base = BASE[param.command].get("args", {}).get(param.name)
         original = Path(files.fill(base)) if base in ("{map}", "{domain}", "{macros}") else files.map

@@ -13,6 +13,7 @@ import pytest
 from typer.testing import CliRunner
 
 from beliefloc.cli.app import app
+from beliefloc.errors import OutputError
 from tests.conftest import DATA, MAPS
 
 pytest.importorskip("matplotlib")
@@ -302,7 +303,7 @@ def test_frames_are_written_whole_or_not_at_all(tmp_path: Path, monkeypatch: pyt
         return real(self, data)
 
     monkeypatch.setattr(Path, "write_bytes", failing)
-    with pytest.raises(OSError, match="disk full"):
+    with pytest.raises(OutputError, match="disk full"):
         save_frames([b"1", b"2", b"3"], tmp_path / "frames")
     assert len(written) == 2  # the failure came mid-way
     assert list(tmp_path.iterdir()) == []

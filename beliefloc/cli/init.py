@@ -119,10 +119,16 @@ def _render(kind: str, name: str, target: Path, pointer: str) -> str:
 def _write_new(target: Path, text: str, kind: str) -> None:
     """Write ``text`` to ``target`` all at once: through a temporary file beside it, checked with the
     real loader, then linked into place -- which fails, rather than overwrite, if the file appeared."""
-    fd, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    from beliefloc.errors import OutputError
+    from beliefloc.model_file import usual_file_mode
+
+    try:
+        fd, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    except OSError as exc:
+        raise OutputError(f"{target}: cannot be written ({exc.strerror or exc}); nothing was written") from None
     staged = Path(temporary)
     try:
-        _usual_mode(temporary)
+        os.chmod(temporary, usual_file_mode())
         with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as handle:
             handle.write(text)
         _check(staged, kind)
@@ -151,10 +157,3 @@ def _check(path: Path, kind: str) -> None:
         from beliefloc.knowledge import load_domain
 
         load_domain(path)
-
-
-def _usual_mode(path: str) -> None:
-    """The mode a file created with open() gets (0666 less the umask), not mkstemp's private 0600."""
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(path, 0o666 & ~umask)

@@ -10,7 +10,7 @@ from rich.markup import escape
 
 from beliefloc.cli.common import boundary, check_output, for_option, open_model, print_json
 from beliefloc.cli.options import GammaOption, JsonOption, ModelArgument
-from beliefloc.errors import EXIT_NEGATIVE, ModelError, UsageError
+from beliefloc.errors import EXIT_NEGATIVE, OutputError, UsageError
 from beliefloc.render import stderr_console, stdout_console
 
 if TYPE_CHECKING:
@@ -65,8 +65,8 @@ def build(
             table = build_macros(model, gamma, progress=advance)
     try:
         save_macros(table, output, model=model)
-    except OSError as exc:
-        raise ModelError(f"-o {output}: cannot write the macro table ({exc.strerror or exc})") from None
+    except OutputError as exc:
+        raise OutputError(f"-o {output}: cannot write the macro table ({exc.reason})", exc.reason) from None
     summary = table.summary()
     classes = [[model.states.name(s) for s in c] for c in table.never_classes()]
     if json_output:

@@ -11,7 +11,7 @@ from rich.markup import escape
 
 from beliefloc.cli.common import boundary, check_output, open_model, print_json, report_error, warn
 from beliefloc.cli.options import JsonOption, ModelArgument
-from beliefloc.errors import EXIT_BAD_INPUT, BeliefLocError, ModelError, UsageError
+from beliefloc.errors import EXIT_BAD_INPUT, BeliefLocError, OutputError, UsageError
 from beliefloc.model_sources import MODEL_SUFFIX
 from beliefloc.render import stdout_console
 
@@ -115,8 +115,8 @@ def build(
     seconds = time.perf_counter() - start
     try:
         save_model(model, output)
-    except OSError as exc:
-        raise ModelError(f"-o {output}: cannot write the model ({exc.strerror or exc})") from None
+    except OutputError as exc:
+        raise OutputError(f"-o {output}: cannot write the model ({exc.reason})", exc.reason) from None
     summary = model_summary(model)
     if json_output:
         print_json({**summary, "output": str(output), "seconds": seconds})

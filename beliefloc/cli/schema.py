@@ -21,10 +21,8 @@ import copy
 import inspect
 import itertools
 import json
-import os
 import re
 import sys
-import tempfile
 import textwrap
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -86,7 +84,9 @@ def schema_command(
     if output is None:
         sys.stdout.write(text)
         return
-    _replace_atomically(output, text)
+    from beliefloc.model_file import write_atomically
+
+    write_atomically(output, lambda handle: handle.write(text), binary=False)
     typer.echo(f"wrote {output}")
 
 
@@ -98,19 +98,6 @@ def schema_text(kind: str) -> str:
     """The schema of ``kind`` (``map`` or ``domain``) as the command prints it."""
     schema = map_schema() if kind == "map" else domain_schema()
     return json.dumps(schema, indent=2, ensure_ascii=True) + "\n"
-
-
-def _replace_atomically(path: Path, text: str) -> None:
-    """Write ``text`` to ``path`` through a temporary file in the same folder: never half written."""
-    fd, temporary = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        _usual_mode(temporary)
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as handle:
-            handle.write(text)
-        os.replace(temporary, path)
-    except BaseException:
-        Path(temporary).unlink(missing_ok=True)
-        raise
 
 
 # --- the map --------------------------------------------------------------------------------------
@@ -484,10 +471,3 @@ def _plain(docstring: str) -> str:
     text = text.replace("``", "`")
     paragraphs = [" ".join(part.split()) for part in text.split("\n\n")]
     return "\n\n".join(p for p in paragraphs if p)
-
-
-def _usual_mode(path: str) -> None:
-    """The mode a file created with open() gets (0666 less the umask), not mkstemp's private 0600."""
-    umask = os.umask(0)
-    os.umask(umask)
-    os.chmod(path, 0o666 & ~umask)

@@ -54,7 +54,7 @@ from typing import IO, Any
 import numpy as np
 import scipy.sparse as sp
 
-from beliefloc.errors import ModelError
+from beliefloc.errors import ModelError, OutputError
 from beliefloc.model import Action, Model
 from beliefloc.model_file import write_atomically
 from beliefloc.pomdp_format.names import FORMAT_VERSION, PREFIX, format_number, identifiers
@@ -104,8 +104,8 @@ def write_pomdp(model: Model, path: str | Path) -> ExportSummary:
 
     try:
         write_atomically(path, write, binary=False)
-    except OSError as exc:
-        raise ModelError(f"{path}: cannot write the .pomdp file ({exc.strerror or exc})") from None
+    except OutputError as exc:
+        raise OutputError(f"{path}: cannot write the .pomdp file ({exc.reason})", exc.reason) from None
     return summary
 
 

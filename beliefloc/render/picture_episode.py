@@ -176,12 +176,22 @@ def save_frames(frames: Sequence[bytes], directory: Path) -> list[Path]:
     parent = directory.parent if str(directory.parent) else Path(".")
     if directory.exists() and not (directory.is_dir() and holds_only_frames(directory)):
         raise ValueError(f"{directory}: not a folder of frames; refusing to replace it")
-    staging = Path(tempfile.mkdtemp(prefix=f".{directory.name}.", suffix=".tmp", dir=parent))
+    try:
+        staging = Path(tempfile.mkdtemp(prefix=f".{directory.name}.", suffix=".tmp", dir=parent))
+    except OSError as exc:
+        from beliefloc.errors import OutputError
+
+        raise OutputError(f"{directory}: cannot be written ({exc.strerror or exc}); nothing was written") from None
     try:
         staging.chmod(_folder_mode())  # as mkdir would create it, not mkdtemp's private 0700
         for index, data in enumerate(frames):
             (staging / frame_name(index, len(frames))).write_bytes(data)
         _swap_into_place(staging, directory, parent)
+    except OSError as exc:
+        from beliefloc.errors import OutputError
+
+        shutil.rmtree(staging, ignore_errors=True)
+        raise OutputError(f"{directory}: cannot be written ({exc.strerror or exc}); nothing was written") from None
     except BaseException:
         shutil.rmtree(staging, ignore_errors=True)
         raise
