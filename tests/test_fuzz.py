@@ -8,9 +8,12 @@ from __future__ import annotations
 
 import json
 import os
+import resource
 import subprocess
 import sys
 import textwrap
+from collections.abc import Iterator
+from datetime import timedelta
 from pathlib import Path
 from typing import Any
 
@@ -159,6 +162,28 @@ _VALUES = st.recursive(
 )
 
 
+PER_EXAMPLE = timedelta(seconds=30)
+"""A bound on each random file (a hang, not a speed measurement: each takes milliseconds)."""
+
+
+@pytest.fixture(autouse=True)
+def memory_bound() -> Iterator[None]:
+    """Each test below runs with its address space bounded at 2 GiB above what the process holds:
+    an input that makes a loader allocate more fails the test with a MemoryError."""
+    if not Path("/proc/self/status").exists():  # pragma: no cover - not Linux
+        yield
+        return
+    status = Path("/proc/self/status").read_text()
+    held = int(next(line.split()[1] for line in status.splitlines() if line.startswith("VmSize:"))) * 1024
+    soft, hard = resource.getrlimit(resource.RLIMIT_AS)
+    bound = held + 2 * 1024**3
+    resource.setrlimit(resource.RLIMIT_AS, (bound if hard == resource.RLIM_INFINITY else min(bound, hard), hard))
+    try:
+        yield
+    finally:
+        resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
+
+
 def _mutate(data: Any, path: list[int], value: Any) -> Any:
     """``data`` with the node picked by ``path`` (indices into its mappings' items and lists) replaced."""
     if not path:
@@ -184,7 +209,7 @@ def _read_or_refuse(load: Any, path: Path) -> None:
         assert str(exc).strip(), "an error with no message"
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=150, deadline=PER_EXAMPLE, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(
     st.sampled_from(BUNDLED_MAPS),
     st.lists(st.integers(0, 50), max_size=5),
@@ -202,7 +227,7 @@ def test_a_mutated_map_loads_or_is_refused(tmp_path: Path, original: Path, where
         assert str(exc).strip()
 
 
-@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=100, deadline=PER_EXAMPLE, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.sampled_from(BUNDLED_DOMAINS), st.lists(st.integers(0, 50), max_size=5), _VALUES)
 def test_a_mutated_domain_loads_or_is_refused(tmp_path: Path, original: Path, where: list[int], value: Any):
     from beliefloc.knowledge import load_domain
@@ -223,7 +248,7 @@ def kitchen():
     return compile_model(load_map(MAPS / "kitchen.yaml"))
 
 
-@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=100, deadline=PER_EXAMPLE, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(_VALUES)
 def test_a_random_belief_file_loads_or_is_refused(tmp_path: Path, kitchen, data: Any):
     from beliefloc.belief_file import load_belief
@@ -240,7 +265,7 @@ def test_a_random_belief_file_loads_or_is_refused(tmp_path: Path, kitchen, data:
 _LOADERS = ("map", "domain", "belief", "model", "macros", "pomdp")
 
 
-@settings(max_examples=120, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=120, deadline=PER_EXAMPLE, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.sampled_from(_LOADERS), st.binary(max_size=600))
 def test_random_bytes_are_refused_by_every_loader(tmp_path: Path, kitchen, loader: str, raw: bytes):
     from beliefloc.belief_file import load_belief

@@ -276,7 +276,9 @@ class Domain(_Strict):
             return {k: ({} if v is None else v) for k, v in value.items()}
         if isinstance(value, list):
             for index, name in enumerate(value):
-                if isinstance(name, str) and name in value[:index]:
+                if not isinstance(name, str):
+                    raise FieldError(("rooms", index), f"a room is a name, got {_kind_of(name)}")
+                if name in value[:index]:
                     raise FieldError(("rooms", index), f"room {name!r} is listed twice")
             return {k: {} for k in value}
         return value
@@ -568,6 +570,17 @@ def check_kb_name(name: str, folder: Path, owner: str, *, allow_outside: bool) -
     except KnowledgeBaseError as exc:
         return str(exc)
     return None
+
+
+def _kind_of(value: Any) -> str:
+    """What a value written where a name belongs is, for messages."""
+    if isinstance(value, bool):
+        return f"{str(value).lower()} (a boolean)"
+    if isinstance(value, dict):
+        return "a mapping"
+    if isinstance(value, list):
+        return "a list"
+    return repr(value)
 
 
 def _hint(name: str, known: Any) -> str:
