@@ -176,3 +176,29 @@ def test_yaml_room_map_is_a_valid_file(tmp_path: Path):
     from beliefloc.semantic_map import load_map
 
     assert load_map(path).name == "rooms"
+
+
+def test_a_long_search_shows_one_progress_line_on_a_terminal():
+    import io
+
+    from rich.console import Console
+
+    from beliefloc.render.progress import search_progress
+
+    def drawn(seconds: float, *, terminal: bool) -> str:
+        out = io.StringIO()
+        console = Console(file=out, force_terminal=terminal, width=100)
+        with search_progress(console, time_limit=60) as progress:
+            progress(512, 12_800, seconds)
+        return out.getvalue()
+
+    assert "512 beliefs expanded, 12,800 generated, 3 of 60 s" in drawn(3.0, terminal=True)
+    assert "beliefs expanded" not in drawn(0.5, terminal=True)  # quiet for the first second
+    assert drawn(3.0, terminal=False) == ""  # a pipe or a log file gets nothing
+
+
+def test_plan_reports_its_progress_to_the_callback():
+    model = compile_model_file("ladder-symmetric.yaml")  # no plan: the search runs until its budget
+    calls: list[tuple[int, int, float]] = []
+    plan(model, uniform(model.n_states), max_expansions=600, progress=lambda *a: calls.append(a))
+    assert [e for e, _, _ in calls] == [256, 512] and all(g >= e and s >= 0 for e, g, s in calls)

@@ -18,6 +18,7 @@ def progress_bar(console: Console) -> Progress:
         TimeElapsedColumn(),
         console=console,
         transient=True,
+        disable=not console.is_terminal,  # a pipe or a log gets nothing, not even a blank line
     )
 
 
@@ -36,6 +37,7 @@ def search_progress(console: Console, time_limit: float) -> Iterator[Callable[[i
         TextColumn("{task.fields[effort]}"),
         console=console,
         transient=True,
+        disable=not console.is_terminal,
     )
     task = progress.add_task("search", total=time_limit, visible=False, effort="")
 
