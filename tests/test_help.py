@@ -106,3 +106,27 @@ def test_every_limit_is_documented_in_the_readme():
     assert len(bounds) >= 10
     for bound in bounds:
         assert f"`{bound.variable}`" in readme, f"{bound.variable} is not in the README's table of limits"
+
+
+NUMBER_OPTIONS = [
+    (["plan", "maps/kitchen.yaml"], ["--threshold", "--h-weight", "--time-limit"]),
+    (["simulate", "maps/kitchen.yaml"], ["--threshold", "--h-weight", "--time-limit", "--gamma"]),
+    (["localize", "maps/kitchen.yaml"], ["--threshold", "--h-weight", "--time-limit"]),
+    (["select", "maps/kitchen.yaml"], ["--gamma"]),
+    (["prior", "domains/home.yaml"], ["--floor", "--weight"]),
+    (["search", "run", "domains/home.yaml"], ["--time-limit", "--commit-threshold", "--trust-weight", "--trust-r"]),
+    (["search", "simulate", "domains/home.yaml"], ["--knowledge", "--absent-fraction", "--time-limit"]),
+    (["generate", "gridworld", "--states", "100", "--seed", "1", "-o", "w.yaml"], ["--rotation-failure"]),
+]
+
+
+@pytest.mark.parametrize(("base", "option"), [(b, o) for b, options in NUMBER_OPTIONS for o in options])
+@pytest.mark.parametrize("value", ["nan", "inf", "-inf"])
+def test_number_options_refuse_nan_and_infinity(runner, tmp_path: Path, monkeypatch, base, option, value):
+    monkeypatch.chdir(tmp_path)
+    for folder in ("maps", "domains", "kb"):
+        (tmp_path / folder).symlink_to(ROOT / folder)
+    result = runner.invoke(app, [*base, option, value], input="")
+    assert result.exit_code == 2, result.output
+    assert option in result.output + result.stderr and "Traceback" not in result.output
+    assert not (tmp_path / "w.yaml").exists()
