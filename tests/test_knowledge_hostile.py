@@ -391,6 +391,7 @@ DOMAIN_CASES = [
     ("internal_default_class_key.yaml", "5:28", r"defaults\.books_in_study\.class_: unknown key 'class_'"),
     ("internal_map_search_key.yaml", "4:13", r"map_search: unknown key 'map_search'; expected one of: .*search"),
     ("duplicate_room.yaml", "2:25", r"rooms\[2\]: room 'kitchen' is listed twice"),
+    ("room_not_a_name.yaml", "2:9", r"rooms\[0\]: a room is a name, got a list"),
     ("class_cycle_late.yaml", "3:28", r"classes\.a: cycle in the class hierarchy"),
 ]
 KB_PATH_CASES = {"kb_outside.yaml", "kb_absolute.yaml", "kb_folder.yaml", "kb_missing.yaml", "kb_script_outside.yaml"}
