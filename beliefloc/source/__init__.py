@@ -1,0 +1,34 @@
+"""Hand-written YAML/JSON input files, validated with pydantic, with errors that point at the line.
+
+The one way every input file (maps, belief files, domains) is read:
+
+1. :func:`read_text` (:mod:`.files`) refuses anything that is not a regular file of a sane size before reading it.
+2. :func:`read_source` (:mod:`.yaml12`) reads the YAML (JSON is YAML) from the parser's events, without recursion,
+   into plain Python data under the YAML 1.2 core schema (``on``, ``yes``, ``1:30`` and
+   ``2001-12-14`` are text; ``010`` is ten), remembering where (line, column) each value and key was
+   written, keyed by its path from the root. Nesting deeper than :data:`~beliefloc.limits.NESTING`
+   and more values than :data:`~beliefloc.limits.YAML_NODES` (counting every use of an alias in
+   full) are refused before they are built.
+3. :func:`validate_source` (:mod:`.validation`) runs a pydantic model over the data. A pydantic error's ``loc`` or a
+   :class:`~beliefloc.errors.FieldError`'s ``path`` is mapped back to the line, so a message reads
+   ``maps/kitchen.yaml:14:5: sensors.look.false_positive: should be less than or equal to 1, got 1.5``.
+
+:class:`Source` (:mod:`.located`) is the parsed file: its data and the marks of every key and value.
+"""
+
+from beliefloc.source.files import not_regular_file, read_text
+from beliefloc.source.located import Source, format_path
+from beliefloc.source.validation import refuse_field_name, validate_source
+from beliefloc.source.yaml12 import parse_source, read_source, resolve_plain
+
+__all__ = [
+    "Source",
+    "format_path",
+    "not_regular_file",
+    "parse_source",
+    "read_source",
+    "read_text",
+    "refuse_field_name",
+    "resolve_plain",
+    "validate_source",
+]
