@@ -6,7 +6,7 @@ file also records the map it was built from (absolute path and sha256), so that 
 finds the model, and so that the refusal says what happened: a table *for another map*, or a
 *stale* table, built for this very map before it was edited.
 
-Reading trusts nothing in the file (:func:`beliefloc.model_file.open_versioned`): the header is
+Reading trusts nothing in the file (:func:`beliefloc.npz_archive.open_versioned`): the header is
 validated field by field and every array checked before use -- pairs inside the states and sorted,
 actions and pairs that exist, macros that end (each one's follower made before it), lengths that
 count down along a pair's macro. Writes are atomic (:func:`beliefloc.model_file.write_atomically`).
@@ -23,7 +23,8 @@ from pydantic import Field, StrictInt, StrictStr
 from beliefloc import limits
 from beliefloc.errors import ModelError
 from beliefloc.model import Model
-from beliefloc.model_file import Archive, StrictHeader, absolute, open_versioned, write_versioned
+from beliefloc.model_file import StrictHeader, absolute, write_versioned
+from beliefloc.npz_archive import Archive, open_versioned
 from beliefloc.planning.macros import MacroTable
 
 FORMAT = "beliefloc-macros"

@@ -4,9 +4,8 @@ A model file holds a JSON header (format, version, names, costs, the grid, the s
 absolute path and sha256) and the arrays (CSR transitions, observation truths and confusion
 tables). Model files are shared like maps, so reading one trusts nothing in it:
 
-* the archive is read member by member, never with pickles, each member's size taken from the
-  zip directory and its ``.npy`` header and checked against :data:`~beliefloc.limits.MODEL_FILE_BYTES`
-  before a byte is decompressed;
+* the archive is read member by member, never with pickles, each member's size checked before a
+  byte is decompressed (:mod:`beliefloc.npz_archive`);
 * the header is validated field by field (:class:`_ModelHeader`), and its sizes against
   :data:`~beliefloc.limits.MODEL_ENTRIES`, before any array is read;
 * every array must be the one the header announces -- its key, type and shape -- and hold what a
@@ -33,23 +32,20 @@ import os
 import re
 import signal
 import stat
-import struct
 import tempfile
 import threading
 import time
-import zipfile
-import zlib
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from types import FrameType
-from typing import Any, Literal, TypeVar
+from typing import Any, Literal
 
 import numpy as np
 import scipy.sparse as sp
-from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt, StrictStr, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt, StrictStr
 
 from beliefloc import limits
-from beliefloc.errors import BeliefLocError, ModelError, OutputError
+from beliefloc.errors import ModelError, OutputError
 from beliefloc.model import (
     Action,
     ActionKind,
@@ -61,6 +57,7 @@ from beliefloc.model import (
     SourceInfo,
     StateSpace,
 )
+from beliefloc.npz_archive import Archive, open_versioned
 
 FORMAT = "beliefloc-model"
 VERSION = 1
@@ -216,321 +213,6 @@ def write_versioned(path: str | Path, header: dict[str, Any], arrays: dict[str, 
         np.savez_compressed(handle, allow_pickle=False, **contents)
 
     write_atomically(Path(path), write)
-
-
-# --- reading an archive ----------------------------------------------------------------------------
-
-_HEADER_KEY = "header"
-_LISTED = 8
-"""How many array names a message lists."""
-
-_DECODE_ERRORS: tuple[type[BaseException], ...] = (
-    OSError,
-    ValueError,
-    EOFError,
-    zipfile.BadZipFile,
-    zlib.error,
-    NotImplementedError,
-    RuntimeError,  # an encrypted member
-    struct.error,
-    OverflowError,
-    KeyError,
-)
-try:  # pragma: no cover - lzma is optional in a Python build
-    import lzma
-
-    _DECODE_ERRORS = (*_DECODE_ERRORS, lzma.LZMAError)
-except ImportError:  # pragma: no cover
-    pass
-
-
-class _Prelude(BaseModel):
-    """What is read of a header before knowing what it is: its format and version."""
-
-    model_config = ConfigDict(extra="ignore")
-    format: Any = None
-    version: Any = None
-
-
-class Archive:
-    """A beliefloc ``.npz`` file opened for reading: the zip directory checked, the JSON header read
-    and of the expected format and version; arrays are read on demand, each checked as it is read.
-    Made by :func:`open_versioned`."""
-
-    def __init__(
-        self, path: Path, archive: zipfile.ZipFile, members: dict[str, zipfile.ZipInfo], rebuild: str, label: str
-    ) -> None:
-        self.path = path
-        self.label = label
-        self._zip = archive
-        self.members = members
-        """The ``.npy`` members by key (``header`` excluded once read)."""
-        self.rebuild = rebuild
-        self.header_bytes = b""
-
-    def broken(self, what: str) -> ModelError:
-        """The error for a file whose content is not what a beliefloc file holds."""
-        return ModelError(f"{self.path}: broken {self.label}: {what}; rebuild it with '{self.rebuild}'")
-
-    def validate(self, schema: type[_H]) -> _H:
-        """The header validated with the pydantic model ``schema``; an error names the field."""
-        try:
-            return schema.model_validate_json(self.header_bytes)
-        except ValidationError as exc:
-            error = exc.errors()[0]
-            field = _field_name(error["loc"])
-            where = f"header field {field}" if field else "the header"
-            raise self.broken(f"{where}: {error['msg']}") from None
-
-    def expect(self, keys: Sequence[str]) -> None:
-        """Refuse an archive that does not hold exactly the arrays ``keys``."""
-        wanted = set(keys)
-        missing = [key for key in keys if key not in self.members]
-        if missing:
-            raise self.broken(f"missing arrays: {_listing(missing)}")
-        extra = sorted(set(self.members) - wanted)
-        if extra:
-            raise self.broken(f"unexpected arrays: {_listing(extra)}")
-
-    def array(self, key: str, kinds: str, shape: Sequence[int | None]) -> np.ndarray:
-        """Member ``key``, checked against its ``.npy`` header before it is read: a dtype of one of
-        ``kinds`` (numpy kind letters: ``b`` bool, ``i``/``u`` integers, ``f`` floats) and ``shape``
-        (None: any length). Booleans come back as 0/1 booleans, other types in native byte order."""
-        info = self.members[key]
-        try:
-            with self._zip.open(info) as stream:
-                version = np.lib.format.read_magic(stream)
-                if version == (1, 0):
-                    found, fortran, dtype = np.lib.format.read_array_header_1_0(stream)
-                elif version == (2, 0):
-                    found, fortran, dtype = np.lib.format.read_array_header_2_0(stream)
-                else:
-                    raise self.broken(f"array {key}: .npy format version {version[0]}.{version[1]} is not supported")
-                self._check_type(key, dtype, kinds, found, shape)
-                nbytes = math.prod(found) * dtype.itemsize
-                offset = stream.tell()
-                if info.file_size != offset + nbytes:
-                    raise self.broken(
-                        f"array {key}: its header announces {nbytes:,} bytes of data but the archive member "
-                        f"holds {info.file_size - offset:,}"
-                    )
-                buffer = bytearray(nbytes)
-                view = memoryview(buffer)
-                done = 0
-                while done < nbytes:
-                    count = stream.readinto(view[done:])  # type: ignore[attr-defined]
-                    if not count:
-                        raise self.broken(f"array {key}: the data ends after {done:,} of {nbytes:,} bytes")
-                    done += count
-        except BeliefLocError:
-            raise
-        except _DECODE_ERRORS as exc:
-            raise self.broken(f"array {key} cannot be read ({_reason(exc)})") from None
-        array = np.frombuffer(buffer, dtype=dtype)
-        if dtype.kind == "b":
-            array = array.view(np.uint8) != 0  # a bool byte other than 0 or 1 is not a bool
-        elif not dtype.isnative:
-            array = array.astype(dtype.newbyteorder("="))
-        return array.reshape(found, order="F" if fortran else "C")
-
-    def _check_type(
-        self, key: str, dtype: np.dtype[Any], kinds: str, found: tuple[int, ...], shape: Sequence[int | None]
-    ) -> None:
-        if dtype.hasobject or dtype.fields is not None or dtype.subdtype is not None:
-            raise self.broken(f"array {key} holds Python objects or records ({dtype}); beliefloc files hold numbers")
-        if dtype.kind not in kinds or dtype.itemsize > 8:
-            expected = " or ".join(_KIND_NAMES[k] for k in kinds)
-            raise self.broken(f"array {key} holds {dtype}, not {expected}")
-        if len(found) != len(shape) or any(want not in (None, got) for want, got in zip(shape, found, strict=True)):
-            sizes = ", ".join("n" if s is None else str(s) for s in shape)
-            wanted = f"({sizes},)" if len(shape) == 1 else f"({sizes})"
-            raise self.broken(f"array {key} has shape {found}, expected {wanted}")
-
-    def read_header(self) -> None:
-        header = self.array(_HEADER_KEY, "u", (None,))
-        if header.dtype != np.uint8:
-            raise self.broken(f"array {_HEADER_KEY} holds {header.dtype}, not bytes (uint8)")
-        self.header_bytes = header.tobytes()
-
-    def integers(self, key: str, shape: Sequence[int | None]) -> np.ndarray:
-        """Integer member ``key``: int32 and int64 as saved (a model's fingerprint hashes its CSR
-        arrays as saved), any other integer type as int64, once its values are known to fit."""
-        array = self.array(key, "iu", shape)
-        if array.dtype in (np.int32, np.int64):
-            return array
-        if array.dtype == np.uint64 and array.size and int(array.max()) > np.iinfo(np.int64).max:
-            raise self.broken(f"array {key}: {int(array.max())} is out of range")
-        return array.astype(np.int64)
-
-
-_H = TypeVar("_H", bound=BaseModel)
-
-_KIND_NAMES = {"b": "booleans", "i": "integers", "u": "integers", "f": "floating-point numbers"}
-
-
-def _field_name(loc: Sequence[str | int]) -> str:
-    """``actions[2].cost`` for pydantic's ``('actions', 2, 'cost')``."""
-    text = ""
-    for part in loc:
-        text += f"[{part}]" if isinstance(part, int) else (f".{part}" if text else str(part))
-    return text
-
-
-def _listing(names: Sequence[str]) -> str:
-    shown = ", ".join(names[:_LISTED])
-    return shown + (f", ... ({len(names)} in all)" if len(names) > _LISTED else "")
-
-
-def _reason(exc: BaseException) -> str:
-    if isinstance(exc, OSError) and exc.strerror:
-        return exc.strerror.lower()
-    return str(exc) or type(exc).__name__
-
-
-@contextlib.contextmanager
-def open_versioned(
-    path: str | Path, file_format: str, version: int, *, label: str, kind: str, rebuild: str
-) -> Iterator[Archive]:
-    """The beliefloc ``.npz`` file ``path`` of ``file_format`` and ``version``, header read (see
-    :class:`Archive`). A :class:`ModelError` for a missing file, something that is not a zip
-    archive (not a ``label``), an archive of other arrays (not ``kind``, a noun phrase of
-    :mod:`beliefloc.file_kinds`), a beliefloc file of another kind (named), and another version
-    (``rebuild`` says how to make a new one); a :class:`~beliefloc.errors.LimitError` for an
-    archive larger than the limits, told from its directory before anything is decompressed."""
-    path = Path(path)
-    try:
-        info = os.stat(path)
-    except FileNotFoundError:
-        raise ModelError(f"{path}: no such file") from None
-    except (OSError, ValueError) as exc:
-        raise ModelError(f"{path}: cannot read it ({_reason(exc)})") from None
-    if stat.S_ISDIR(info.st_mode):
-        raise ModelError(f"{path}: is a folder, not a {label}")
-    if not stat.S_ISREG(info.st_mode):
-        raise ModelError(f"{path}: not a regular file, so not a {label}")
-    limits.MODEL_FILE_BYTES.check(info.st_size, str(path))
-    try:
-        handle = open(path, "rb")  # noqa: SIM115 - closed below, after the archive
-    except OSError as exc:
-        raise ModelError(f"{path}: cannot read it ({_reason(exc)})") from None
-    with handle:
-        _directory(path, handle, label)
-        try:
-            archive = zipfile.ZipFile(handle)
-        except _DECODE_ERRORS as exc:
-            raise ModelError(f"{path}: not a {label} ({_reason(exc)})") from None
-        with archive:
-            opened = Archive(path, archive, {}, rebuild, label)
-            opened.members = _members(opened, archive, kind)
-            opened.read_header()
-            del opened.members[_HEADER_KEY]
-            _check_prelude(opened, file_format, version, kind, rebuild)
-            yield opened
-
-
-def _directory(path: Path, handle: Any, label: str) -> None:
-    """Check the number of members the zip directory announces against the limit, before the
-    directory itself is read (a ModelError for a file that is not a zip archive)."""
-    try:
-        end = zipfile._EndRecData(handle)  # type: ignore[attr-defined]
-    except _DECODE_ERRORS as exc:
-        raise ModelError(f"{path}: not a {label} ({_reason(exc)})") from None
-    if end is None:
-        raise ModelError(f"{path}: not a {label} (not a zip archive, which a .npz file is)")
-    count = int(end[zipfile._ECD_ENTRIES_TOTAL])  # type: ignore[attr-defined]
-    limits.MODEL_FILE_ARRAYS.check(count, str(path))
-    handle.seek(0)
-
-
-def _members(archive: Archive, zipped: zipfile.ZipFile, kind: str) -> dict[str, zipfile.ZipInfo]:
-    """The ``.npy`` members by key: an archive of other files is not ``kind``; sizes checked."""
-    path = archive.path
-    infos = zipped.infolist()
-    limits.MODEL_FILE_ARRAYS.check(len(infos), str(path))
-    members: dict[str, zipfile.ZipInfo] = {}
-    others = []
-    for info in infos:
-        if info.filename.endswith(".npy"):
-            key = info.filename[: -len(".npy")]
-            if key in members:
-                raise archive.broken(f"the archive holds array {key} twice")
-            members[key] = info
-        else:
-            others.append(info.filename)
-    total = sum(info.file_size for info in infos)
-    limits.MODEL_FILE_BYTES.check(total, str(path))
-    if _HEADER_KEY not in members:
-        held = f"arrays: {_listing(sorted(members))}" if members else "no arrays"
-        if others:
-            held += f"; files: {_listing(sorted(others))}"
-        raise ModelError(f"{path} is not {_beliefloc(kind)} (it holds {held})")
-    if others:
-        raise archive.broken(f"the archive holds files that are not arrays: {_listing(sorted(others))}")
-    return members
-
-
-def _beliefloc(kind: str) -> str:
-    """``a beliefloc model`` for :data:`~beliefloc.file_kinds.MODEL` ``a compiled model``."""
-    from beliefloc.file_kinds import MACROS, MODEL
-
-    return {MODEL: "a beliefloc model", MACROS: "a beliefloc macro table"}.get(kind, kind)
-
-
-def _check_prelude(archive: Archive, file_format: str, version: int, kind: str, rebuild: str) -> None:
-    from beliefloc.file_kinds import kind_of_data, not_a
-
-    path = archive.path
-    try:
-        prelude = _Prelude.model_validate_json(archive.header_bytes)
-    except ValidationError as exc:
-        raise ModelError(
-            f"{path} is not {_beliefloc(kind)} (its header is not a JSON object: {exc.errors()[0]['msg']})"
-        ) from None
-    if prelude.format != file_format:
-        found = kind_of_data({"format": prelude.format})
-        if found is not None and found != kind:
-            raise ModelError(not_a(path, found, kind) + _wrong_kind_hint(found))
-        raise ModelError(f"{path} is not {_beliefloc(kind)} (its header says format {prelude.format!r})")
-    if prelude.version != version:
-        raise ModelError(
-            f"{path}: {kind.removeprefix('a ')} of version {prelude.version}, but this beliefloc reads version "
-            f"{version}; rebuild it with '{rebuild}'"
-        )
-
-
-def _wrong_kind_hint(found: str) -> str:
-    """What to do when handed a file of the other kind."""
-    from beliefloc.file_kinds import MACROS, MODEL
-
-    if found == MACROS:
-        return "; give the map or the model it was built from, and the table with --macros"
-    if found == MODEL:
-        return "; a macro table is what 'beliefloc macros build MAP -o TABLE.npz' writes"
-    return ""
-
-
-def file_format(path: str | Path) -> str | None:
-    """The ``format`` an existing ``.npz`` file's header names (``beliefloc-model``,
-    ``beliefloc-macros``), or None when it is not a beliefloc archive or cannot be read. Reads
-    only the header, with the same limits as a load."""
-    path = Path(path)
-    try:
-        if not path.is_file():
-            return None
-        with open(path, "rb") as handle:
-            _directory(path, handle, FILE_LABEL)
-            with zipfile.ZipFile(handle) as zipped:
-                info = zipped.getinfo(f"{_HEADER_KEY}.npy")
-                if info.file_size > 64 * 1024**2:
-                    return None
-                archive = Archive(path, zipped, {_HEADER_KEY: info}, "", FILE_LABEL)
-                archive.read_header()
-        prelude = _Prelude.model_validate_json(archive.header_bytes)
-    except (BeliefLocError, ValidationError):
-        return None
-    except _DECODE_ERRORS:
-        return None
-    return prelude.format if isinstance(prelude.format, str) else None
 
 
 # --- the model header ------------------------------------------------------------------------------

@@ -173,7 +173,7 @@ def existing_kind(path: Path) -> str | None:
 
     by_suffix = file_kinds.kind_of_path(path)
     if by_suffix == file_kinds.MODEL_OR_MACROS:
-        from beliefloc.model_file import file_format
+        from beliefloc.npz_archive import file_format
 
         found = file_kinds.kind_of_data({"format": file_format(path)})
         return found if found is not None else "an .npz archive that beliefloc did not write"
