@@ -118,6 +118,7 @@ BASE: dict[tuple[str, ...], dict[str, Any]] = {
     ("export",): {"args": {"source": "{map}"}, "options": {"-o": "{tmp}/out.pomdp"}},
     ("init",): {"args": {"kind": "map", "name": "lab"}, "options": {"-o": "{tmp}/lab.yaml"}},
     ("schema",): {"args": {"kind": "map"}},
+    ("summarize",): {"args": {"results_file": "{map}"}},
     ("macros", "build"): {"args": {"source": "{map}"}, "options": {"--output": "{tmp}/out-macros.npz"}},
     ("macros", "show"): {"args": {"macros": "{macros}"}},
     ("kb", "check"): {"args": {"domain_file": "{domain}"}},

@@ -23,6 +23,7 @@ from beliefloc.cli import (
     select,
     show,
     simulate,
+    summarize,
     track,
 )
 
@@ -94,6 +95,7 @@ for module in (
     pose,
     plan,
     simulate,
+    summarize,
     localize,
     select,
     macros,

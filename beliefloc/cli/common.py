@@ -89,9 +89,7 @@ def initial_belief(model: Model, spec: str, smap: SemanticMap | None = None) -> 
         from beliefloc.knowledge import load_domain, robot_start_belief
 
         if not spec.removeprefix(PRIOR_PREFIX).strip():
-            raise UsageError(
-                f"--belief {spec}: names no domain; write prior:DOMAIN, e.g. prior:domains/apartment.yaml"
-            )
+            raise UsageError(f"--belief {spec}: names no domain; write prior:DOMAIN, e.g. prior:domains/apartment.yaml")
         domain_file = Path(spec.removeprefix(PRIOR_PREFIX))
         domain = load_domain(domain_file)
         with for_option(f"--belief {PRIOR_PREFIX}{domain_file}"):
@@ -311,3 +309,89 @@ def refuse_unreachable(model: Model, start: np.ndarray, threshold: float, json_o
 
 
 _PAIRS_SHOWN = 6
+
+
+# --- sweeps (simulate, search simulate) -------------------------------------------------------------
+
+
+def check_sweep_options(
+    workers: int, scheduler: str | None, out: Path | None, resume: bool, inputs: tuple[Path, ...]
+) -> None:
+    """``--workers``, ``--scheduler``, ``--out`` and ``--resume``, checked before any work: nothing is
+    overwritten by a run that could not start. An existing ``--out`` file must be a results file
+    (:mod:`beliefloc.results_file`): it is replaced, or continued with ``--resume``."""
+    from beliefloc.errors import UsageError
+    from beliefloc.results_file import SUFFIX, is_results_file
+
+    if scheduler is not None and workers != 1:
+        raise UsageError(f"--workers {workers} --scheduler {scheduler}: give one of them (the cluster has its own)")
+    if scheduler is not None and not scheduler.strip():
+        raise UsageError("--scheduler: names no address; write tcp://HOST:PORT")
+    if out is None:
+        if resume:
+            raise UsageError("--resume: needs --out FILE.jsonl, the results file to continue")
+        return
+    check_output("--out", out, (SUFFIX,), inputs)
+    if out.is_file() and out.stat().st_size > 0 and not is_results_file(out):
+        raise UsageError(
+            f"--out {out}: the file exists and is not a beliefloc results file; name another file (or remove it first)"
+        )
+
+
+def run_sweep(
+    sweep: Any,
+    *,
+    workers: int,
+    scheduler: str | None,
+    out: Path | None,
+    resume: bool,
+    head: dict[str, Any],
+    serial_start: Callable[[], Any] | None = None,
+    progress: bool = True,
+) -> list[dict[str, Any]]:
+    """Every unit of ``sweep`` (:mod:`beliefloc.sweep`; ``head["total"]`` of them) on the backend of
+    ``--workers`` and ``--scheduler``, their results in order. With ``--out``, a line per unit written
+    as it ends, after the header -- or, with ``--resume``, after the units the file already holds,
+    which are not run again (a file of other settings is refused first, naming what differs). A
+    progress bar on stderr when it is a terminal. ``serial_start``: the runner of a run in this
+    process (with per-step callbacks, say); ``progress`` False: no bar (the steps are drawn)."""
+    from beliefloc.errors import UsageError
+    from beliefloc.render import stderr_console
+    from beliefloc.render.sweep_progress import sweep_progress
+    from beliefloc.results_file import ResultsWriter, differences, read_results
+    from beliefloc.sweep import backend, in_order
+
+    total = int(head["total"])
+    done: list[dict[str, Any]] = []
+    found = None
+    if out is not None and resume and out.is_file() and out.stat().st_size > 0:
+        found = read_results(out)
+        differ = differences(found.header, head)
+        if differ:
+            raise UsageError(f"--resume {out}: the file was written with other settings: {'; '.join(differ)}")
+        done = list(found.results)
+        if found.torn:
+            warn(f"{out}: its last line was cut short; that {found.unit} is run again")
+    runs_on = backend(workers, scheduler, start=serial_start)  # a scheduler is reached now, or refused
+    indices = list(range(len(done), total))
+    writer = ResultsWriter(out, head, found) if out is not None else None
+    try:
+        started = runs_on.run(sweep, indices) if indices else iter(())  # a pool starts before the bar's thread
+        with sweep_progress(stderr_console(), f"{head['unit']}s", total, len(done), shown=progress) as advance:
+            for _, result in in_order(_counting(started, advance), indices):
+                done.append(result)
+                if writer is not None:
+                    writer.write(result)
+    finally:
+        if writer is not None:
+            writer.close()
+        runs_on.close()
+    return done
+
+
+def _counting(
+    pairs: Iterator[tuple[int, dict[str, Any]]], advance: Callable[[], None]
+) -> Iterator[tuple[int, dict[str, Any]]]:
+    for pair in pairs:
+        advance()
+        yield pair

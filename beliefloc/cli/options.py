@@ -251,3 +251,45 @@ SeenOption = Annotated[
 DefaultsOption = Annotated[
     bool, typer.Option("--defaults/--no-defaults", help="Use the domain file's defaults (those in .lp files stay).")
 ]
+
+# --- sweeps (simulate, search simulate) ------------------------------------------------------------
+
+WorkersOption = Annotated[
+    int,
+    typer.Option(
+        "--workers",
+        "-j",
+        parser=whole(low=0),
+        metavar="N",
+        help="Run the episodes in N worker processes (0: one per core; 1: in this process). The results are "
+        "the same on every backend.",
+    ),
+]
+SchedulerOption = Annotated[
+    str | None,
+    typer.Option(
+        "--scheduler",
+        metavar="tcp://HOST:PORT",
+        help="Run on the workers of this Dask scheduler (needs pip install 'beliefloc[dask]'); the workers "
+        "must run the same beliefloc version.",
+        show_default=False,
+    ),
+]
+OutOption = Annotated[
+    Path | None,
+    typer.Option(
+        "--out",
+        metavar="FILE.jsonl",
+        help="Write a results file: a header line with the settings, then one JSON line per finished unit, in "
+        "order, flushed as it ends ('beliefloc summarize FILE.jsonl' reads it, even while the run goes on).",
+        show_default=False,
+    ),
+]
+ResumeOption = Annotated[
+    bool,
+    typer.Option(
+        "--resume",
+        help="With --out: continue a run that stopped; the units already in the file are not run again (the "
+        "file must have been written with the same settings).",
+    ),
+]

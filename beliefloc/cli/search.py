@@ -20,9 +20,11 @@ from beliefloc.cli.common import (
     boundary,
     check_output,
     check_record,
+    check_sweep_options,
     for_option,
     positive_int,
     print_json,
+    run_sweep,
     target_option,
     warn,
 )
@@ -31,10 +33,14 @@ from beliefloc.cli.options import (
     AllowOutsideOption,
     DefaultsOption,
     DomainArgument,
+    OutOption,
     RecordFramesOption,
+    ResumeOption,
+    SchedulerOption,
     SeedOption,
     TargetOption,
     TimingsOption,
+    WorkersOption,
     number,
     whole,
 )
@@ -467,6 +473,10 @@ def simulate(
     trust_weight: TrustWeightOption = 0.5,
     trust_r: TrustROption = 0.0,
     seed: SeedOption = 0,
+    workers: WorkersOption = 1,
+    scheduler: SchedulerOption = None,
+    out_file: OutOption = None,
+    resume: ResumeOption = False,
     timings: TimingsOption = True,
     json_output: Annotated[
         bool, typer.Option("--json", help="Print every trial and the summary as JSON on stdout.")
@@ -479,22 +489,28 @@ def simulate(
     the true rooms of a random --knowledge fraction of the others. Prints localisation time,
     accuracy and verdicts per arm.
 
+    Trial t draws its random numbers from generators keyed by (--seed, t) only, so --workers N and
+    --scheduler give the same results as one process (a cluster's workers must see the domain's
+    .lp files at the same paths). --out writes a line per trial as it ends; --resume continues it.
+
     Examples:
 
     \b
       beliefloc search simulate domains/home.yaml -n 200 -m none,expectation,sampling --absent-fraction 0.5
       beliefloc search simulate domains/home.yaml -n 100 --knowledge 0.2 --no-defaults --dynamic-kb
+      beliefloc search simulate domains/home.yaml -n 100 --workers 2 --out home.jsonl --no-timings
     """
     from beliefloc.knowledge import load_domain
     from beliefloc.object_search.domain_space import search_space
-    from beliefloc.object_search.experiment import Arm, TrialSettings, run_trials, summarize
-    from beliefloc.render.progress import progress_bar
+    from beliefloc.object_search.experiment import Arm, TrialRecord, TrialSettings, TrialSweep, run_title, summarize
     from beliefloc.render.search import trials_table
+    from beliefloc.results_file import header
 
     metareasonings = _choices(metareasoning, Metareasoning.EXPECTATION, METAREASONING_OPTION)
     policies = _choices(policy, PolicyName.POMDP, "--policy")
     revisions = _choices(revision, Revision.REUSE, "--revision")
     _check_search_options(revisions, dynamic_kb, commit_threshold, time_limit)
+    check_sweep_options(workers, scheduler, out_file, resume, (domain_file,))
     trust = _trust(trust_weight, trust_r)
     domain = load_domain(domain_file, allow_outside=allow_outside)
     with for_option(target_option(target)):
@@ -511,34 +527,48 @@ def simulate(
         trust=trust,
         time_limit=time_limit,
     )
+    sweep = TrialSweep(domain, tuple(arms), seed, settings, timings=timings)
+    head = header(
+        "search simulate",
+        "trial",
+        trials,
+        {
+            "domain": str(domain_file),
+            "files_sha256": _digests(domain_file, domain.kb_files()),
+            "domain_name": domain.name,
+            "seed": seed,
+            "arms": [arm.as_json() for arm in arms],
+            "trial_settings": settings.as_json(domain),
+            "timings": timings,
+        },
+    )
     started = time.perf_counter()
-    with progress_bar(stderr_console()) as progress:
-        task = progress.add_task("trials", total=trials, visible=trials > 1)
-        records = run_trials(
-            domain, arms, trials=trials, seed=seed, settings=settings, on_trial=lambda _: progress.advance(task)
-        )
+    results = run_sweep(sweep, workers=workers, scheduler=scheduler, out=out_file, resume=resume, head=head)
     seconds = time.perf_counter() - started
-    summary = summarize(records)
+    summary = summarize([TrialRecord.from_json(result) for result in results])
     if json_output:
         print_json(
             {
                 "domain": domain.name,
                 "seed": seed,
-                "trials": len(records),
+                "trials": len(results),
                 "settings": settings.as_json(domain),
                 "arms": [arm.as_json() for arm in arms],
-                "records": [record.as_json(space, timings=timings) for record in records],
+                "records": results,
                 "summary": {arm: stats.as_json(timings=timings) for arm, stats in summary.items()},
                 "seconds": wall_clock(seconds, timings),
             }
         )
         return
-    what = "any object" if chosen is None else f"a {chosen}"
-    title = (
-        f"{trials} paired trials on {domain.name}, looking for {what}: knowledge {knowledge:g}, defaults "
-        f"{'on' if defaults else 'off'}, target absent with probability {absent_fraction:g}, seed {seed}"
-    )
+    title = run_title(domain.name, trials, seed, settings.as_json(domain))
     stdout_console().print(trials_table(summary, escape(title)))
+
+
+def _digests(domain_file: Path, kb_files: list[Path]) -> dict[str, str]:
+    """The SHA-256 of the domain file and of each of its knowledge-base files, by path."""
+    from beliefloc.results_file import digest
+
+    return {str(path): digest(path) for path in [domain_file, *kb_files] if path.is_file()}
 
 
 def register(app: typer.Typer) -> None:

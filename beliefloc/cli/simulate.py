@@ -13,12 +13,14 @@ from beliefloc.cli.common import (
     belief_inputs,
     boundary,
     check_record,
+    check_sweep_options,
     initial_belief,
     open_model,
     open_with_map,
     positive_int,
     print_json,
     refuse_unreachable,
+    run_sweep,
     warn_if_too_wide,
 )
 from beliefloc.cli.options import (
@@ -32,11 +34,15 @@ from beliefloc.cli.options import (
     MacrosOption,
     MaxExpansionsOption,
     ModelArgument,
+    OutOption,
     PlanTimeLimitOption,
     RecordFramesOption,
+    ResumeOption,
+    SchedulerOption,
     SeedOption,
     ThresholdOption,
     TimingsOption,
+    WorkersOption,
     resolve_heuristic,
     whole,
 )
@@ -58,7 +64,7 @@ if TYPE_CHECKING:
     from beliefloc.model import Model
     from beliefloc.render.picture_episode import EpisodeTrace
     from beliefloc.semantic_map import SemanticMap
-    from beliefloc.simulation.episode import EpisodeRecord, StepRecord
+    from beliefloc.simulation.episode import EpisodeRecord, EpisodeSweep, StepRecord
 
 """``--record-frames``: a GIF of 200 frames at 0.6 s a frame lasts two minutes."""
 
@@ -139,6 +145,10 @@ def simulate(
     ] = None,
     record_frames: RecordFramesOption = None,
     compact: CompactOption = None,
+    workers: WorkersOption = 1,
+    scheduler: SchedulerOption = None,
+    out_file: OutOption = None,
+    resume: ResumeOption = False,
     timings: TimingsOption = True,
     json_output: JsonOption = False,
 ) -> None:
@@ -146,6 +156,11 @@ def simulate(
 
     Exit code 1 when an episode (of any strategy) does not end localized, or when the start belief
     lies on look-alike states that no strategy can tell apart (said before any episode runs).
+
+    Episode e draws its random numbers from generators keyed by (--seed, e) only, so --workers N
+    and --scheduler give the same results as one process. --show and --record draw in this
+    process: they need --workers 1 and no --scheduler. --out writes a line per episode (every
+    strategy's record) as it ends; --resume continues such a file after a crash or a kill.
 
     Examples:
 
@@ -155,17 +170,21 @@ def simulate(
       beliefloc simulate maps/corridors.yaml -n 20 -s ec2-macros -s ec2 --max-actions 500   # exits 1
       beliefloc simulate maps/apartment.yaml -n 20 --belief prior:domains/apartment.yaml --start prior
       beliefloc simulate maps/kitchen.yaml -n 3 --record episode.gif --record-episode 2
+      beliefloc simulate maps/kitchen.yaml -n 40 --workers 2 --out kitchen.jsonl --no-timings
+      beliefloc simulate maps/kitchen.yaml -n 60 --workers 2 --out kitchen-60.jsonl --resume
     """
     from beliefloc.render.belief_grid import belief_view
     from beliefloc.render.drawing import uses_color
     from beliefloc.render.plan import plan_table, summary_table
-    from beliefloc.render.progress import progress_bar
-    from beliefloc.simulation.episode import run_experiment, strategy_name, summarize
+    from beliefloc.results_file import header
+    from beliefloc.simulation.episode import EpisodeSweep, records_from_results, strategy_name, summarize
     from beliefloc.simulation.strategies import EpisodeStatus, PlannerSettings
 
     chosen_heuristic = resolve_heuristic(Planner.BESTFIRST, heuristic, h_weight)
     names = [strategy_name(name) for name in strategy or [StrategyName.BESTFIRST.value]]
     inputs = [map_file, *(p for p in (world, macros) if p is not None), *belief_inputs(belief)]
+    _check_in_process(show, record, resume, workers, scheduler)
+    check_sweep_options(workers, scheduler, out_file, resume, tuple(inputs))
     recording = _recording(record, record_episode, record_frames, episodes, inputs)
     model, smap = open_with_map(map_file) if recording is not None else (open_model(map_file), None)
     start_belief = initial_belief(model, belief, smap)
@@ -232,32 +251,38 @@ def simulate(
             recorder.on_step(record, step, current)
 
     def on_episode(record: EpisodeRecord) -> None:
-        progress.advance(task)
         if recorder is not None:
             recorder.on_episode(record)
 
-    total = episodes * len(names)
-    with progress_bar(stderr_console()) as progress:
-        task = progress.add_task("episodes", total=total, visible=total > 1 and not show)
-        records = run_experiment(
-            model,
-            names,
-            episodes=episodes,
-            seed=seed,
-            start=start_state,
-            start_belief=start_belief,
-            start_distribution=start_belief if start == "prior" else None,
-            world=world_model,
-            settings=settings,
-            max_steps=max_steps,
-            on_step=on_any_step if (show and not json_output) or recorder is not None else None,
-            on_episode=on_episode,
-        )
+    sweep = EpisodeSweep(
+        model,
+        tuple(n.value for n in names),
+        seed=seed,
+        start=start_state,
+        start_belief=start_belief,
+        start_distribution=start_belief if start == "prior" else None,
+        world=world_model,
+        settings=settings,
+        max_steps=max_steps,
+        timings=timings,
+    )
+    hooked = (show and not json_output) or recorder is not None
+    results = run_sweep(
+        sweep,
+        workers=workers,
+        scheduler=scheduler,
+        out=out_file,
+        resume=resume,
+        head=header("simulate", "episode", episodes, _settings(map_file, world, macros, belief, start, sweep)),
+        serial_start=((lambda: sweep.runner(on_step=on_any_step, on_episode=on_episode)) if hooked else None),
+        progress=not show,
+    )
+    records = records_from_results(results)
     summary = summarize(records)
     if json_output:
         print_json(
             {
-                "episodes": [r.as_json(timings=timings) for r in records],
+                "episodes": [data for result in results for data in result["records"]],
                 "summary": {name: s.as_json(timings=timings) for name, s in summary.items()},
             }
         )
@@ -270,6 +295,51 @@ def simulate(
         _write_recording(model, smap, recorder.trace, recording, stderr_console() if json_output else out)
     if any(r.status is not EpisodeStatus.LOCALIZED for r in records):
         raise typer.Exit(EXIT_NEGATIVE)
+
+
+def _check_in_process(show: bool, record: Path | None, resume: bool, workers: int, scheduler: str | None) -> None:
+    """--show and --record follow every step in this process: not with other workers, nor (--record)
+    with --resume, where the recorded episode may already be in the file."""
+    elsewhere = f"--workers {workers}" if workers != 1 else None
+    if scheduler is not None:
+        elsewhere = f"--scheduler {scheduler}"
+    for option, given in (("--show", show), ("--record", record is not None)):
+        if given and elsewhere is not None:
+            raise UsageError(f"{option}: draws every step in this process; leave out {elsewhere} (or {option})")
+    if record is not None and resume:
+        raise UsageError(
+            f"--record {record}: --resume may not run the recorded episode again; record in a run of its own"
+        )
+
+
+def _settings(
+    map_file: Path, world: Path | None, macros: Path | None, belief: str, start: str, sweep: EpisodeSweep
+) -> dict[str, object]:
+    """What decides a run's results, for the header of its --out file: the inputs (and their bytes'
+    digests), the strategies and every planner setting."""
+    from beliefloc.results_file import digest
+
+    settings = sweep.settings
+    assert settings is not None
+    files = {"map": map_file, "world": world, "macros": macros}
+    belief_file = belief_inputs(belief)
+    return {
+        **{key: None if path is None else str(path) for key, path in files.items()},
+        **{f"{key}_sha256": None if path is None else digest(path) for key, path in files.items()},
+        "belief": belief,
+        "belief_sha256": digest(belief_file[0]) if belief_file and belief_file[0].is_file() else None,
+        "start": start,
+        "strategies": list(sweep.strategies),
+        "seed": sweep.seed,
+        "threshold": settings.threshold,
+        "heuristic": settings.heuristic.value,
+        "h_weight": settings.weight,
+        "max_expansions": settings.max_expansions,
+        "time_limit": settings.time_limit,
+        "gamma": settings.gamma,
+        "max_steps": sweep.max_steps,
+        "timings": sweep.timings,
+    }
 
 
 @dataclass(frozen=True)

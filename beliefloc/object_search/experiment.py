@@ -38,6 +38,7 @@ noisier than the robot's model; :func:`room_hit` and :func:`trial_world` serve t
 
 from __future__ import annotations
 
+import math
 import statistics
 import time
 from collections.abc import Callable, Sequence
@@ -210,6 +211,24 @@ class ArmOutcome:
             "seconds": wall_clock(self.seconds, timings),
         }
 
+    @classmethod
+    def from_json(cls, arm: str, data: dict[str, Any], space: SearchSpace | None = None) -> ArmOutcome:
+        """The outcome :meth:`as_json` gave ``data``; its reported cell is read back with ``space``
+        (None without: the statistics of :func:`summarize` do not need it); ``seconds`` NaN when
+        the JSON has no clock values."""
+        reported = data["reported_cell"]
+        return cls(
+            arm=arm,
+            verdict=Verdict(data["verdict"]),
+            time=float(data["time"]),
+            steps=int(data["steps"]),
+            reported_cell=None if reported is None or space is None else space.parse_cell(reported),
+            error_cells=None if data["error_cells"] is None else float(data["error_cells"]),
+            accuracy=float(data["accuracy"]),
+            commits=tuple((str(obj), str(room)) for obj, room in data["commits"]),
+            seconds=math.nan if data["seconds"] is None else float(data["seconds"]),
+        )
+
 
 @dataclass(frozen=True)
 class TrialRecord:
@@ -244,6 +263,52 @@ class TrialRecord:
             "outcomes": {o.arm: o.as_json(space, timings=timings) for o in self.outcomes},
             "seconds": wall_clock(self.seconds, timings),
         }
+
+    @classmethod
+    def from_json(cls, data: dict[str, Any], space: SearchSpace | None = None) -> TrialRecord:
+        """The record :meth:`as_json` gave ``data``; its cells are read back with ``space`` (None
+        without: enough for :func:`summarize`); ``seconds`` NaN when the JSON has no clock values."""
+        true_cell = data["true_cell"]
+        return cls(
+            index=int(data["trial"]),
+            target=data["target"],
+            target_class=data["target_class"],
+            present=bool(data["present"]),
+            true_room=data["true_room"],
+            true_cell=None if true_cell is None or space is None else space.parse_cell(true_cell),
+            known=int(data["known"]),
+            room_prior=tuple(float(p) for p in data["room_prior"].values()),
+            outcomes=tuple(ArmOutcome.from_json(arm, o, space) for arm, o in data["outcomes"].items()),
+            seconds=math.nan if data["seconds"] is None else float(data["seconds"]),
+        )
+
+
+@dataclass(frozen=True)
+class TrialSweep:
+    """Paired trials as a sweep (:mod:`beliefloc.sweep`): unit ``t`` is trial ``t`` (every arm), its
+    result :meth:`TrialRecord.as_json`. A trial depends on (``seed``, ``t``) only
+    (:func:`~beliefloc.object_search.trials.trial_rng`), so any worker may run it. A worker reads the
+    domain's knowledge-base files (``kb/*.lp``) from its own disk: on a cluster they must be at the
+    same paths."""
+
+    domain: Domain
+    arms: tuple[Arm, ...]
+    seed: int
+    settings: TrialSettings
+    timings: bool = True
+
+    def runner(self) -> Callable[[int], dict[str, Any]]:
+        """The search space and typical rooms shared by a worker's trials, and the runner of one trial."""
+        space = search_space(self.domain)
+        typical = typical_rooms(self.domain)
+
+        def run(index: int) -> dict[str, Any]:
+            record = run_trial(
+                self.domain, space, typical, self.arms, index=index, seed=self.seed, settings=self.settings
+            )
+            return record.as_json(space, timings=self.timings)
+
+        return run
 
 
 @dataclass(frozen=True)
@@ -457,9 +522,20 @@ def summarize(records: Sequence[TrialRecord]) -> dict[str, ArmSummary]:
             within_4_cells=sum(e <= 4.0 for e in errors),
             mean_steps=_mean([o.steps for o in mine]),
             mean_commits=_mean([len(o.commits) for o in mine]),
-            mean_seconds=_mean([o.seconds for o in mine]),
+            mean_seconds=_mean([o.seconds for o in mine if not math.isnan(o.seconds)]),
         )
     return out
+
+
+def run_title(domain: str, trials: int, seed: int, settings: dict[str, Any]) -> str:
+    """One line saying what a run of paired trials did: ``settings`` is :meth:`TrialSettings.as_json`."""
+    target = settings["target"]
+    what = "any object" if target is None else f"a {target}"
+    return (
+        f"{trials} paired trials on {domain}, looking for {what}: knowledge {settings['knowledge']:g}, defaults "
+        f"{'on' if settings['defaults'] else 'off'}, target absent with probability "
+        f"{settings['absent_fraction']:g}, seed {seed}"
+    )
 
 
 def _mean(values: Sequence[float]) -> float | None:

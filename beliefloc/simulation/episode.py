@@ -68,6 +68,26 @@ class EpisodeRecord:
             data["plan_seconds"] = None
         return data
 
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> EpisodeRecord:
+        """The record :meth:`as_json` gave ``data``, for statistics (:func:`summarize`): without its
+        trace and its ``pose`` (a pose needs the model), and with ``plan_seconds`` empty when the
+        JSON has no clock values."""
+        return cls(
+            strategy=data["strategy"],
+            episode=int(data["episode"]),
+            start=data["start"],
+            final=data["final"],
+            true_final=data["true_final"],
+            correct=bool(data["correct"]),
+            status=EpisodeStatus(data["status"]),
+            cost=float(data["cost"]),
+            steps=int(data["steps"]),
+            replans=int(data["replans"]),
+            plan_seconds=[float(x) for x in data["plan_seconds"] or []],
+            max_belief=float(data["max_belief"]),
+        )
+
 
 OnStep = Callable[[EpisodeRecord, StepRecord, np.ndarray], None]
 
@@ -166,6 +186,20 @@ def run_episode(
     return record
 
 
+def start_state(
+    model: Model, seed: int, episode: int, *, start: int | None = None, start_distribution: np.ndarray | None = None
+) -> int:
+    """The robot's true start in episode ``episode``: ``start`` when given, else drawn from the
+    episode's start generator (:func:`episode_rngs`) -- from ``start_distribution`` (a probability
+    per state) when given, else uniformly."""
+    if start is not None:
+        return start
+    start_rng, _, _ = episode_rngs(seed, episode)
+    if start_distribution is not None:
+        return int(start_rng.choice(model.n_states, p=start_distribution))
+    return int(start_rng.integers(model.n_states))
+
+
 def run_experiment(
     model: Model,
     strategies: Sequence[str],
@@ -184,35 +218,92 @@ def run_experiment(
     """Paired trials: in episode e every strategy starts from the same true state and meets the
     same seeded noise stream. ``start=None`` draws the true start per episode, from
     ``start_distribution`` (a probability per state) when given, else uniformly."""
+    sweep = EpisodeSweep(
+        model,
+        tuple(strategies),
+        seed=seed,
+        start=start,
+        start_belief=start_belief,
+        start_distribution=start_distribution,
+        world=world,
+        settings=settings,
+        max_steps=max_steps,
+    )
     shared = SharedWork.for_model(model)
-    belief = start_belief if start_belief is not None else np.full(model.n_states, 1.0 / model.n_states)
     records = []
     for e in range(episodes):
-        start_rng, _, _ = episode_rngs(seed, e)
-        if start is not None:
-            state = start
-        elif start_distribution is not None:
-            state = int(start_rng.choice(model.n_states, p=start_distribution))
-        else:
-            state = int(start_rng.integers(model.n_states))
-        for name in strategies:
+        records += sweep.paired(e, shared, on_step=on_step, on_episode=on_episode)
+    return records
+
+
+@dataclass(frozen=True)
+class EpisodeSweep:
+    """Paired episodes as a sweep (:mod:`beliefloc.sweep`): unit ``e`` is episode ``e`` of every
+    strategy, its result ``{"episode": e, "records": [EpisodeRecord.as_json(), ...]}`` in the order of
+    ``strategies``. Episode ``e`` depends on (``seed``, ``e``) only (:func:`episode_rngs`), so any
+    worker may run it, in any order, with the same result."""
+
+    model: Model
+    strategies: tuple[str, ...]
+    seed: int
+    start: int | None = None
+    start_belief: np.ndarray | None = None
+    start_distribution: np.ndarray | None = None
+    world: Model | None = None
+    settings: PlannerSettings | None = None
+    max_steps: int = DEFAULT_MAX_STEPS
+    timings: bool = True
+    """Keep the wall-clock values in the results (off: byte-identical reruns)."""
+
+    def paired(
+        self,
+        episode: int,
+        shared: SharedWork,
+        *,
+        on_step: OnStep | None = None,
+        on_episode: Callable[[EpisodeRecord], None] | None = None,
+    ) -> list[EpisodeRecord]:
+        """Episode ``episode`` of every strategy, from the same true start."""
+        model = self.model
+        belief = self.start_belief if self.start_belief is not None else np.full(model.n_states, 1.0 / model.n_states)
+        state = start_state(model, self.seed, episode, start=self.start, start_distribution=self.start_distribution)
+        records = []
+        for name in self.strategies:
             record = run_episode(
                 model,
                 name,
                 state,
                 belief,
-                seed=seed,
-                episode=e,
-                world=world,
-                settings=settings,
+                seed=self.seed,
+                episode=episode,
+                world=self.world,
+                settings=self.settings,
                 shared=shared,
-                max_steps=max_steps,
+                max_steps=self.max_steps,
                 on_step=on_step,
             )
             records.append(record)
             if on_episode is not None:
                 on_episode(record)
-    return records
+        return records
+
+    def runner(
+        self, *, on_step: OnStep | None = None, on_episode: Callable[[EpisodeRecord], None] | None = None
+    ) -> Callable[[int], dict[str, Any]]:
+        """The work shared by a worker's episodes (:class:`SharedWork`), and the runner of one episode;
+        with per-step and per-episode callbacks for a run in this process that draws or records."""
+        shared = SharedWork.for_model(self.model)
+
+        def run(episode: int) -> dict[str, Any]:
+            records = self.paired(episode, shared, on_step=on_step, on_episode=on_episode)
+            return {"episode": episode, "records": [r.as_json(timings=self.timings) for r in records]}
+
+        return run
+
+
+def records_from_results(results: Sequence[dict[str, Any]]) -> list[EpisodeRecord]:
+    """The records of :class:`EpisodeSweep` results, in order (:meth:`EpisodeRecord.from_json`)."""
+    return [EpisodeRecord.from_json(data) for result in results for data in result["records"]]
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,113 @@
+"""``summarize``: the statistics of a results file (``simulate --out``, ``search simulate --out``),
+while its run goes on or after it ended."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Any
+
+import typer
+from rich.markup import escape
+
+from beliefloc.cli.common import boundary, print_json
+from beliefloc.cli.options import JsonOption
+from beliefloc.errors import UsageError
+from beliefloc.render import stderr_console, stdout_console
+
+if TYPE_CHECKING:
+    from rich.console import RenderableType
+
+    from beliefloc.results_file import ResultsContent
+
+
+@boundary
+def summarize(
+    results_file: Annotated[
+        Path,
+        typer.Argument(
+            metavar="FILE.jsonl",
+            help="A results file written by 'simulate --out' or 'search simulate --out'.",
+            show_default=False,
+        ),
+    ],
+    json_output: JsonOption = False,
+) -> None:
+    """Print the summary table of a results file: the same table (and with --json the same
+    "summary") as the run that wrote it prints at its end.
+
+    A file still being written is read up to its last whole line; the units not yet in it are
+    said on stderr (with --json: "done" of "total").
+
+    Examples:
+
+    \b
+      beliefloc simulate maps/kitchen.yaml -n 20 --out kitchen.jsonl && beliefloc summarize kitchen.jsonl
+      beliefloc search simulate domains/home.yaml -n 10 --out home.jsonl && beliefloc summarize home.jsonl --json
+    """
+    from beliefloc.results_file import ResultsFileError, read_results
+
+    if results_file.is_dir():
+        raise UsageError(f"{results_file}: is a folder; name a results file (FILE.jsonl)")
+    if not results_file.is_file():
+        raise UsageError(f"{results_file}: no such file")
+    content = read_results(results_file)
+    command = str(content.header["command"])
+    if command not in _SUMMARIES:
+        raise UsageError(f"{results_file}: written by '{command}', which this beliefloc cannot summarize")
+    try:
+        summary, table = _SUMMARIES[command](content)
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise ResultsFileError(
+            f"{results_file}: its header or a line lacks what a '{command}' results file holds ({exc!r})"
+        ) from None
+    done, total = len(content.results), content.total
+    if done < total:
+        stderr_console().print(
+            escape(f"{results_file}: {done} of {total} {content.unit}s so far"), soft_wrap=True, highlight=False
+        )
+    if json_output:
+        print_json(
+            {
+                "file": str(results_file),
+                "command": command,
+                "unit": content.unit,
+                "done": done,
+                "total": total,
+                "summary": summary,
+            }
+        )
+        return
+    stdout_console().print(table)
+
+
+def _simulate(content: ResultsContent) -> tuple[dict[str, Any], RenderableType]:
+    from beliefloc.render.plan import summary_table
+    from beliefloc.simulation.episode import records_from_results
+    from beliefloc.simulation.episode import summarize as summarize_episodes
+
+    settings = content.header["settings"]
+    summary = summarize_episodes(records_from_results(content.results))
+    timings = bool(settings["timings"])
+    as_json = {name: s.as_json(timings=timings) for name, s in summary.items()}
+    return as_json, summary_table(summary, float(settings["threshold"]))
+
+
+def _search(content: ResultsContent) -> tuple[dict[str, Any], RenderableType]:
+    from beliefloc.object_search.experiment import TrialRecord, run_title
+    from beliefloc.object_search.experiment import summarize as summarize_trials
+    from beliefloc.render.search import trials_table
+
+    settings = content.header["settings"]
+    summary = summarize_trials([TrialRecord.from_json(result) for result in content.results])
+    timings = bool(settings["timings"])
+    as_json = {arm: s.as_json(timings=timings) for arm, s in summary.items()}
+    title = run_title(str(settings["domain_name"]), content.total, int(settings["seed"]), settings["trial_settings"])
+    return as_json, trials_table(summary, escape(title))
+
+
+_SUMMARIES = {"simulate": _simulate, "search simulate": _search}
+"""How each command's results are summed up, by the header's ``command``."""
+
+
+def register(app: typer.Typer) -> None:
+    app.command(short_help="Print the summary of a results file (--out).")(summarize)

@@ -1,0 +1,210 @@
+"""Results files (``--out FILE.jsonl``): a sweep's results, one JSON line per finished unit, that
+survive the sweep being killed.
+
+The first line is a header (:func:`header`): the format, the beliefloc version, the command, the
+unit (``episode`` or ``trial``), how many units the sweep has and the settings that decide the
+results. Each following line is one unit's result, in unit order (unit ``k`` on line ``k + 2``,
+its index under the unit's key), written whole and flushed as the unit ends. Without wall-clock
+values (``--no-timings``) two runs of the same command write the same bytes.
+
+Resuming (:func:`read_results`, :func:`differences`): the lines already in the file are kept and
+their units not run again; a last line cut short by the kill (or not JSON) is dropped and its unit
+run again; a file whose header differs from the new run's is refused, naming what differs.
+Appending to a file is not atomic, by design: what was written stays, whatever happens next.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO, Any
+
+from beliefloc import __version__
+from beliefloc.errors import InputFileError
+from beliefloc.limits import INPUT_BYTES
+
+FORMAT = "beliefloc-results"
+FORMAT_VERSION = 1
+SUFFIX = ".jsonl"
+
+
+class ResultsFileError(InputFileError):
+    """A results file that cannot be read or resumed: not one, damaged, or written with other settings."""
+
+
+def header(command: str, unit: str, total: int, settings: Mapping[str, Any]) -> dict[str, Any]:
+    """The first line of a results file. ``settings``: everything that decides the results (JSON
+    values), compared key by key on resuming."""
+    return {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "beliefloc": __version__,
+        "command": command,
+        "unit": unit,
+        "total": total,
+        "settings": dict(settings),
+    }
+
+
+def digest(path: Path) -> str:
+    """The SHA-256 of a file's bytes (an input of the sweep, recorded in its settings)."""
+    import hashlib
+
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def dumps(data: Any) -> str:
+    """One line of a results file (no newline): compact JSON, no NaN."""
+    return json.dumps(data, separators=(",", ":"), allow_nan=False)
+
+
+@dataclass(frozen=True)
+class ResultsContent:
+    """What a results file holds."""
+
+    header: dict[str, Any]
+    results: list[dict[str, Any]]
+    """The whole result lines, in unit order (unit ``k`` is ``results[k]``)."""
+    kept_bytes: int
+    """The length of the header and of the whole result lines: a resumed run appends from here."""
+    torn: bool
+    """The file ended in a line cut short (or not JSON), left out of :attr:`results`."""
+
+    @property
+    def unit(self) -> str:
+        return str(self.header["unit"])
+
+    @property
+    def total(self) -> int:
+        return int(self.header["total"])
+
+
+def read_results(path: Path) -> ResultsContent:
+    """The header and the whole result lines of the results file ``path``.
+
+    A :class:`ResultsFileError` for a file that is not one (no beliefloc header on its first line),
+    a damaged line before the last, or a result line out of order."""
+    if not path.is_file():
+        raise ResultsFileError(f"{path}: not a regular file")
+    INPUT_BYTES.check(path.stat().st_size, str(path))
+    data = path.read_bytes()
+    lines = data.split(b"\n")
+    # every element but the last ended with a newline; the last is what follows the last newline
+    complete, tail = lines[:-1], lines[-1]
+    if not complete:
+        raise ResultsFileError(f"{path}: not a beliefloc results file (no header line)")
+    head = _parse(complete[0])
+    if not isinstance(head, dict) or head.get("format") != FORMAT:
+        raise ResultsFileError(f"{path}: not a beliefloc results file (its first line is no {FORMAT} header)")
+    if head.get("format_version") != FORMAT_VERSION:
+        raise ResultsFileError(
+            f"{path}: a results file of format version {head.get('format_version')!r}; "
+            f"this beliefloc reads version {FORMAT_VERSION}"
+        )
+    for key in ("command", "unit", "total", "settings"):
+        if key not in head:
+            raise ResultsFileError(f"{path}: the header has no {key!r}")
+    unit = str(head["unit"])
+    kept = len(complete[0]) + 1
+    results: list[dict[str, Any]] = []
+    torn = bool(tail)
+    for number, raw in enumerate(complete[1:], start=2):
+        line = _parse(raw)
+        last = number == len(complete)
+        if not isinstance(line, dict):
+            if last and not tail:
+                torn = True  # the last line is damaged: redo its unit
+                break
+            raise ResultsFileError(f"{path}:{number}: not a JSON object: the file is damaged")
+        if line.get(unit) != len(results):
+            raise ResultsFileError(
+                f"{path}:{number}: expected {unit} {len(results)}, found {line.get(unit)!r}: the file is damaged"
+            )
+        results.append(line)
+        kept += len(raw) + 1
+    if len(results) > int(head["total"]):
+        raise ResultsFileError(f"{path}: holds {len(results)} {unit}s, more than the {head['total']} of its header")
+    return ResultsContent(head, results, kept, torn)
+
+
+def _parse(raw: bytes) -> Any:
+    try:
+        return json.loads(raw.decode("utf-8"))
+    except (ValueError, UnicodeDecodeError, RecursionError):
+        return None
+
+
+def differences(found: Mapping[str, Any], wanted: Mapping[str, Any]) -> list[str]:
+    """What differs between two headers, a phrase per key (``settings.seed: 0 in the file, 1 now``),
+    nested keys joined by dots; the format keys are not compared (:func:`read_results` checks them)."""
+    out: list[str] = []
+
+    def walk(prefix: str, a: Any, b: Any) -> None:
+        if isinstance(a, dict) and isinstance(b, dict):
+            for key in dict.fromkeys([*a, *b]):
+                walk(f"{prefix}.{key}" if prefix else str(key), a.get(key, _MISSING), b.get(key, _MISSING))
+        elif a != b or type(a) is not type(b):
+            out.append(f"{prefix}: {_shown(a)} in the file, {_shown(b)} now")
+
+    skip = {"format", "format_version"}
+    walk(
+        "",
+        {k: v for k, v in found.items() if k not in skip},
+        {k: v for k, v in wanted.items() if k not in skip},
+    )
+    return out
+
+
+class _Missing:
+    def __repr__(self) -> str:
+        return "absent"
+
+
+_MISSING = _Missing()
+
+
+def _shown(value: Any) -> str:
+    return "absent" if value is _MISSING else json.dumps(value)
+
+
+class ResultsWriter:
+    """Writes a results file line by line, each flushed as it is written. A new file gets
+    ``head`` first; a resumed one (``resume``: what :func:`read_results` found) is cut back to its
+    whole lines and continued."""
+
+    def __init__(self, path: Path, head: Mapping[str, Any], resume: ResultsContent | None = None) -> None:
+        self.path = path
+        self._file: IO[bytes]
+        if resume is None:
+            self._file = path.open("wb")
+            self.write(head)
+        else:
+            self._file = path.open("r+b")
+            self._file.truncate(resume.kept_bytes)
+            self._file.seek(resume.kept_bytes)
+
+    def write(self, data: Any) -> None:
+        self._file.write((dumps(data) + "\n").encode("utf-8"))
+        self._file.flush()
+
+    def close(self) -> None:
+        self._file.close()
+
+    def __enter__(self) -> ResultsWriter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def is_results_file(path: Path) -> bool:
+    """Whether ``path`` starts with a results file's header line (without reading the rest)."""
+    try:
+        with path.open("rb") as file:
+            first = file.readline(1024 * 1024)
+    except OSError:
+        return False
+    head = _parse(first)
+    return isinstance(head, dict) and head.get("format") == FORMAT
