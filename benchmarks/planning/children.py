@@ -13,6 +13,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -47,54 +48,78 @@ def _replan_without_memory(model: Any, evaluator: Any, start: Any, out: list[dic
     return on_step
 
 
-def child_episodes(p: dict[str, Any]) -> dict[str, Any]:
-    """Paired episodes of bestfirst, random and (on the first ``uniform_episodes``) budgeted uniform."""
+@dataclass(frozen=True)
+class WorldEpisodes:
+    """The episodes part as a sweep (:mod:`beliefloc.sweep`): unit ``e`` builds world ``e`` from its
+    seed and runs its paired episodes, so the worlds can run on several worker processes
+    (``--workers``) with the same results. Picklable: its parameters only."""
+
+    p: dict[str, Any]
+
+    def runner(self) -> Callable[[int], dict[str, Any]]:
+        return lambda e: _world_episodes(self.p, e)
+
+
+def _world_episodes(p: dict[str, Any], e: int) -> dict[str, Any]:
+    """Episode ``e`` of every strategy on world ``e``: its row of the tables and its records' JSON."""
     from beliefloc.belief import uniform
     from beliefloc.planning.successors import SuccessorEvaluator
-    from beliefloc.simulation.episode import EpisodeRecord, run_experiment, summarize
+    from beliefloc.simulation.episode import run_experiment
     from beliefloc.simulation.strategies import PlannerSettings
 
-    states, episodes, seed, tag = p["states"], p["episodes"], p["seed"], p["tag"]
     uniform_settings = PlannerSettings(max_expansions=p["uniform_max_expansions"], time_limit=p["uniform_time_limit"])
+    with tempfile.TemporaryDirectory(prefix="bench-planning-") as tmp:
+        wseed = world_seed(p["seed"], e)
+        model = build_model(p["states"], wseed, Path(tmp), p.get("rotation_failure"))
+    evaluator = SuccessorEvaluator(model)
+    start_belief = uniform(model.n_states)
+    ablation: list[dict[str, Any]] = []
+    on_step = _replan_without_memory(model, evaluator, start_belief, ablation)
+    common = {"episodes": 1, "seed": wseed, "start_belief": start_belief, "max_steps": p["max_steps"]}
+    records = run_experiment(model, p["strategies"], settings=PlannerSettings(), on_step=on_step, **common)
+    if p["uniform"] and e < p["uniform_episodes"]:
+        records += run_experiment(model, ["uniform"], settings=uniform_settings, **common)
+    for r in records:
+        r.episode = e
+    row = {
+        "episode": e,
+        "world_seed": wseed,
+        "n_states": model.n_states,
+        "start": records[0].start,
+        "strategies": {
+            r.strategy: {
+                "status": r.status.value,
+                "correct": r.correct,
+                "cost": r.cost,
+                "steps": r.steps,
+                "replans": r.replans,
+                "plan_seconds": r.plan_seconds,
+            }
+            for r in records
+        },
+        "ablation": ablation,
+    }
+    return {"row": row, "records": [r.as_json() for r in records]}
+
+
+def child_episodes(p: dict[str, Any]) -> dict[str, Any]:
+    """Paired episodes of bestfirst, random and (on the first ``uniform_episodes``) budgeted uniform,
+    a world per episode, on ``p["workers"]`` processes (1: this one; more: plan times then share the
+    cores, so Table I's times are measured with one)."""
+    from beliefloc.simulation.episode import EpisodeRecord, summarize
+    from beliefloc.sweep import backend, in_order
+
+    states, episodes, tag = p["states"], p["episodes"], p["tag"]
     all_records: list[EpisodeRecord] = []
     rows = []
     started = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix="bench-planning-") as tmp:
-        for e in range(episodes):
-            wseed = world_seed(seed, e)
-            model = build_model(states, wseed, Path(tmp), p.get("rotation_failure"))
-            evaluator = SuccessorEvaluator(model)
-            start_belief = uniform(model.n_states)
-            ablation: list[dict[str, Any]] = []
-            on_step = _replan_without_memory(model, evaluator, start_belief, ablation)
-            common = {"episodes": 1, "seed": wseed, "start_belief": start_belief, "max_steps": p["max_steps"]}
-            records = run_experiment(model, p["strategies"], settings=PlannerSettings(), on_step=on_step, **common)
-            if p["uniform"] and e < p["uniform_episodes"]:
-                records += run_experiment(model, ["uniform"], settings=uniform_settings, **common)
-            for r in records:
-                r.episode = e
-                r.trace = []
+    runs_on = backend(p.get("workers", 1))
+    indices = list(range(episodes))
+    try:
+        for e, result in in_order(runs_on.run(WorldEpisodes(p), indices), indices):
+            records = [EpisodeRecord.from_json(data) for data in result["records"]]
             all_records += records
-            rows.append(
-                {
-                    "episode": e,
-                    "world_seed": wseed,
-                    "n_states": model.n_states,
-                    "start": records[0].start,
-                    "strategies": {
-                        r.strategy: {
-                            "status": r.status.value,
-                            "correct": r.correct,
-                            "cost": r.cost,
-                            "steps": r.steps,
-                            "replans": r.replans,
-                            "plan_seconds": r.plan_seconds,
-                        }
-                        for r in records
-                    },
-                    "ablation": ablation,
-                }
-            )
+            rows.append(result["row"])
             parts = []
             for r in records:
                 mean_plan = mean_or_none(r.plan_seconds) if r.strategy != "random" else None
@@ -102,6 +127,8 @@ def child_episodes(p: dict[str, Any]) -> dict[str, Any]:
                 parts.append(f"{r.strategy} {r.status.value} cost {r.cost:g}{timing}")
             elapsed = time.perf_counter() - started
             say(f"  [{tag} {states:g}] episode {e + 1}/{episodes} ({elapsed:.0f} s): " + " | ".join(parts))
+    finally:
+        runs_on.close()
     return {
         "kind": "episodes",
         "states": states,

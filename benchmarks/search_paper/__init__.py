@@ -6,7 +6,7 @@ Run by hand from the repository root (not part of the test suite)::
 
     python -m benchmarks.search_paper            # 1,000 paired trials per point (~6 min on 2 cores)
     python -m benchmarks.search_paper --quick    # 40-100 trials per point (~30 s), to search-paper-quick.md
-    python -m benchmarks.search_paper --trials-knowledge 300 --trials-kb 500 --trials-meta 500 --jobs 1
+    python -m benchmarks.search_paper --trials-knowledge 300 --trials-kb 500 --trials-meta 500 --workers 1
 
 Every part is a set of paired trials (:mod:`beliefloc.object_search.experiment`): trial ``i`` of a run
 seeded ``s`` has the same world, target, robot knowledge and detection noise for every arm, and the

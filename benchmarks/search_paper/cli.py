@@ -1,5 +1,5 @@
 """The object-search reproduction's command line: its options, the parts run (in worker processes when
-``--jobs`` is above 1), then the sections written to the markdown, the figures drawn, and the text printed."""
+``--workers`` is above 1), then the sections written to the markdown, the figures drawn, and the text printed."""
 
 from __future__ import annotations
 
@@ -63,7 +63,14 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--trials-kb", type=int, default=None, help="Fig. 6 (default 1000, quick 100)")
     parser.add_argument("--trials-meta", type=int, default=None, help="Figs. 7 and 8 (default 1000, quick 100)")
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--jobs", type=int, default=os.cpu_count() or 1, help="worker processes (default: the cores)")
+    parser.add_argument(
+        "--workers",
+        "--jobs",
+        dest="jobs",
+        type=int,
+        default=os.cpu_count() or 1,
+        help="worker processes (default: the cores; --jobs is the old name)",
+    )
     parser.add_argument("--output", type=Path, default=None)
     return parser
 
