@@ -214,7 +214,12 @@ def test_an_integer_too_long_for_python_is_refused_at_its_line() -> None:
 
 def test_nesting_30000_levels_deep_is_refused_without_a_crash(tmp_path: Path) -> None:
     flow = write(tmp_path, "[" * 30_000 + "]" * 30_000 + "\n", "flow.yaml")
-    assert_refused(run_cli("show", flow), rf"{re.escape(str(flow))}:1:65: 65 levels of nesting .*BELIEFLOC_MAX_NESTING")
+    # libyaml 0.2.6 (PyYAML 6.0.4) scans flow brackets ahead and may stop at its own 1,000 levels first
+    assert_refused(
+        run_cli("show", flow),
+        rf"{re.escape(str(flow))}:1:(65: 65 levels of nesting|\d+: more levels of nesting than the YAML parser) "
+        r".*BELIEFLOC_MAX_NESTING",
+    )
     mapping = write(tmp_path, "name: x\ngrid: " + "{a: " * 30_000 + "1" + "}" * 30_000 + "\n", "flow-map.yaml")
     assert_refused(run_cli("validate", mapping), r"flow-map\.yaml:2:\d+: 65 levels of nesting")
     block = write(tmp_path, "- " * 30_000 + "x\n", "block.yaml")

@@ -469,6 +469,11 @@ def _syntax_message(path: FilePath, lines: list[str], exc: yaml.YAMLError) -> st
             f"{path}:{line}:{column}: YAML syntax error: {here!r} cannot start a value; "
             "put the value in quotes if it is text"
         )
+    if problem.startswith("exceeded maximum nesting depth"):  # libyaml >= 0.2.6 (PyYAML 6.0.4) scans ahead
+        return (
+            f"{path}:{line}:{column}: more levels of nesting than the YAML parser reads ({problem}); "
+            f"beliefloc reads at most {limits.NESTING.value} (BELIEFLOC_MAX_NESTING)"
+        )
     if problem == "could not find expected ':'" and begun is not None:
         line, column = begun.line + 1, begun.column + 1
         written = lines[begun.line][begun.column :].strip() if begun.line < len(lines) else ""
