@@ -9,7 +9,7 @@ finds the model, and so that the refusal says what happened: a table *for anothe
 Reading trusts nothing in the file (:func:`beliefloc.npz_archive.open_versioned`): the header is
 validated field by field and every array checked before use -- pairs inside the states and sorted,
 actions and pairs that exist, macros that end (each one's follower made before it), lengths that
-count down along a pair's macro. Writes are atomic (:func:`beliefloc.model_file.write_atomically`).
+count down along a pair's macro. Writes are atomic (:func:`beliefloc.atomic_write.write_atomically`).
 """
 
 from __future__ import annotations

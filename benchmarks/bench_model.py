@@ -53,8 +53,8 @@ def child_generate(states: int, seen_model: str, seed: int, path: Path) -> dict[
     """Generate a world and write its map (what ``beliefloc generate gridworld`` does)."""
     import numpy as np
 
+    from beliefloc.atomic_write import write_atomically
     from beliefloc.generate import SeenModel, generate_gridworld, gridworld_yaml
-    from beliefloc.model_file import write_atomically
 
     start = time.perf_counter()
     world = generate_gridworld(states, np.random.default_rng(seed), SeenModel(seen_model))

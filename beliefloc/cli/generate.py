@@ -95,7 +95,7 @@ def gridworld(
     if output.suffix.lower() not in MAP_SUFFIXES:
         raise UsageError(f"{output}: a map file must end in .yaml or .yml")
     from beliefloc import file_kinds
-    from beliefloc.model_file import write_atomically
+    from beliefloc.atomic_write import write_atomically
 
     check_output("-o", output, MAP_SUFFIXES, (), file_kinds.MAP)
 

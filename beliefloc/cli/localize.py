@@ -159,8 +159,8 @@ def localize(
 
 def _write_belief(path: Path, model: Model, belief: np.ndarray) -> None:
     """The final belief as a belief file, written whole or not at all."""
+    from beliefloc.atomic_write import write_atomically
     from beliefloc.belief import by_state_name
-    from beliefloc.model_file import write_atomically
 
     text = json.dumps({"belief": by_state_name(model, belief)}, indent=2, allow_nan=False) + "\n"
     write_atomically(path, lambda handle: handle.write(text.encode()))

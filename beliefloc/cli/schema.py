@@ -84,7 +84,7 @@ def schema_command(
     if output is None:
         sys.stdout.write(text)
         return
-    from beliefloc.model_file import write_atomically
+    from beliefloc.atomic_write import write_atomically
 
     write_atomically(output, lambda handle: handle.write(text), binary=False)
     typer.echo(f"wrote {output}")

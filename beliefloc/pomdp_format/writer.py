@@ -54,9 +54,9 @@ from typing import IO, Any
 import numpy as np
 import scipy.sparse as sp
 
+from beliefloc.atomic_write import write_atomically
 from beliefloc.errors import ModelError, OutputError
 from beliefloc.model import Action, Model
-from beliefloc.model_file import write_atomically
 from beliefloc.pomdp_format.names import FORMAT_VERSION, PREFIX, format_number, identifiers
 
 DISCOUNT = 0.95
