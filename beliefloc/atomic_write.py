@@ -4,9 +4,10 @@ A failed write (a full disk, a folder no one may write in) is an :class:`~belief
 naming the path and the reason, and leaves nothing behind; so does Ctrl-C, and SIGTERM or SIGHUP
 remove the temporary before the signal ends the process. Temporaries left by a killed process
 (SIGKILL) are swept at the next write of the same output. Models, macro tables, pictures, maps,
-schemas, results and belief files go through :func:`write_atomically`; a folder of frames
+schemas and belief files go through :func:`write_atomically`; a folder of frames
 (:func:`beliefloc.render.picture_episode.save_frames`) and ``init``, which must never replace a
-file, have whole-or-nothing writes of their own.
+file, have whole-or-nothing writes of their own; a results file (:mod:`beliefloc.results_file`) grows
+a line at a time, by design, so that a killed sweep keeps what it finished.
 """
 
 from __future__ import annotations
