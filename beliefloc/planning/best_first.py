@@ -176,7 +176,7 @@ def plan(
     observation_of: list[int | None] = [None]
     g_of: list[float] = [0.0]
     stats_of: list[SuccessorStats | None] = [None]
-    cache = _BeliefCache(max(4, _CACHE_BYTES // max(1, belief.nbytes)))
+    cache = BeliefCache(max(4, _CACHE_BYTES // max(1, belief.nbytes)))
     cache.put(0, belief)
 
     def belief_of(node: int) -> np.ndarray:
@@ -255,7 +255,7 @@ def plan(
     return PlanResult(status, tuple(steps), belief_of(goal), expanded, len(parent) - 1, seconds)
 
 
-class _BeliefCache:
+class BeliefCache:
     """Least-recently-used beliefs of popped nodes, bounded in count."""
 
     def __init__(self, capacity: int) -> None:

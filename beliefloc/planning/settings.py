@@ -19,6 +19,22 @@ DEFAULT_TIME_LIMIT = 60.0
 """Seconds of search before a planner gives up."""
 DEFAULT_WEIGHT = 1.0
 """Best-first search ranks nodes by ``g + weight · h``; 1 is the paper's."""
+LOOKAHEAD_WORK = 30_000
+"""The contingent strategy's default lookahead: beliefs expanded per plan call, ``LOOKAHEAD_WORK /
+|S|`` but at least :data:`MIN_LOOKAHEAD` -- about the same work per call at every size (an
+expansion costs O(|S|)): about 900 on the bundled kitchen and hallway, 300 at 10^2 states, 32 from
+10^3 states up."""
+MIN_LOOKAHEAD = 32
+
+
+def default_lookahead(n_states: int) -> int:
+    """See :data:`LOOKAHEAD_WORK`."""
+    return max(MIN_LOOKAHEAD, LOOKAHEAD_WORK // max(1, n_states))
+
+
+DEFAULT_PRUNE_BELOW = 1e-3
+"""Contingent plans: branches reached with less probability than this are not planned for (the robot
+plans again if it gets there)."""
 DEFAULT_MAX_HYPOTHESES = 400
 """EC2: Khalvati & Mackworth Sec. VII-B's reduction to the most likely states."""
 

@@ -26,3 +26,5 @@ class StrategyName(str, enum.Enum):
     """Khalvati & Mackworth's Algorithm 1: the heaviest action by pairwise edge weights."""
     EC2_MACROS = "ec2-macros"
     """Their Algorithm 3: macro actions are candidates too."""
+    CONTINGENT = "contingent"
+    """A policy tree that branches on every observation (AO* over beliefs), followed until it ends."""

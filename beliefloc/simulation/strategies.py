@@ -7,6 +7,9 @@
   actuation action.
 * ``ec2``: Khalvati & Mackworth's Algorithm 1 -- the heaviest action by the pairwise edge weights
   (:mod:`beliefloc.planning.ec2`), a random basic action when no action has a positive weight.
+* ``contingent``: a policy that branches on every observation (:mod:`beliefloc.planning.contingent`),
+  planned ``lookahead`` expansions deep and followed branch by branch; the robot replans when it
+  reaches a leaf that is not a goal (the frontier, or an observation the policy did not plan for).
 * ``ec2-macros``: their Algorithm 3 -- macros (:mod:`beliefloc.planning.macros`) are candidates too;
   a chosen macro is executed one basic action at a time and abandoned when an observation differs
   from the one expected (the noise-free observation of the most likely state's path).
@@ -23,16 +26,19 @@ from typing import Protocol
 import numpy as np
 
 from beliefloc.model import Model
-from beliefloc.planning.best_first import ClosedList, PlanResult, PlanStep, plan
+from beliefloc.planning.best_first import ClosedList, PlanResult, PlanStatus, PlanStep, plan
+from beliefloc.planning.contingent import PolicyNode, PolicyResult, information_price, plan_policy
 from beliefloc.planning.ec2 import PairContext, hypotheses, pair_context, select
 from beliefloc.planning.macros import MacroTable, build_macros, macro_candidates
 from beliefloc.planning.settings import (
     DEFAULT_MAX_EXPANSIONS,
     DEFAULT_MAX_HYPOTHESES,
+    DEFAULT_PRUNE_BELOW,
     DEFAULT_THRESHOLD,
     DEFAULT_TIME_LIMIT,
     DEFAULT_WEIGHT,
     Heuristic,
+    default_lookahead,
 )
 from beliefloc.planning.successors import SuccessorEvaluator
 from beliefloc.simulation.settings import StrategyName
@@ -93,6 +99,11 @@ class PlannerSettings:
     """EC2: Sec. VII-B's reduction to the most likely states."""
     weight: float = DEFAULT_WEIGHT
     """Best-first search ranks nodes by ``g + weight · h`` (1: the paper's)."""
+    lookahead: int | None = None
+    """``contingent``: beliefs expanded per plan call (within ``max_expansions``); None:
+    :func:`beliefloc.planning.settings.default_lookahead` of the model's size."""
+    prune_below: float = DEFAULT_PRUNE_BELOW
+    """``contingent``: observation branches less likely than this are not planned for."""
 
 
 @dataclass
@@ -152,6 +163,54 @@ class PlanningStrategy:
     @property
     def replans(self) -> int:
         return max(0, len(self.plans) - 1)
+
+
+@dataclass
+class ContingentStrategy:
+    """Follow a contingent policy branch by branch; plan a new one from the current belief at a leaf
+    that is not a goal (:mod:`beliefloc.planning.contingent`)."""
+
+    name: str
+    model: Model
+    settings: PlannerSettings
+    evaluator: SuccessorEvaluator
+    price: float
+    plan_seconds: list[float] = field(default_factory=list)
+    policies: list[PolicyResult] = field(default_factory=list)
+    new_plan: PlanResult | None = None
+    _node: PolicyNode | None = None
+
+    def next_action(self, belief: np.ndarray) -> str | GiveUp:
+        if self._node is None or self._node.action is None:
+            s = self.settings
+            result = plan_policy(
+                self.model,
+                belief,
+                threshold=s.threshold,
+                heuristic=s.heuristic,
+                max_expansions=min(s.lookahead or default_lookahead(self.model.n_states), s.max_expansions),
+                time_limit=s.time_limit,
+                prune_below=s.prune_below,
+                evaluator=self.evaluator,
+                price=self.price,
+            )
+            self.policies.append(result)
+            self.plan_seconds.append(result.seconds)
+            if result.root.action is None:
+                status = PlanStatus.NO_PLAN if result.status is PlanStatus.NO_PLAN else PlanStatus.BUDGET_EXCEEDED
+                return GiveUp(EpisodeStatus(status.value))
+            self._node = result.root
+        assert self._node.action is not None
+        return self._node.action
+
+    def observed(self, action: str, observation: int | None, belief: np.ndarray) -> None:
+        assert self._node is not None
+        branch = self._node.branch(observation)
+        self._node = None if branch is None else branch.node
+
+    @property
+    def replans(self) -> int:
+        return max(0, len(self.policies) - 1)
 
 
 @dataclass
@@ -248,6 +307,7 @@ class SharedWork:
     evaluator: SuccessorEvaluator
     _contexts: dict[float | None, PairContext] = field(default_factory=dict)
     _macros: dict[float | None, MacroTable] = field(default_factory=dict)
+    _price: float | None = None
 
     @classmethod
     def for_model(cls, model: Model) -> SharedWork:
@@ -257,6 +317,12 @@ class SharedWork:
         if gamma not in self._contexts:
             self._contexts[gamma] = pair_context(self.model, gamma)
         return self._contexts[gamma]
+
+    def information_price(self) -> float:
+        """The contingent planner's cost per nat (:func:`beliefloc.planning.contingent.information_price`)."""
+        if self._price is None:
+            self._price = information_price(self.model, self.evaluator)
+        return self._price
 
     def macros(self, gamma: float | None) -> MacroTable:
         if gamma not in self._macros:
@@ -294,6 +360,12 @@ def _planner(heuristic: Heuristic | None) -> StrategyFactory:
     return make
 
 
+def _contingent(
+    name: StrategyName, settings: PlannerSettings, shared: SharedWork, rng: np.random.Generator
+) -> Strategy:
+    return ContingentStrategy(name.value, shared.model, settings, shared.evaluator, shared.information_price())
+
+
 def _random(name: StrategyName, settings: PlannerSettings, shared: SharedWork, rng: np.random.Generator) -> Strategy:
     return RandomStrategy(name.value, shared.model, rng)
 
@@ -304,6 +376,7 @@ STRATEGIES: dict[StrategyName, StrategyFactory] = {
     StrategyName.RANDOM: _random,
     StrategyName.EC2: _ec2(with_macros=False),
     StrategyName.EC2_MACROS: _ec2(with_macros=True),
+    StrategyName.CONTINGENT: _contingent,
 }
 """Every strategy ``simulate`` offers, one per :class:`StrategyName`."""
 
