@@ -183,6 +183,28 @@ PlanTimeLimitOption = Annotated[
     ),
 ]
 
+LookaheadOption = Annotated[
+    int | None,
+    typer.Option(
+        "--lookahead",
+        parser=whole(low=1),
+        metavar="N",
+        help="contingent: beliefs expanded per plan call before the robot acts; it follows the policy's "
+        "branches and plans again at a leaf that is not a goal. Default: 30,000 / states, at least 32.",
+        show_default=False,
+    ),
+]
+PruneBelowOption = Annotated[
+    float,
+    typer.Option(
+        "--prune-below",
+        parser=number(low=0.0, high=1.0),
+        metavar="P",
+        help="Contingent plans: branches reached with less probability than this are not planned for; the "
+        "robot plans again if it gets there (0: plan for every observation).",
+    ),
+]
+
 
 def resolve_heuristic(planner: Planner, heuristic: Heuristic | None, weight: float) -> Heuristic:
     """The library's heuristic for ``--planner``, ``--heuristic`` and ``--h-weight``; an error names

@@ -27,19 +27,40 @@ from beliefloc.cli.options import (
     ModelArgument,
     PlannerOption,
     PlanTimeLimitOption,
+    PruneBelowOption,
     ThresholdOption,
     resolve_heuristic,
+    whole,
 )
 from beliefloc.errors import EXIT_NEGATIVE, UsageError
 from beliefloc.planning.settings import (
     DEFAULT_MAX_EXPANSIONS,
+    DEFAULT_PRUNE_BELOW,
     DEFAULT_THRESHOLD,
     DEFAULT_TIME_LIMIT,
     DEFAULT_WEIGHT,
+    Heuristic,
     Planner,
 )
 from beliefloc.render import stderr_console, stdout_console
 
+PolicyOption = Annotated[
+    bool,
+    typer.Option(
+        "--policy",
+        help="Plan a contingent policy instead of one path: a tree that branches on every observation, "
+        "with the least expected cost AO* finds (--planner uniform: the exact least, small maps only).",
+    ),
+]
+PolicyDepthOption = Annotated[
+    int,
+    typer.Option(
+        "--policy-depth",
+        parser=whole(low=1),
+        metavar="N",
+        help="--policy: levels of the tree printed on the terminal (--json prints all of it).",
+    ),
+]
 PlanPictureOption = Annotated[
     Path | None,
     typer.Option(
@@ -63,6 +84,9 @@ def plan_command(
     h_weight: HWeightOption = DEFAULT_WEIGHT,
     max_expansions: MaxExpansionsOption = DEFAULT_MAX_EXPANSIONS,
     time_limit: PlanTimeLimitOption = DEFAULT_TIME_LIMIT,
+    policy: PolicyOption = False,
+    policy_depth: PolicyDepthOption = 4,
+    prune_below: PruneBelowOption = DEFAULT_PRUNE_BELOW,
     json_output: JsonOption = False,
     output: PlanPictureOption = None,
 ) -> None:
@@ -78,10 +102,16 @@ def plan_command(
     the perceptions starred and numbered by step, and the step table (action, expected observation,
     max belief, cost) under the map.
 
+    With --policy, a contingent plan: a tree whose perceptions branch on what they return, each
+    leaf a goal, an observation too unlikely to plan for (--prune-below), or, when the budget ran
+    out first, a frontier where the robot would plan again (exit code 1: the policy is not
+    complete). --json prints the whole tree with each branch's probability and expected cost.
+
     Examples:
 
     \b
       beliefloc plan maps/kitchen.yaml --threshold 0.95
+      beliefloc plan maps/kitchen.yaml --policy --policy-depth 2 --prune-below 0.05
       beliefloc plan maps/apartment.yaml --belief prior:domains/apartment.yaml
       beliefloc plan maps/kitchen.yaml -o kitchen-plan.svg
     """
@@ -90,6 +120,17 @@ def plan_command(
     from beliefloc.render.progress import search_progress
 
     chosen = resolve_heuristic(planner, heuristic, h_weight)
+    if policy:
+        if output is not None:
+            raise UsageError("--policy -o: a picture shows one path, a policy branches; drop -o or --policy")
+        if h_weight != DEFAULT_WEIGHT or heuristic not in (None, Heuristic.ZERO):
+            raise UsageError(
+                "--policy estimates the cost at its frontier from the entropy (or zero with --planner uniform); "
+                "--heuristic and --h-weight are best-first's: drop them"
+            )
+        limits = (max_expansions, time_limit, prune_below)
+        _plan_policy(source, belief, threshold, chosen, limits, policy_depth, json_output)
+        return
     smap = None
     if output is not None:
         from beliefloc.render.figures import PICTURE_SUFFIXES, pyplot
@@ -143,6 +184,56 @@ def plan_command(
         stderr_console().print(
             f"[bold]gave up:[/] the search budget ran out ({result.expanded} expansions, {result.seconds:.1f} s) "
             "before a plan was found; raise --max-expansions or --time-limit, or lower --threshold."
+        )
+        raise typer.Exit(EXIT_NEGATIVE)
+
+
+def _plan_policy(
+    source: Path,
+    belief: str,
+    threshold: float,
+    heuristic: Heuristic,
+    limits: tuple[int, float, float],
+    depth: int,
+    json_output: bool,
+) -> None:
+    """``plan --policy``: the contingent planner, its tree printed; ``limits`` are the expansions, the
+    seconds and the probability below which observations get no branch."""
+    from beliefloc.planning.best_first import PlanStatus
+    from beliefloc.planning.contingent import plan_policy
+    from beliefloc.render.plan import policy_line, policy_tree
+    from beliefloc.render.progress import search_progress
+
+    max_expansions, time_limit, prune_below = limits
+    model = open_model(source)
+    start = initial_belief(model, belief, None)
+    refuse_unreachable(model, start, threshold, json_output)
+    with search_progress(stderr_console(), time_limit) as progress:
+        result = plan_policy(
+            model,
+            start,
+            threshold=threshold,
+            heuristic=heuristic,
+            max_expansions=max_expansions,
+            time_limit=time_limit,
+            prune_below=prune_below,
+            progress=progress,
+        )
+    if json_output:
+        print_json(result.as_json(model))
+    else:
+        out = stdout_console()
+        title = f"policy for {model.name}: expected cost {result.expected_cost:.2f}"
+        out.print(policy_tree(result, model, title, depth))
+        out.print(policy_line(result))
+    if result.status is PlanStatus.NO_PLAN:
+        stderr_console().print("[bold]no plan:[/] every action from the start belief leads back to it.")
+        raise typer.Exit(EXIT_NEGATIVE)
+    if result.status is PlanStatus.BUDGET_EXCEEDED:
+        stderr_console().print(
+            f"[bold]gave up:[/] the budget ran out ({result.expanded} expansions, {result.seconds:.1f} s) before "
+            f"the policy was complete: with probability {result.open_share:.3f} it ends at a leaf where the robot "
+            "would plan again; raise --max-expansions or --time-limit, or raise --prune-below."
         )
         raise typer.Exit(EXIT_NEGATIVE)
 

@@ -31,11 +31,13 @@ from beliefloc.cli.options import (
     HeuristicOption,
     HWeightOption,
     JsonOption,
+    LookaheadOption,
     MacrosOption,
     MaxExpansionsOption,
     ModelArgument,
     OutOption,
     PlanTimeLimitOption,
+    PruneBelowOption,
     RecordFramesOption,
     ResumeOption,
     SchedulerOption,
@@ -49,6 +51,7 @@ from beliefloc.cli.options import (
 from beliefloc.errors import EXIT_NEGATIVE, UsageError
 from beliefloc.planning.settings import (
     DEFAULT_MAX_EXPANSIONS,
+    DEFAULT_PRUNE_BELOW,
     DEFAULT_THRESHOLD,
     DEFAULT_TIME_LIMIT,
     DEFAULT_WEIGHT,
@@ -101,6 +104,8 @@ def simulate(
     h_weight: HWeightOption = DEFAULT_WEIGHT,
     max_expansions: MaxExpansionsOption = DEFAULT_MAX_EXPANSIONS,
     time_limit: PlanTimeLimitOption = DEFAULT_TIME_LIMIT,
+    lookahead: LookaheadOption = None,
+    prune_below: PruneBelowOption = DEFAULT_PRUNE_BELOW,
     max_steps: Annotated[
         int,
         typer.Option(
@@ -167,6 +172,7 @@ def simulate(
     \b
       beliefloc simulate maps/kitchen.yaml --show
       beliefloc simulate maps/kitchen.yaml -n 50 -s bestfirst -s uniform -s random
+      beliefloc simulate maps/hallway.yaml -n 10 -s bestfirst -s contingent
       beliefloc simulate maps/corridors.yaml -n 20 -s ec2-macros -s ec2 --max-actions 500   # exits 1
       beliefloc simulate maps/apartment.yaml -n 20 --belief prior:domains/apartment.yaml --start prior
       beliefloc simulate maps/kitchen.yaml -n 3 --record episode.gif --record-episode 2
@@ -204,6 +210,8 @@ def simulate(
         gamma=gamma,
         macros=table,
         weight=h_weight,
+        lookahead=lookahead,
+        prune_below=prune_below,
     )
 
     recorder = None

@@ -5,10 +5,14 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from rich import box
+from rich.markup import escape
 from rich.table import Table
+from rich.tree import Tree
 
 if TYPE_CHECKING:
+    from beliefloc.model import Model
     from beliefloc.planning.best_first import PlanResult
+    from beliefloc.planning.contingent import PolicyNode, PolicyResult
     from beliefloc.simulation.episode import StrategySummary
 
 
@@ -81,3 +85,46 @@ def _pm(mean: float | None, spread: float | None, fmt: str) -> str:
     if mean is None:
         return "-"
     return fmt.format(mean) + ("" if spread is None else "±" + fmt.format(spread))
+
+
+def policy_tree(result: PolicyResult, model: Model, title: str, depth: int) -> Tree:
+    """The first ``depth`` levels of a contingent policy as a rich tree: each node's action, expected
+    cost and max belief, each branch's observation and probability, leaves by kind (the pruned and
+    loop leaves of a node on one line)."""
+    from beliefloc.planning.contingent import LeafKind
+
+    tree = Tree(title)
+
+    def label(node: PolicyNode) -> str:
+        where = f"max {node.max_belief:.3f} at {model.states.name(node.most_likely)}"
+        if node.action is None:
+            kind = node.leaf.value if node.leaf is not None else "leaf"
+            return f"[bold]{kind}[/] ({where}; expected cost {node.expected_cost:.2f})"
+        return f"[bold]{escape(node.action)}[/] (expected cost {node.expected_cost:.2f}; {where})"
+
+    def grow(branch: Tree, node: PolicyNode, level: int) -> None:
+        if node.action is None:
+            return
+        if level >= depth:
+            branch.add(f"… {node.size() - 1} more nodes below")
+            return
+        replan = [c for c in node.branches if c.node.leaf in (LeafKind.PRUNED, LeafKind.LOOP)]
+        for child in node.branches:
+            if child in replan:
+                continue
+            seen = "" if child.observation is None else f"{escape(child.observation)}, "
+            grow(branch.add(f"{seen}p = {child.probability:.3f}: {label(child.node)}"), child.node, level + 1)
+        if replan:
+            total = sum(c.probability for c in replan)
+            branch.add(f"[dim]{len(replan)} unlikely or uninformative observations, p = {total:.3f}: plan again[/]")
+
+    grow(tree.add(label(result.root)), result.root, 0)
+    return tree
+
+
+def policy_line(result: PolicyResult) -> str:
+    """The policy's expected cost and the search's effort."""
+    return (
+        f"{result.status.value}: expected cost {result.expected_cost:.2f}, {result.nodes()} policy nodes; "
+        f"{result.expanded} beliefs expanded, {result.generated} generated, {result.seconds:.3f} s"
+    )
