@@ -1,0 +1,526 @@
+"""Contingent plans (planning/contingent.py): AO* policy trees checked against independent recomputations.
+
+Random small maps come from :func:`tests.test_planning.small_maps`; the exact comparison with best-first
+search uses :func:`tiny_maps` (few enough states for AO* with ``h = 0`` to finish). Every expected cost,
+branch probability and belief of a policy is recomputed here with :func:`beliefloc.belief.update` along
+the tree's paths, and the expected cost of best-first search with replanning (the ``bestfirst``
+strategy) is computed exactly by solving the linear equations of its controller.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, assume, event, example, given, settings
+from hypothesis import strategies as st
+
+from beliefloc import compile_model, load_map
+from beliefloc.belief import observation_probabilities, point, uniform, update
+from beliefloc.model import Model
+from beliefloc.planning.best_first import PlanStatus, PlanStep, belief_key, plan
+from beliefloc.planning.contingent import LeafKind, PolicyNode, PolicyResult, plan_policy
+from beliefloc.planning.settings import Heuristic
+from beliefloc.planning.successors import SuccessorEvaluator
+from beliefloc.simulation.episode import EpisodeRecord, StepRecord, run_episode, run_experiment
+from beliefloc.simulation.settings import StrategyName
+from beliefloc.simulation.strategies import EpisodeStatus, PlannerSettings
+
+from .conftest import MAPS, TWINS
+from .test_planning import model_of, small_maps
+
+THRESHOLD = 0.95
+QUICK = settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+
+
+@st.composite
+def tiny_maps(draw: st.DrawFn) -> dict[str, Any]:
+    """At most four cells, one heading, noisy looks, moves that may fail on three cells at most (and the
+    less noisy look on four): AO* with h = 0 and no pruning completes its policy within a few thousand
+    expansions."""
+    rows, cols = draw(st.sampled_from([(1, 1), (1, 2), (2, 1), (1, 3), (3, 1), (2, 2)]))
+    cells = [[r, c] for r in range(rows) for c in range(cols)]
+    landmarks = draw(st.lists(st.sampled_from(cells), min_size=1, max_size=3, unique_by=tuple))
+    classes = ["a", "b"]
+    failure = draw(st.sampled_from([0.0, 0.1])) if rows * cols <= 3 else 0.0
+    noise = draw(st.sampled_from([0.05, 0.1])) if rows * cols <= 3 else 0.05
+    return {
+        "name": "tiny",
+        "grid": {"rows": rows, "cols": cols, "headings": 1},
+        "landmarks": [{"class": classes[i % 2], "cell": cell} for i, cell in enumerate(landmarks)],
+        "actions": {
+            m: {"cost": draw(st.sampled_from([1, 10])), "failure": failure} for m in ("up", "down", "left", "right")
+        },
+        "sensors": {
+            "look": {
+                "type": "look",
+                "classes": classes,
+                "range": 1.0,
+                "false_positive": noise,
+                "false_negative": noise,
+                "cost": 1,
+            }
+        },
+    }
+
+
+def exact_policy(model: Model, belief: np.ndarray, **budget: Any) -> PolicyResult:
+    """The least expected cost policy: h = 0, nothing pruned, a big budget."""
+    options: dict[str, Any] = {"max_expansions": 20_000, "time_limit": 30.0, **budget}
+    return plan_policy(model, belief, threshold=THRESHOLD, heuristic=Heuristic.ZERO, prune_below=0.0, **options)
+
+
+# --- independent recomputations -----------------------------------------------------------------
+
+
+def walk(model: Model, root: PolicyNode, belief: np.ndarray) -> Iterator[tuple[PolicyNode, np.ndarray, float]]:
+    """Every node of the tree with its belief recomputed by the Bayes filter from ``belief`` along the path,
+    and the probability of reaching it (the product of the branch probabilities on the path)."""
+    stack = [(root, belief, 1.0)]
+    while stack:
+        node, current, reach = stack.pop()
+        yield node, current, reach
+        if node.action_index is None:
+            continue
+        action = model.actions[node.action_index]
+        for branch in node.branches:
+            successor, _ = update(model, current, action, branch.observation_index)
+            stack.append((branch.node, successor, reach * branch.probability))
+
+
+def recomputed_cost(model: Model, node: PolicyNode) -> float:
+    """The expected cost of the tree under ``node`` from its branches (module docstring): the action's
+    cost plus the branches' costs weighted by their probabilities; a leaf costs its own ``expected_cost``
+    (0 at a goal); a loop branch repeats the action, so with loop probability ``q`` the sum is divided by
+    ``1 - q``."""
+    if node.action_index is None:
+        assert node.leaf is not None
+        if node.leaf is LeafKind.GOAL:
+            return 0.0
+        return node.expected_cost
+    action = model.actions[node.action_index]
+    assert action.name == node.action
+    loop = sum(b.probability for b in node.branches if b.node.leaf is LeafKind.LOOP)
+    rest = sum(
+        b.probability * recomputed_cost(model, b.node) for b in node.branches if b.node.leaf is not LeafKind.LOOP
+    )
+    assert loop < 1.0
+    return (action.cost + rest) / (1.0 - loop)
+
+
+def check_tree_against_bayes(model: Model, result: PolicyResult, start: np.ndarray) -> None:
+    """Branch probabilities are p(o | a, b) of the recomputed beliefs, every possible observation has its
+    branch, and every node's max_belief and most likely state are those of its recomputed belief."""
+    for node, belief, _ in walk(model, result.root, start):
+        assert node.max_belief == pytest.approx(float(belief.max()), abs=1e-9)
+        assert belief[node.most_likely] == pytest.approx(float(belief.max()), abs=1e-9)
+        if node.action_index is None:
+            assert node.branches == () and node.leaf is not None
+            continue
+        assert node.leaf is None
+        action = model.actions[node.action_index]
+        if not action.observation.parts:
+            assert [b.observation_index for b in node.branches] == [None]
+        else:
+            possible = observation_probabilities(action, belief)
+            assert sorted(b.observation_index for b in node.branches) == np.flatnonzero(possible > 0).tolist()
+        for branch in node.branches:
+            _, p = update(model, belief, action, branch.observation_index)
+            assert branch.probability == pytest.approx(p, rel=1e-9, abs=1e-15)
+            if branch.observation_index is not None:
+                assert branch.observation == action.observation.name(branch.observation_index)
+
+
+def leaves(model: Model, result: PolicyResult, start: np.ndarray) -> list[tuple[PolicyNode, np.ndarray, float]]:
+    return [item for item in walk(model, result.root, start) if item[0].action_index is None]
+
+
+def replanning_cost(model: Model, start: np.ndarray, heuristic: Heuristic, *, max_states: int = 3000) -> float | None:
+    """The exact expected cost of best-first search with replanning (``PlanningStrategy``) from ``start``.
+
+    The strategy is a controller whose state is (the belief it last planned from, the index of the next
+    step of that plan): it runs the plan's steps and plans again from the current belief when an
+    observation differs from the step's, or when the plan is used up; it stops at the threshold. Its
+    states are enumerated over every observation (beliefs told apart by :func:`belief_key`) and
+    ``C(s) = γ(a_s) + Σ p(o) C(s'_o)`` is solved as a linear system. None when best-first search finds
+    no plan somewhere or the controller has more than ``max_states`` states (the example is skipped);
+    ``math.inf`` when the controller may never reach the threshold."""
+    evaluator = SuccessorEvaluator(model)
+    plans: dict[bytes, tuple[PlanStep, ...]] = {}
+    rows: dict[tuple[bytes, int], int] = {}
+    todo: list[tuple[tuple[bytes, int], np.ndarray]] = []
+
+    def plan_from(belief: np.ndarray) -> tuple[bytes, int] | None:
+        key = belief_key(belief)
+        if key not in plans:
+            result = plan(
+                model, belief, threshold=THRESHOLD, heuristic=heuristic, max_expansions=20_000, evaluator=evaluator
+            )
+            if not result.found or not result.steps:
+                return None
+            plans[key] = result.steps
+        return key, 0
+
+    def row(state: tuple[bytes, int], belief: np.ndarray) -> int:
+        if state not in rows:
+            rows[state] = len(rows)
+            todo.append((state, belief))
+        return rows[state]
+
+    if start.max() >= THRESHOLD:
+        return 0.0
+    first = plan_from(start)
+    if first is None:
+        return None
+    row(first, start)
+    costs: list[float] = []
+    moves: list[list[tuple[int, float]]] = []
+    while todo:
+        if len(rows) > max_states:
+            return None
+        (key, index), belief = todo.pop()
+        number = rows[(key, index)]
+        while len(costs) <= number:
+            costs.append(0.0)
+            moves.append([])
+        step = plans[key][index]
+        action = model.actions[step.action_index]
+        costs[number] = action.cost
+        if action.observation.parts:
+            observations: list[int | None] = np.flatnonzero(observation_probabilities(action, belief) > 0).tolist()
+        else:
+            observations = [None]
+        for observation in observations:
+            successor, p = update(model, belief, action, observation)
+            if successor.max() >= THRESHOLD:
+                continue
+            if observation == step.observation_index and index + 1 < len(plans[key]):
+                target: tuple[bytes, int] | None = (key, index + 1)
+            else:
+                target = plan_from(successor)
+            if target is None:
+                return None
+            moves[number].append((row(target, successor), p))
+    n = len(rows)
+    matrix = np.eye(n)
+    for number, outgoing in enumerate(moves):
+        for target, p in outgoing:
+            matrix[number, target] -= p
+    try:
+        values = np.linalg.solve(matrix, np.array(costs))
+    except np.linalg.LinAlgError:
+        return math.inf
+    if not np.all(np.isfinite(values)) or values.min() < -1e-9 or not np.allclose(matrix @ values, costs, atol=1e-9):
+        return math.inf
+    return float(values[rows[first]])
+
+
+# --- 1. the expected cost and the branches, recomputed ------------------------------------------
+
+
+@QUICK
+@given(
+    data=small_maps(),
+    heuristic=st.sampled_from(list(Heuristic)),
+    budget=st.sampled_from([3, 40, 400]),
+    prune=st.sampled_from([0.0, 1e-3, 0.05]),
+)
+def test_expected_cost_and_branches_match_an_independent_recomputation(
+    data: dict[str, Any], heuristic: Heuristic, budget: int, prune: float
+):
+    model = model_of(data)
+    start = uniform(model.n_states)
+    result = plan_policy(
+        model, start, threshold=THRESHOLD, heuristic=heuristic, max_expansions=budget, prune_below=prune
+    )
+    assume(result.status is not PlanStatus.NO_PLAN)
+    assert result.expected_cost == result.root.expected_cost
+    assert recomputed_cost(model, result.root) == pytest.approx(result.expected_cost, rel=1e-9, abs=1e-12)
+    for node, _, _ in walk(model, result.root, start):  # every subtree, not only the root
+        assert recomputed_cost(model, node) == pytest.approx(node.expected_cost, rel=1e-9, abs=1e-12)
+    check_tree_against_bayes(model, result, start)
+    open_share = sum(reach for node, _, reach in leaves(model, result, start) if node.leaf is not LeafKind.GOAL)
+    assert result.open_share == pytest.approx(open_share, rel=1e-9, abs=1e-12)
+
+
+# --- 2. the least expected cost: never above best-first search with replanning ------------------
+
+
+LOOPS_BACK_PAST_THE_PARENT: dict[str, Any] = {
+    "name": "loops",
+    "grid": {"rows": 2, "cols": 3, "headings": 1},
+    "landmarks": [{"class": "a", "cell": [0, 0]}, {"class": "b", "cell": [0, 2]}, {"class": "a", "cell": [0, 1]}],
+    "actions": {
+        "up": {"cost": 1, "failure": 0.0},
+        "down": {"cost": 1, "failure": 0.0},
+        "left": {"cost": 10, "failure": 0.0},
+        "right": {"cost": 10, "failure": 0.0},
+    },
+    "sensors": {
+        "look": {
+            "type": "look",
+            "classes": ["a", "b"],
+            "range": 1.0,
+            "false_positive": 0.05,
+            "false_negative": 0.05,
+            "cost": 1,
+        }
+    },
+}
+"""Six cells where the h = 0 policy has loop leaves that return to an ancestor above their parent (found by a
+sweep over small maps; AO*'s policy costs 3.9042, best-first search with replanning 3.8841)."""
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="known bug: a loop branch back to an ancestor above the parent is valued as a return to the parent "
+    "(contingent._Search._q), so the exact policy's reported cost is 0.020 too high on LOOPS_BACK_PAST_THE_PARENT",
+)
+@settings(max_examples=30, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(data=tiny_maps(), heuristic=st.sampled_from([Heuristic.ENTROPY_MAX_PROB, Heuristic.ZERO]))
+@example(data=LOOPS_BACK_PAST_THE_PARENT, heuristic=Heuristic.ENTROPY_MAX_PROB)
+def test_exact_policy_is_never_costlier_than_best_first_with_replanning(data: dict[str, Any], heuristic: Heuristic):
+    model = model_of(data)
+    start = uniform(model.n_states)
+    replanning = replanning_cost(model, start, heuristic)
+    event(f"{model.n_states} states, replanning cost {'none' if replanning is None else round(replanning, 1)}")
+    assume(replanning is not None)
+    assert replanning is not None
+    result = exact_policy(model, start)
+    assert result.status is PlanStatus.FOUND, (result.status, result.expanded)
+    assert result.open_share == pytest.approx(
+        sum(r for n, _, r in leaves(model, result, start) if n.leaf is LeafKind.LOOP), abs=1e-12
+    )
+    assert result.expected_cost <= replanning + 1e-9 * max(1.0, replanning)
+
+
+# --- 3. goal leaves reach the threshold; a complete unpruned policy has no frontier -------------
+
+
+@QUICK
+@given(data=small_maps(), budget=st.sampled_from([1, 5, 50, 400]), prune=st.sampled_from([0.0, 0.01, 0.2]))
+def test_goal_leaves_reach_the_threshold(data: dict[str, Any], budget: int, prune: float):
+    model = model_of(data)
+    start = uniform(model.n_states)
+    result = plan_policy(model, start, threshold=THRESHOLD, max_expansions=budget, prune_below=prune)
+    for node, belief, _ in walk(model, result.root, start):
+        if node.leaf is LeafKind.GOAL:
+            assert node.max_belief >= THRESHOLD
+            assert belief.max() >= THRESHOLD - 1e-9
+            assert node.expected_cost == 0.0
+        elif node.action_index is not None:
+            assert node.max_belief < THRESHOLD  # a node that acts is not at the goal yet
+    kinds = {node.leaf for node, _, _ in leaves(model, result, start)}
+    if result.status is PlanStatus.FOUND:
+        assert LeafKind.FRONTIER not in kinds
+        if prune == 0.0:
+            assert kinds <= {LeafKind.GOAL, LeafKind.LOOP}
+    if result.status is PlanStatus.BUDGET_EXCEEDED:
+        assert LeafKind.FRONTIER in kinds
+
+
+@QUICK
+@given(data=tiny_maps())
+def test_a_complete_unpruned_policy_ends_in_goals_and_loops(data: dict[str, Any]):
+    model = model_of(data)
+    start = uniform(model.n_states)
+    result = exact_policy(model, start, max_expansions=3000)
+    assume(result.status is PlanStatus.FOUND)
+    for node, belief, _ in leaves(model, result, start):
+        assert node.leaf in (LeafKind.GOAL, LeafKind.LOOP)
+        if node.leaf is LeafKind.GOAL:
+            assert node.max_belief >= THRESHOLD and belief.max() >= THRESHOLD - 1e-9
+
+
+# --- 4. the same inputs give the same tree and the same episodes --------------------------------
+
+
+def without_clock(result: PolicyResult, model: Model) -> dict[str, Any]:
+    data = result.as_json(model)
+    data.pop("seconds")
+    return data
+
+
+@QUICK
+@given(data=small_maps(), heuristic=st.sampled_from(list(Heuristic)), prune=st.sampled_from([0.0, 0.01]))
+def test_same_inputs_give_the_same_tree(data: dict[str, Any], heuristic: Heuristic, prune: float):
+    model = model_of(data)
+    start = uniform(model.n_states)
+    options: dict[str, Any] = {
+        "threshold": THRESHOLD,
+        "heuristic": heuristic,
+        "max_expansions": 200,
+        "prune_below": prune,
+    }
+    first = plan_policy(model, start, **options)
+    again = plan_policy(model, start.copy(), **options)
+    assert without_clock(first, model) == without_clock(again, model)
+    assert first.status is again.status and first.expanded == again.expanded and first.nodes() == again.nodes()
+    shared = plan_policy(model, start, evaluator=SuccessorEvaluator(model), price=first.price, **options)
+    assert without_clock(shared, model) == without_clock(first, model)
+
+
+def trace_of(record: EpisodeRecord) -> list[tuple[Any, ...]]:
+    return [(s.action, s.observation, s.probability, s.max_belief, s.true_state) for s in record.trace]
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(data=small_maps(), seed=st.integers(0, 2**16), lookahead=st.sampled_from([1, 8, 64]))
+def test_same_seed_gives_the_same_contingent_episodes(data: dict[str, Any], seed: int, lookahead: int):
+    model = model_of(data)
+    config = PlannerSettings(threshold=THRESHOLD, lookahead=lookahead, prune_below=0.01)
+    runs = [
+        run_experiment(model, [StrategyName.CONTINGENT.value], episodes=3, seed=seed, settings=config, max_steps=40)
+        for _ in range(2)
+    ]
+    assert [r.as_json(timings=False) for r in runs[0]] == [r.as_json(timings=False) for r in runs[1]]
+    assert [trace_of(r) for r in runs[0]] == [trace_of(r) for r in runs[1]]
+    episodes = [
+        run_episode(
+            model, "contingent", 0, uniform(model.n_states), seed=seed, episode=1, settings=config, max_steps=40
+        )
+        for _ in range(2)
+    ]
+    assert episodes[0].as_json(timings=False) == episodes[1].as_json(timings=False)
+    assert trace_of(episodes[0]) == trace_of(episodes[1])
+    assert all(r.strategy == "contingent" for r in runs[0] + episodes)
+
+
+# --- 5. probabilities and costs are well formed -------------------------------------------------
+
+
+@QUICK
+@given(
+    data=small_maps(),
+    heuristic=st.sampled_from(list(Heuristic)),
+    budget=st.sampled_from([1, 20, 300]),
+    prune=st.sampled_from([0.0, 1e-3, 0.1, 0.3]),
+)
+def test_branch_probabilities_and_costs_are_well_formed(
+    data: dict[str, Any], heuristic: Heuristic, budget: int, prune: float
+):
+    model = model_of(data)
+    start = uniform(model.n_states)
+    result = plan_policy(
+        model, start, threshold=THRESHOLD, heuristic=heuristic, max_expansions=budget, prune_below=prune
+    )
+    assume(result.status is not PlanStatus.NO_PLAN)
+    assert math.isfinite(result.expected_cost) and result.expected_cost >= 0.0
+    assert math.isfinite(result.open_share) and -1e-12 <= result.open_share <= 1.0 + 1e-9
+    for node, _, reach in walk(model, result.root, start):
+        assert math.isfinite(node.expected_cost) and node.expected_cost >= 0.0
+        assert 0.0 < node.max_belief <= 1.0
+        assert 0 <= node.most_likely < model.n_states
+        # pruning is by the probability of reaching the node (module docstring): only goals stay below it
+        if node.leaf is LeafKind.PRUNED:
+            assert reach < prune * (1 + 1e-12)
+        elif node.leaf is not LeafKind.GOAL and node is not result.root:
+            assert reach >= prune * (1 - 1e-12)
+        if node.action_index is None:
+            continue
+        probabilities = [b.probability for b in node.branches]
+        assert all(0.0 < p <= 1.0 for p in probabilities)
+        assert math.fsum(probabilities) == pytest.approx(1.0, abs=1e-9)
+    open_leaves = [n for n, _, _ in leaves(model, result, start) if n.leaf in (LeafKind.FRONTIER, LeafKind.LOOP)]
+    if prune > 0.0:  # "at most 1 / prune_below branching leaves"
+        assert len(open_leaves) <= 1.0 / prune + 1e-9
+    if heuristic is Heuristic.ZERO:  # h = 0: every open leaf is worth 0, so the cost is a lower bound
+        for node, _, _ in leaves(model, result, start):
+            if node.leaf is LeafKind.FRONTIER:
+                assert node.expected_cost == 0.0
+
+
+# --- 6. budgets and a start at the goal ---------------------------------------------------------
+
+
+def test_one_expansion_is_not_enough_for_the_kitchen():
+    model = compile_model(load_map(MAPS / "kitchen.yaml"))
+    start = uniform(model.n_states)
+    result = plan_policy(model, start, max_expansions=1)
+    assert result.status is PlanStatus.BUDGET_EXCEEDED and not result.found
+    assert result.expanded == 1
+    assert result.root.action is not None
+    kinds = [node.leaf for node, _, _ in leaves(model, result, start)]
+    assert LeafKind.FRONTIER in kinds
+    assert result.open_share > 0.0
+    assert result.open_share == pytest.approx(
+        sum(r for n, _, r in leaves(model, result, start) if n.leaf is not LeafKind.GOAL), abs=1e-12
+    )
+    nothing = plan_policy(model, start, max_expansions=0)
+    assert nothing.status is PlanStatus.BUDGET_EXCEEDED
+    assert nothing.root.leaf is LeafKind.FRONTIER and nothing.root.action is None
+    assert nothing.open_share == pytest.approx(1.0)
+
+
+@QUICK
+@given(data=tiny_maps())
+def test_a_budget_of_one_expansion_is_reported_when_more_are_needed(data: dict[str, Any]):
+    model = model_of(data)
+    start = uniform(model.n_states)
+    complete = exact_policy(model, start, max_expansions=3000)
+    assume(complete.status is PlanStatus.FOUND and complete.expanded > 1)
+    result = exact_policy(model, start, max_expansions=1)
+    assert result.status is PlanStatus.BUDGET_EXCEEDED
+    assert result.expanded == 1
+    assert LeafKind.FRONTIER in {node.leaf for node, _, _ in leaves(model, result, start)}
+    assert result.open_share > 0.0
+    assert result.expected_cost <= complete.expected_cost + 1e-9  # h = 0 is admissible
+
+
+@QUICK
+@given(data=small_maps(), state=st.integers(0, 10**6), heuristic=st.sampled_from(list(Heuristic)))
+def test_a_start_at_the_goal_is_a_goal_leaf(data: dict[str, Any], state: int, heuristic: Heuristic):
+    model = model_of(data)
+    result = plan_policy(model, point(model.n_states, state % model.n_states), heuristic=heuristic, max_expansions=0)
+    assert result.status is PlanStatus.FOUND and result.found
+    assert result.root.leaf is LeafKind.GOAL and result.root.action is None and result.root.branches == ()
+    assert result.expected_cost == 0.0 and result.open_share == 0.0 and result.expanded == 0
+    assert result.root.most_likely == state % model.n_states
+    exact = np.full(model.n_states, 0.05 / max(1, model.n_states - 1))
+    exact[state % model.n_states] = 0.95 if model.n_states > 1 else 1.0
+    at_threshold = plan_policy(model, exact, threshold=float(exact.max()), max_expansions=10)
+    assert at_threshold.status is PlanStatus.FOUND and at_threshold.root.leaf is LeafKind.GOAL
+    assert at_threshold.expected_cost == 0.0
+
+
+def test_no_action_leads_anywhere_is_no_plan():
+    """Two cells nothing tells apart: every action comes back to the start belief."""
+    model = model_of(TWINS)
+    result = exact_policy(model, uniform(2))
+    assert result.status is PlanStatus.NO_PLAN and not result.found
+    assert result.root.action is None and result.root.leaf is LeafKind.LOOP
+    assert result.expected_cost == math.inf and result.open_share == 1.0
+    record = run_episode(model, "contingent", 0, uniform(2), seed=0, settings=PlannerSettings(lookahead=50))
+    assert record.status is EpisodeStatus.NO_PLAN and record.steps == 0
+
+
+# --- 7. the kitchen: every contingent episode localizes -----------------------------------------
+
+
+def test_kitchen_contingent_episodes_localize_with_beliefs_that_stay_distributions():
+    model = compile_model(load_map(MAPS / "kitchen.yaml"))
+    seen: list[str] = []
+
+    def on_step(record: EpisodeRecord, step: StepRecord, belief: np.ndarray) -> None:
+        seen.append(record.strategy)
+        assert np.all(np.isfinite(belief))
+        assert np.all(belief >= 0.0)
+        assert belief.sum() == pytest.approx(1.0, abs=1e-9)
+        assert step.max_belief == pytest.approx(float(belief.max()))
+        assert 0.0 < step.probability <= 1.0
+
+    config = PlannerSettings(lookahead=200)
+    records = run_experiment(model, ["bestfirst", "contingent"], episodes=5, seed=0, settings=config, on_step=on_step)
+    assert len(records) == 10
+    contingent = [r for r in records if r.strategy == "contingent"]
+    assert len(contingent) == 5 and "contingent" in seen
+    for record in contingent:
+        assert record.status is EpisodeStatus.LOCALIZED, record.as_json(timings=False)
+        assert record.max_belief >= config.threshold
+        assert record.steps == len(record.trace) > 0
+        assert record.cost == pytest.approx(sum(model.action(s.action).cost for s in record.trace))
+    again = run_experiment(model, ["bestfirst", "contingent"], episodes=5, seed=0, settings=config)
+    assert [r.as_json(timings=False) for r in again] == [r.as_json(timings=False) for r in records]
