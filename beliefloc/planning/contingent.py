@@ -29,10 +29,11 @@ cost, and when the robot meets it, it replans (:class:`beliefloc.simulation.stra
 So a policy has at most ``1 / prune_below`` branching leaves. Default :data:`DEFAULT_PRUNE_BELOW`.
 
 **Loops.** A branch whose belief equals (:func:`belief_key`) a belief on the path from the root is a
-*loop* leaf, valued as a return to the node it leaves: with loop probability ``q`` the action's
-expected cost is ``(γ(a) + Σ_other p V) / (1 - q)`` -- the expected cost of repeating the action until
-it leads elsewhere. An action that always comes back (a look at states that all read alike) costs
-infinitely much and is never chosen; if a loop branch happens, the robot replans.
+*loop* leaf, worth the expected cost of the node it repeats. A return to the node it leaves, with
+probability ``q``, is solved at once: the action's expected cost is ``(γ(a) + Σ_other p V) / (1 - q)``,
+that of repeating it until it leads elsewhere; returns further up are solved by backing the values up
+again until they agree. An action that always comes back (a look at states that all read alike) is
+worth nothing to a policy and never chosen; if a loop branch happens, the robot replans.
 
 **Honest ends.** :attr:`PlanStatus.FOUND`: the policy is complete (every leaf is a goal, a pruned
 branch or a loop branch). :attr:`PlanStatus.BUDGET_EXCEEDED`: the expansion or time budget ran out
@@ -66,6 +67,10 @@ from beliefloc.planning.successors import SuccessorEvaluator
 
 _CACHE_BYTES = 256 * 2**20
 _PROGRESS_EVERY = 64
+_MAX_REVISIONS = 100_000
+"""Backups per expansion while the loops' values settle (each a walk up one path)."""
+_INFORMATIVE = 1e-9
+"""Less expected information than this (nats) from the uniform belief counts as none."""
 _SAME = 1e-12
 """Entropy and max(b) closer than this make a branch a loop candidate (then compared by key)."""
 
@@ -99,6 +104,7 @@ class _Node:
         "parent",
         "probability",
         "reach",
+        "repeats",
         "value",
     )
 
@@ -125,6 +131,8 @@ class _Node:
         self.key: bytes | None = None
         self.best = -1
         self.children: dict[int, list[_Node]] = {}
+        self.repeats: _Node | None = None
+        """A loop leaf: the node on its path whose belief it has."""
 
 
 @dataclass(frozen=True)
@@ -144,8 +152,8 @@ class PolicyNode:
     """A belief of the policy: an action with its branches, or a leaf."""
 
     expected_cost: float
-    """Expected cost from here to the goal under the model (frontier, pruned and loop leaves: the
-    estimate)."""
+    """Expected cost from here to the goal under the model (frontier and pruned leaves: the estimate;
+    loop leaves: the expected cost of the node they repeat)."""
     max_belief: float
     most_likely: int
     """The most likely state of this belief (its index)."""
@@ -155,6 +163,9 @@ class PolicyNode:
     branches: tuple[PolicyBranch, ...]
     leaf: LeafKind | None
     """None when the node acts."""
+    repeats_up: int | None = None
+    """A loop leaf: its belief is that of the node this many levels above it (1: the node whose action
+    led here), and its expected cost is that node's."""
 
     def branch(self, observation: int | None) -> PolicyBranch | None:
         """The branch taken when ``observation`` is seen (None when the policy has none for it)."""
@@ -186,6 +197,8 @@ class PolicyNode:
             ]
         else:
             data["leaf"] = self.leaf.value if self.leaf is not None else None
+            if self.repeats_up is not None:
+                data["repeats_levels_up"] = self.repeats_up
         return data
 
 
@@ -196,8 +209,8 @@ class PolicyResult:
     expanded: int
     generated: int
     seconds: float
-    price: float
-    """``κ``: the estimate's cost per nat (0 with ``Heuristic.ZERO``)."""
+    prices: InformationPrices
+    """The estimate's costs per nat (0 with ``Heuristic.ZERO``)."""
     open_share: float
     """Probability of ending at a frontier, pruned or loop leaf (where the robot replans)."""
 
@@ -221,7 +234,7 @@ class PolicyResult:
             "status": self.status.value,
             "expected_cost": self.expected_cost,
             "open_probability": self.open_share,
-            "price_per_nat": self.price,
+            "price_per_nat": {"moving": self.prices.moving, "perceiving": self.prices.perceiving},
             "expanded": self.expanded,
             "generated": self.generated,
             "seconds": self.seconds,
@@ -229,10 +242,26 @@ class PolicyResult:
         }
 
 
-def information_price(model: Model, evaluator: SuccessorEvaluator | None = None) -> float:
-    """``κ``, cost per nat: (cheapest actuation + cheapest perception) / most information one action
-    gives from the uniform belief (its expected entropy reduction). A model without actuation
-    actions pays the perception alone; a model no action informs prices a nat at that cost."""
+@dataclass(frozen=True)
+class InformationPrices:
+    """What a nat of information costs the frontier estimate (module docstring)."""
+
+    moving: float
+    """``κ``: (cheapest actuation + cheapest perception) / the most information one action gives from
+    the uniform belief (its expected entropy reduction) -- a move and a look can be repeated."""
+    perceiving: float
+    """``ρ <= κ``: the cheapest perception / the most information a perception gives from the uniform
+    belief -- what telling apart states that read differently costs, without moving."""
+
+
+NO_PRICES = InformationPrices(0.0, 0.0)
+"""``Heuristic.ZERO``: the frontier is estimated at 0."""
+
+
+def information_prices(model: Model, evaluator: SuccessorEvaluator | None = None) -> InformationPrices:
+    """``κ`` and ``ρ`` of ``model``. A model without actuation actions pays the perception alone, one
+    without perception actions pays ``κ`` for everything, and one no action informs pays a nat at the
+    cost of the cheapest cycle."""
     evaluator = evaluator or SuccessorEvaluator(model)
     start = uniform(model.n_states)
     before = entropy(start)
@@ -244,26 +273,11 @@ def information_price(model: Model, evaluator: SuccessorEvaluator | None = None)
     cycle = (min(moves) if moves else 0.0) + (min(looks) if looks else 0.0)
     cycle = cycle or min(a.cost for a in model.actions)
     best = max(gain)
-    return cycle / best if best > 1e-9 else cycle
-
-
-def perception_share(model: Model, evaluator: SuccessorEvaluator) -> float:
-    """``ρ / κ``: what a nat of *which signature group* costs (the cheapest perception over the
-    most information a perception gives from the uniform belief), relative to ``κ``; 1 for a model
-    without perception actions."""
-    looks = [i for i, a in enumerate(model.actions) if a.transition is None and a.observation.parts]
-    if not looks:
-        return 1.0
-    start = uniform(model.n_states)
-    before = entropy(start)
-    gain = dict.fromkeys(looks, 0.0)
-    for stats in evaluator.evaluate(start):
-        if stats.action in gain:
-            gain[stats.action] += stats.probability * (before - stats.entropy)
-    best = max(gain.values())
-    kappa = information_price(model, evaluator)
-    cheapest = min(model.actions[i].cost for i in looks)
-    return min(1.0, (cheapest / best) / kappa) if best > 1e-9 and kappa > 0 else 1.0
+    moving = cycle / best if best > _INFORMATIVE else cycle
+    perception_gain = max((g for g, a in zip(gain, model.actions, strict=True) if not a.is_actuation), default=0.0)
+    if not looks or perception_gain <= _INFORMATIVE:
+        return InformationPrices(moving, moving)
+    return InformationPrices(moving, min(moving, min(looks) / perception_gain))
 
 
 def _signature_groups(model: Model) -> tuple[np.ndarray, np.ndarray] | None:
@@ -294,19 +308,21 @@ def plan_policy(
     time_limit: float = DEFAULT_TIME_LIMIT,
     prune_below: float = DEFAULT_PRUNE_BELOW,
     evaluator: SuccessorEvaluator | None = None,
-    price: float | None = None,
+    prices: InformationPrices | None = None,
     progress: SearchProgress | None = None,
 ) -> PolicyResult:
     """The least-expected-cost policy AO* finds from ``belief`` within the budgets (module docstring).
 
-    ``price`` is ``κ`` (:func:`information_price` when None; ignored with ``Heuristic.ZERO``).
-    Deterministic: the same inputs give the same tree."""
+    ``prices`` are the estimate's (:func:`information_prices` when None; a caller that plans often
+    computes them once per model; ignored with ``Heuristic.ZERO``). Deterministic: the same inputs
+    give the same tree."""
     start = time.perf_counter()
     evaluator = evaluator or SuccessorEvaluator(model)
-    kappa = (
-        0.0 if heuristic is Heuristic.ZERO else (price if price is not None else information_price(model, evaluator))
-    )
-    search = _Search(model, evaluator, threshold, kappa, kappa * perception_share(model, evaluator), prune_below)
+    if heuristic is Heuristic.ZERO:
+        prices = NO_PRICES
+    elif prices is None:
+        prices = information_prices(model, evaluator)
+    search = _Search(model, evaluator, threshold, prices, prune_below)
     root = search.root(belief)
     status = PlanStatus.FOUND
     expanded = 0
@@ -324,7 +340,7 @@ def plan_policy(
     if root.leaf is None and root.best < 0:
         status = PlanStatus.NO_PLAN
     policy, open_share = search.policy(root)
-    return PolicyResult(status, policy, expanded, search.generated, time.perf_counter() - start, kappa, open_share)
+    return PolicyResult(status, policy, expanded, search.generated, time.perf_counter() - start, prices, open_share)
 
 
 class _Search:
@@ -335,28 +351,28 @@ class _Search:
         model: Model,
         evaluator: SuccessorEvaluator,
         threshold: float,
-        kappa: float,
-        perceiving: float,
+        prices: InformationPrices,
         prune_below: float,
     ) -> None:
         self.model = model
         self.evaluator = evaluator
         self.threshold = threshold
-        self.kappa = kappa
-        self.perceiving = perceiving
+        self.kappa = prices.moving
+        self.perceiving = prices.perceiving
         self.prune_below = prune_below
         self.costs = [a.cost for a in model.actions]
         self.generated = 0
         self._numbers = itertools.count()
         self._signature = _signature_groups(model)
         self._tips: list[tuple[float, int, _Node]] = []
+        self._loops_into: dict[int, list[_Node]] = {}
+        """Loop leaves by the number of the node whose belief they repeat (above their parent)."""
         self._cache: BeliefCache | None = None
 
     def root(self, belief: np.ndarray) -> _Node:
         self._cache = BeliefCache(max(4, _CACHE_BYTES // max(1, belief.nbytes)))
         node = self._node(None, -1, None, 1.0, entropy(belief), float(belief.max()), belief)
         self._cache.put(node.number, belief)
-        self._root = node
         self._push(node)
         return node
 
@@ -441,15 +457,17 @@ class _Search:
             if child.leaf is None or child.leaf is LeafKind.FRONTIER:
                 if child.reach < self.prune_below:
                     child.leaf = LeafKind.PRUNED
-                elif self._returns(child):
-                    child.leaf = LeafKind.LOOP
+                elif (repeated := self._repeated(child)) is not None:
+                    child.leaf, child.repeats = LeafKind.LOOP, repeated
+                    if repeated is not node:
+                        self._loops_into.setdefault(repeated.number, []).append(child)
             children.setdefault(stats.action, []).append(child)
         node.children = children
-        changed = self._backup(node)
-        self._push_tips(changed)
+        self._revise(node)
 
-    def _returns(self, child: _Node) -> bool:
-        """The child's belief is one already on its path (checked by key when entropy and max agree)."""
+    def _repeated(self, child: _Node) -> _Node | None:
+        """The node on the child's path with the child's belief, if any (compared by key when entropy
+        and max agree)."""
         ancestor = child.parent
         key: bytes | None = None
         while ancestor is not None:
@@ -457,29 +475,52 @@ class _Search:
                 if key is None:
                     key = belief_key(self.belief(child))
                 if key == ancestor.key:
-                    return True
+                    return ancestor
             ancestor = ancestor.parent
-        return False
+        return None
+
+    def _revise(self, node: _Node) -> None:
+        """Back the values up from ``node``. A node whose value moved moves the loop leaves that repeat
+        it, so their parents are backed up in turn until the values agree (the loops' equations solved
+        by iteration, at most :data:`_MAX_REVISIONS` backups); then queue the new tips."""
+        pending = [node]
+        tops: dict[int, _Node] = {}
+        for _ in range(_MAX_REVISIONS):
+            if not pending:
+                break
+            top, moved = self._backup(pending.pop())
+            tops[top.number] = top
+            for changed in moved:
+                pending.extend(leaf.parent for leaf in self._loops_into.get(changed.number, ()) if leaf.parent)
+        for top in tops.values():
+            self._push_tips(top)
 
     def _q(self, node: _Node, action: int) -> float:
-        """``γ(a) + Σ p V``, where a branch back to a belief already on the path counts as coming back
-        here: with loop probability ``q``, ``Q = (γ(a) + Σ_rest p V) / (1 - q)`` (infinite when the
-        action always comes back)."""
-        loop = 0.0
+        """``γ(a) + Σ p V``, where a loop branch is worth the node it repeats. Coming back here with
+        probability ``q`` is solved at once: ``Q = (γ(a) + Σ_rest p V) / (1 - q)``. An action all of whose
+        branches loop is worth nothing to a policy (infinite)."""
+        here = 0.0
         total = self.costs[action]
+        every_loop = True
         for branch in node.children[action]:
-            if branch.leaf is LeafKind.LOOP:
-                loop += branch.probability
+            if branch.repeats is node:
+                here += branch.probability
+                continue
+            if branch.repeats is not None:
+                total += branch.probability * branch.repeats.value
             else:
+                every_loop = False
                 total += branch.probability * branch.value
-        if loop >= 1.0 - _SAME:
+        if every_loop or here >= 1.0 - _SAME:
             return math.inf
-        return total / (1.0 - loop)
+        return total / (1.0 - here)
 
-    def _backup(self, node: _Node) -> _Node:
-        """New values from ``node`` up to the root; returns the highest node whose best action changed
-        (``node`` itself when none above it did)."""
+    def _backup(self, node: _Node) -> tuple[_Node, list[_Node]]:
+        """New values from ``node`` up to the root (stopping where nothing moves); returns the highest
+        node whose best action changed (``node`` itself when none above it did) and the nodes whose
+        value moved."""
         changed = node
+        moved = []
         current: _Node | None = node
         while current is not None:
             best, value = -1, math.inf
@@ -489,12 +530,15 @@ class _Search:
                     best, value = action, q
             if best != current.best:
                 changed = current
-            unchanged = best == current.best and value == current.value
+            same_value = value == current.value or abs(value - current.value) <= _SAME * max(1.0, abs(value))
+            if not same_value:
+                moved.append(current)
+            unchanged = best == current.best and same_value
             current.best, current.value = best, value
             if unchanged and current is not node:
                 break
             current = current.parent
-        return changed
+        return changed, moved
 
     def _push_tips(self, top: _Node) -> None:
         """Queue the frontier tips of the best policy under ``top``."""
@@ -517,7 +561,10 @@ class _Search:
                 leaf = node.leaf or LeafKind.LOOP
                 if leaf is not LeafKind.GOAL:
                     open_share += node.reach
-                return PolicyNode(node.value, node.max_belief, most_likely, None, None, (), leaf)
+                value, up = node.value, None
+                if node.repeats is not None:
+                    value, up = node.repeats.value, _levels_up(node, node.repeats)
+                return PolicyNode(value, node.max_belief, most_likely, None, None, (), leaf, up)
             action = self.model.actions[node.best]
             branches = tuple(
                 PolicyBranch(
@@ -528,6 +575,15 @@ class _Search:
                 )
                 for child in node.children[node.best]
             )
-            return PolicyNode(node.value, node.max_belief, most_likely, action.name, node.best, branches, None)
+            return PolicyNode(node.value, node.max_belief, most_likely, action.name, node.best, branches, None, None)
 
         return freeze(root), open_share
+
+
+def _levels_up(leaf: _Node, repeated: _Node) -> int:
+    """How many levels above ``leaf`` the node ``repeated`` is (1: its parent)."""
+    levels, node = 0, leaf
+    while node is not repeated:
+        assert node.parent is not None
+        node, levels = node.parent, levels + 1
+    return levels

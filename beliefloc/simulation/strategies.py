@@ -27,7 +27,13 @@ import numpy as np
 
 from beliefloc.model import Model
 from beliefloc.planning.best_first import ClosedList, PlanResult, PlanStatus, PlanStep, plan
-from beliefloc.planning.contingent import PolicyNode, PolicyResult, information_price, plan_policy
+from beliefloc.planning.contingent import (
+    InformationPrices,
+    PolicyNode,
+    PolicyResult,
+    information_prices,
+    plan_policy,
+)
 from beliefloc.planning.ec2 import PairContext, hypotheses, pair_context, select
 from beliefloc.planning.macros import MacroTable, build_macros, macro_candidates
 from beliefloc.planning.settings import (
@@ -174,7 +180,7 @@ class ContingentStrategy:
     model: Model
     settings: PlannerSettings
     evaluator: SuccessorEvaluator
-    price: float
+    prices: InformationPrices
     plan_seconds: list[float] = field(default_factory=list)
     policies: list[PolicyResult] = field(default_factory=list)
     new_plan: PlanResult | None = None
@@ -192,7 +198,7 @@ class ContingentStrategy:
                 time_limit=s.time_limit,
                 prune_below=s.prune_below,
                 evaluator=self.evaluator,
-                price=self.price,
+                prices=self.prices,
             )
             self.policies.append(result)
             self.plan_seconds.append(result.seconds)
@@ -307,7 +313,7 @@ class SharedWork:
     evaluator: SuccessorEvaluator
     _contexts: dict[float | None, PairContext] = field(default_factory=dict)
     _macros: dict[float | None, MacroTable] = field(default_factory=dict)
-    _price: float | None = None
+    _prices: InformationPrices | None = None
 
     @classmethod
     def for_model(cls, model: Model) -> SharedWork:
@@ -318,11 +324,11 @@ class SharedWork:
             self._contexts[gamma] = pair_context(self.model, gamma)
         return self._contexts[gamma]
 
-    def information_price(self) -> float:
-        """The contingent planner's cost per nat (:func:`beliefloc.planning.contingent.information_price`)."""
-        if self._price is None:
-            self._price = information_price(self.model, self.evaluator)
-        return self._price
+    def information_prices(self) -> InformationPrices:
+        """The contingent planner's costs per nat (:func:`beliefloc.planning.contingent.information_prices`)."""
+        if self._prices is None:
+            self._prices = information_prices(self.model, self.evaluator)
+        return self._prices
 
     def macros(self, gamma: float | None) -> MacroTable:
         if gamma not in self._macros:
@@ -363,7 +369,7 @@ def _planner(heuristic: Heuristic | None) -> StrategyFactory:
 def _contingent(
     name: StrategyName, settings: PlannerSettings, shared: SharedWork, rng: np.random.Generator
 ) -> Strategy:
-    return ContingentStrategy(name.value, shared.model, settings, shared.evaluator, shared.information_price())
+    return ContingentStrategy(name.value, shared.model, settings, shared.evaluator, shared.information_prices())
 
 
 def _random(name: StrategyName, settings: PlannerSettings, shared: SharedWork, rng: np.random.Generator) -> Strategy:
