@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich.markup import escape
@@ -44,6 +44,11 @@ from beliefloc.planning.settings import (
 )
 from beliefloc.render import stderr_console, stdout_console
 
+if TYPE_CHECKING:
+    import numpy as np
+
+    from beliefloc.model import Model
+
 PolicyOption = Annotated[
     bool,
     typer.Option(
@@ -52,6 +57,7 @@ PolicyOption = Annotated[
         "with the least expected cost AO* finds (--planner uniform: the exact least, small maps only).",
     ),
 ]
+DEFAULT_POLICY_DEPTH = 4
 PolicyDepthOption = Annotated[
     int,
     typer.Option(
@@ -85,7 +91,7 @@ def plan_command(
     max_expansions: MaxExpansionsOption = DEFAULT_MAX_EXPANSIONS,
     time_limit: PlanTimeLimitOption = DEFAULT_TIME_LIMIT,
     policy: PolicyOption = False,
-    policy_depth: PolicyDepthOption = 4,
+    policy_depth: PolicyDepthOption = DEFAULT_POLICY_DEPTH,
     prune_below: PruneBelowOption = DEFAULT_PRUNE_BELOW,
     json_output: JsonOption = False,
     output: PlanPictureOption = None,
@@ -128,9 +134,8 @@ def plan_command(
                 "--policy estimates the cost at its frontier from the entropy (or zero with --planner uniform); "
                 "--heuristic and --h-weight are best-first's: drop them"
             )
-        limits = (max_expansions, time_limit, prune_below)
-        _plan_policy(source, belief, threshold, chosen, limits, policy_depth, json_output)
-        return
+    elif prune_below != DEFAULT_PRUNE_BELOW or policy_depth != DEFAULT_POLICY_DEPTH:
+        raise UsageError("--prune-below and --policy-depth shape a contingent plan: add --policy")
     smap = None
     if output is not None:
         from beliefloc.render.figures import PICTURE_SUFFIXES, pyplot
@@ -144,6 +149,19 @@ def plan_command(
         model = open_model(source)
     start = initial_belief(model, belief, smap)
     refuse_unreachable(model, start, threshold, json_output)
+    if policy:
+        _plan_policy(
+            model,
+            start,
+            threshold=threshold,
+            heuristic=chosen,
+            max_expansions=max_expansions,
+            time_limit=time_limit,
+            prune_below=prune_below,
+            depth=policy_depth,
+            json_output=json_output,
+        )
+        return
     with search_progress(stderr_console(), time_limit) as progress:
         result = plan(
             model,
@@ -189,25 +207,23 @@ def plan_command(
 
 
 def _plan_policy(
-    source: Path,
-    belief: str,
+    model: Model,
+    start: np.ndarray,
+    *,
     threshold: float,
     heuristic: Heuristic,
-    limits: tuple[int, float, float],
+    max_expansions: int,
+    time_limit: float,
+    prune_below: float,
     depth: int,
     json_output: bool,
 ) -> None:
-    """``plan --policy``: the contingent planner, its tree printed; ``limits`` are the expansions, the
-    seconds and the probability below which observations get no branch."""
+    """``plan --policy``: the contingent planner, its tree printed (``depth`` levels on the terminal)."""
     from beliefloc.planning.best_first import PlanStatus
     from beliefloc.planning.contingent import plan_policy
     from beliefloc.render.plan import policy_line, policy_tree
     from beliefloc.render.progress import search_progress
 
-    max_expansions, time_limit, prune_below = limits
-    model = open_model(source)
-    start = initial_belief(model, belief, None)
-    refuse_unreachable(model, start, threshold, json_output)
     with search_progress(stderr_console(), time_limit) as progress:
         result = plan_policy(
             model,
