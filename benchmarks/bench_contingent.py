@@ -46,7 +46,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the repositor
 from benchmarks.machine import cpu_name
 from benchmarks.planning.settings import ROOT, peak_rss_mib, say, single_threaded
 from benchmarks.planning.worlds import build_model, world_seed
-from benchmarks.stats import DASH, fmt, mean, paired_p, sd, standard_error, win_counts
+from benchmarks.stats import DASH, difference_ci, fmt, mean, paired_p, win_counts
 
 RESULTS = ROOT / "benchmarks" / "results" / "contingent.md"
 STRATEGIES = ("bestfirst", "contingent")
@@ -166,19 +166,6 @@ def run_child(params: dict[str, Any]) -> dict[str, Any]:
 # --- the statistics of a row ----------------------------------------------------------------------------------
 
 
-def difference_ci(differences: Sequence[float]) -> tuple[float, float, float] | None:
-    """The mean of paired differences and its t-based confidence interval (``CONFIDENCE``, n - 1 degrees
-    of freedom); None for fewer than two pairs."""
-    from scipy.stats import t
-
-    n = len(differences)
-    if n < 2:
-        return None
-    centre = mean(differences)
-    half = float(t.ppf(0.5 + CONFIDENCE / 2, n - 1)) * standard_error(differences) if sd(differences) > 0 else 0.0
-    return centre, centre - half, centre + half
-
-
 def summarize_row(label: str, kind: str, result: dict[str, Any]) -> dict[str, Any]:
     """A row of the tables: each strategy's summary and the paired cost statistics."""
     from beliefloc.simulation.episode import EpisodeRecord, summarize
@@ -194,7 +181,7 @@ def summarize_row(label: str, kind: str, result: dict[str, Any]) -> dict[str, An
     ]
     differences = [c - b for c, b in pairs]
     bestfirst_cost = mean(b for _, b in pairs)
-    ci = difference_ci(differences)
+    ci = difference_ci(differences, CONFIDENCE)
     cheaper, dearer = win_counts(pairs)
     return {
         "label": label,

@@ -64,6 +64,19 @@ def paired_p(x: Sequence[float], y: Sequence[float]) -> float | None:
         return float(wilcoxon(a, b).pvalue)
 
 
+def difference_ci(differences: Sequence[float], confidence: float = 0.95) -> tuple[float, float, float] | None:
+    """The mean of paired differences and its t-based confidence interval (n - 1 degrees of freedom);
+    None for fewer than two pairs."""
+    from scipy.stats import t
+
+    n = len(differences)
+    if n < 2:
+        return None
+    centre = mean(differences)
+    half = float(t.ppf(0.5 + confidence / 2, n - 1)) * standard_error(differences) if sd(differences) > 0 else 0.0
+    return centre, centre - half, centre + half
+
+
 def win_counts(pairs: Iterable[tuple[float, float]]) -> tuple[int, int]:
     """How many pairs ``(this, reference)`` have this lower (cheaper) and how many have it higher (dearer);
     ties count in neither."""

@@ -11,6 +11,7 @@ from scipy import stats as scipy_stats
 
 from benchmarks.stats import (
     DASH,
+    difference_ci,
     fmt,
     mean,
     mean_or_none,
@@ -89,3 +90,13 @@ def test_paired_means() -> None:
     assert paired_means([(1.0, 2.0)]) == "1.00 / 2.00 (n=1)"
     assert paired_means([]) == DASH
     assert paired_means([], wins=True) == DASH
+
+
+def test_difference_ci_is_scipys_one_sample_t_interval():
+    differences = [-3.0, 1.5, -7.25, 0.0, -2.0, 4.0, -11.0]
+    centre, low, high = difference_ci(differences, 0.95) or (0.0, 0.0, 0.0)
+    expected = scipy_stats.ttest_1samp(differences, 0.0).confidence_interval(0.95)
+    assert centre == pytest.approx(sum(differences) / len(differences))
+    assert (low, high) == pytest.approx((expected.low, expected.high))
+    assert difference_ci([1.0]) is None
+    assert difference_ci([2.0, 2.0, 2.0]) == (2.0, 2.0, 2.0)
