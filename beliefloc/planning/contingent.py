@@ -1,61 +1,65 @@
-"""Contingent plans: a policy tree that branches on what each perception returns (AO* over beliefs).
+"""Contingent plans: a policy that branches on what each perception returns (LAO* over beliefs).
 
 Best-first search (:mod:`beliefloc.planning.best_first`) returns one path under the observations it
-expects and replans when the world differs. Here the plan is an AND-OR tree:
+expects and replans when the world differs. Here the plan is an AND-OR graph:
 
-* an *OR node* is a belief; the policy picks one action there;
+* an *OR node* is a belief; the policy picks one action there. Equal beliefs are one node, whichever
+  path reaches them (looking then scanning, or scanning then looking), so what the search learns about
+  a belief serves every path to it, and a branch may lead back to a belief met before (a loop);
 * the action's *branches* are its observations ``o`` with ``p(o | a, b) > 0``, each leading to the
   successor belief (an action that observes nothing has one branch of probability 1);
 * a *goal* leaf holds ``max(b) >= threshold`` and costs nothing more.
 
 The value of a node is the expected cost to reach the goal under the model,
 ``V(b) = min_a [γ(a) + Σ_o p(o | a, b) V(b'_o)]``, and the policy is the minimising action at every
-node. AO* (Nilsson; Hansen & Zilberstein's LAO* for the loops, here cut instead) grows the tree
-one expansion at a time: it expands the tip of the current best policy with the most expected cost
-at stake (reach probability × estimate), backs the values up to the root, and stops when every tip
-of the best policy is a goal (the policy is *complete*) or a budget runs out.
+node. LAO* (Hansen & Zilberstein 2001) grows the graph one expansion at a time: it expands the
+frontier node of the current best policy with the most expected cost at stake (reach probability ×
+estimate), backs the values up through every node that leads to it, and stops when the best policy
+has no frontier node left (the policy is *complete*) or a budget runs out.
 
-**The estimate at the frontier** is the paper's entropy, put in units of cost:
-``h(b) = κ · H(b)`` (0 at a goal). ``κ`` (:func:`information_price`) is the price of a nat of
-information the model can keep buying: the cheapest actuation plus the cheapest perception, divided
-by the most information one action gives from the uniform belief. Looking twice in the same place
-teaches little, so one perception's price would be too low; a move and a look can be repeated.
-``Heuristic.ZERO`` estimates 0 instead: admissible, so a complete policy is then the least expected
-cost over all policies (feasible on small maps only).
+**The estimate at the frontier** is the paper's entropy, put in units of cost (:meth:`_Search.estimate`,
+:func:`information_prices`): entropy among states that read alike is priced at a move plus a look,
+entropy of which reading the robot will get at a look alone. ``Heuristic.ZERO`` estimates 0 instead:
+admissible, so a complete policy is then the least expected cost over all policies (feasible on small
+maps only).
 
-**Pruning.** A branch the robot reaches with probability below ``prune_below`` (the product of the
-observation probabilities from the start) is not expanded: it keeps its estimate in the expected
-cost, and when the robot meets it, it replans (:class:`beliefloc.simulation.strategies.ContingentStrategy`).
-So a policy has at most ``1 / prune_below`` branching leaves. Default :data:`DEFAULT_PRUNE_BELOW`.
+**Pruning.** A belief the robot reaches with probability below ``prune_below`` (through the best
+policy's branches from the start) is not expanded: it keeps its estimate in the expected cost, and
+when the robot meets it, it replans (:class:`beliefloc.simulation.strategies.ContingentStrategy`).
+So a policy has at most ``1 / prune_below`` frontier leaves. Default :data:`DEFAULT_PRUNE_BELOW`.
 
-**Loops.** A branch whose belief equals (:func:`belief_key`) a belief on the path from the root is a
-*loop* leaf, worth the expected cost of the node it repeats. A return to the node it leaves, with
-probability ``q``, is solved at once: the action's expected cost is ``(γ(a) + Σ_other p V) / (1 - q)``,
-that of repeating it until it leads elsewhere; returns further up are solved by backing the values up
-again until they agree. An action that always comes back (a look at states that all read alike) is
-worth nothing to a policy and never chosen; if a loop branch happens, the robot replans.
+**Loops.** A branch back to the node it leaves, with probability ``q``, is solved at once: the
+action's expected cost is ``(γ(a) + Σ_other p V) / (1 - q)``, that of repeating it until it leads
+elsewhere; longer loops are solved by backing the values up again until they agree. An action that
+always comes back (a look at states that all read alike) is worth nothing, and beliefs from which no
+policy leaves for sure (look-alike states no action tells apart) are dead ends, worth nothing too
+(:meth:`_Search._dead_ends`); such a belief is a *loop* leaf, where the robot replans.
 
-**Honest ends.** :attr:`PlanStatus.FOUND`: the policy is complete (every leaf is a goal, a pruned
-branch or a loop branch). :attr:`PlanStatus.BUDGET_EXCEEDED`: the expansion or time budget ran out
-first; the tree then has *frontier* leaves, valued by the estimate, and a robot following it
-replans when it reaches one. :attr:`PlanStatus.NO_PLAN`: every action from the start loops.
+**Honest ends.** :attr:`PlanStatus.FOUND`: the policy is complete (every leaf is a goal or a pruned
+belief). :attr:`PlanStatus.BUDGET_EXCEEDED`: the expansion or time budget ran out first; the policy
+then has *frontier* leaves, valued by the estimate, and a robot following it replans when it reaches
+one. :attr:`PlanStatus.NO_PLAN`: the start is a dead end.
 """
 
 from __future__ import annotations
 
+import collections
 import enum
-import heapq
 import itertools
 import math
 import time
-from dataclasses import dataclass
+import warnings
+from collections.abc import Iterator
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import scipy.sparse
+import scipy.sparse.linalg
 
 from beliefloc.belief import entropy, uniform
 from beliefloc.model import Model
-from beliefloc.planning.best_first import BeliefCache, PlanStatus, SearchProgress, belief_key
+from beliefloc.planning.best_first import BeliefCache, PlanStatus, SearchProgress
 from beliefloc.planning.settings import (
     DEFAULT_MAX_EXPANSIONS,
     DEFAULT_PRUNE_BELOW,
@@ -68,11 +72,23 @@ from beliefloc.planning.successors import SuccessorEvaluator
 _CACHE_BYTES = 256 * 2**20
 _PROGRESS_EVERY = 64
 _MAX_REVISIONS = 100_000
+_TRAP_CHECK = 2_000
+"""Backups in one revision after which the search looks for beliefs no policy can leave."""
 """Backups per expansion while the loops' values settle (each a walk up one path)."""
 _INFORMATIVE = 1e-9
 """Less expected information than this (nats) from the uniform belief counts as none."""
 _SAME = 1e-12
-"""Entropy and max(b) closer than this make a branch a loop candidate (then compared by key)."""
+"""Values closer than this (relative) are settled: the backups stop passing them on."""
+_MERGE = 1e-9
+"""Beliefs whose every probability agrees to this relative precision are one node (the same belief
+reached by updates in another order). Relative, because Bayes updates multiply: a tiny probability
+may grow large further down."""
+_NEGLIGIBLE = 1e-15
+"""...except probabilities this small, which may differ (repeated looks leave ever smaller ones, all
+different, behind: without this floor, beliefs that differ only in them would never merge)."""
+_SUMMARY_DIGITS = 9
+"""Beliefs are compared only with those of the same entropy, maximum and projection to this many
+digits."""
 
 
 class LeafKind(enum.Enum):
@@ -83,56 +99,44 @@ class LeafKind(enum.Enum):
     FRONTIER = "frontier"
     """The budget ran out before this belief was expanded: replan here."""
     PRUNED = "pruned"
-    """An observation less likely than ``prune_below``: replan if it occurs."""
+    """A belief reached with less probability than ``prune_below``: replan if it occurs."""
     LOOP = "loop"
-    """The belief of a node on the path from the root again: replan if it occurs."""
+    """A dead end: no policy leaves this belief for sure (its expected cost is infinite); replan if it
+    occurs."""
 
 
 class _Node:
-    """A node of the AND-OR tree under construction (an OR node: one belief)."""
+    """A belief of the AND-OR graph under construction (an OR node). Equal beliefs (to :data:`_MERGE`)
+    are one node, whichever path led to them."""
 
     __slots__ = (
-        "action",
         "best",
         "children",
         "entropy",
-        "key",
         "leaf",
         "max_belief",
         "number",
-        "observation",
-        "parent",
-        "probability",
+        "origin",
+        "parents",
         "reach",
-        "repeats",
         "value",
     )
 
-    def __init__(
-        self,
-        number: int,
-        parent: _Node | None,
-        action: int,
-        observation: int | None,
-        probability: float,
-        entropy: float,
-        max_belief: float,
-    ) -> None:
+    def __init__(self, number: int, origin: tuple[_Node, int, int | None] | None, entropy: float, top: float) -> None:
         self.number = number
-        self.parent = parent
-        self.action = action
-        self.observation = observation
-        self.probability = probability
-        self.reach: float = probability * (parent.reach if parent is not None else 1.0)
+        self.origin = origin
+        """The parent, action and observation the node was first reached by (its belief is recomputed
+        along them when it is no longer cached); None at the root."""
         self.entropy = entropy
-        self.max_belief = max_belief
+        self.max_belief = top
         self.value = 0.0
         self.leaf: LeafKind | None = LeafKind.FRONTIER
-        self.key: bytes | None = None
         self.best = -1
-        self.children: dict[int, list[_Node]] = {}
-        self.repeats: _Node | None = None
-        """A loop leaf: the node on its path whose belief it has."""
+        self.children: dict[int, list[tuple[float, int | None, _Node]]] = {}
+        """Per action, its branches: (probability, observation, successor)."""
+        self.parents: list[_Node] = []
+        self.reach = 0.0
+        """The probability of reaching the node under the best policy (last computed)."""
 
 
 @dataclass(frozen=True)
@@ -147,25 +151,27 @@ class PolicyBranch:
     node: PolicyNode
 
 
-@dataclass(frozen=True)
+@dataclass(eq=False)
 class PolicyNode:
-    """A belief of the policy: an action with its branches, or a leaf."""
+    """A belief of the policy: an action with its branches, or a leaf. The policy is a graph: a belief
+    reached by several paths is one node, and a branch may lead back to a node above it (the robot
+    then carries on from there)."""
 
+    number: int
+    """The node's identity within its policy (the JSON's ``id``)."""
     expected_cost: float
-    """Expected cost from here to the goal under the model (frontier and pruned leaves: the estimate;
-    loop leaves: the expected cost of the node they repeat)."""
+    """Expected cost from here to the goal under the model (frontier and pruned leaves: the
+    estimate)."""
     max_belief: float
     most_likely: int
     """The most likely state of this belief (its index)."""
     action: str | None
     """None at a leaf."""
     action_index: int | None
-    branches: tuple[PolicyBranch, ...]
     leaf: LeafKind | None
     """None when the node acts."""
-    repeats_up: int | None = None
-    """A loop leaf: its belief is that of the node this many levels above it (1: the node whose action
-    led here), and its expected cost is that node's."""
+    branches: tuple[PolicyBranch, ...] = field(default=(), repr=False)
+    """Set once every node of the policy exists (a branch may lead back up)."""
 
     def branch(self, observation: int | None) -> PolicyBranch | None:
         """The branch taken when ``observation`` is seen (None when the policy has none for it)."""
@@ -174,32 +180,50 @@ class PolicyNode:
                 return branch
         return None
 
-    def size(self) -> int:
-        """Nodes in the tree under this one, itself and the leaves included."""
-        count, stack = 0, [self]
+    def reachable(self) -> list[PolicyNode]:
+        """This node and every node below it, each once, depth first in branch order."""
+        seen = {self.number}
+        order, stack = [], [self]
         while stack:
             node = stack.pop()
-            count += 1
-            stack.extend(b.node for b in node.branches)
-        return count
+            order.append(node)
+            for branch in reversed(node.branches):
+                if branch.node.number not in seen:
+                    seen.add(branch.node.number)
+                    stack.append(branch.node)
+        return order
+
+    def size(self) -> int:
+        """Distinct nodes from here down, itself and the leaves included."""
+        return len(self.reachable())
 
     def as_json(self, model: Model) -> dict[str, Any]:
-        data: dict[str, Any] = {
-            "expected_cost": self.expected_cost,
-            "max_belief": self.max_belief,
-            "most_likely": model.states.name(self.most_likely),
-        }
-        if self.action is not None:
-            data["action"] = self.action
-            data["branches"] = [
-                {"observation": b.observation, "probability": b.probability, "node": b.node.as_json(model)}
-                for b in self.branches
-            ]
-        else:
-            data["leaf"] = self.leaf.value if self.leaf is not None else None
-            if self.repeats_up is not None:
-                data["repeats_levels_up"] = self.repeats_up
-        return data
+        """The policy from here as nested JSON: a node met again (by another path, or back up a loop)
+        is ``{"id": n, "same_as": n, ...}`` after its first, full appearance."""
+        shown: set[int] = set()
+
+        def node_json(node: PolicyNode) -> dict[str, Any]:
+            data: dict[str, Any] = {
+                "id": node.number,
+                "expected_cost": node.expected_cost,
+                "max_belief": node.max_belief,
+                "most_likely": model.states.name(node.most_likely),
+            }
+            if node.number in shown:
+                data["same_as"] = node.number
+                return data
+            shown.add(node.number)
+            if node.action is not None:
+                data["action"] = node.action
+                data["branches"] = [
+                    {"observation": b.observation, "probability": b.probability, "node": node_json(b.node)}
+                    for b in node.branches
+                ]
+            else:
+                data["leaf"] = node.leaf.value if node.leaf is not None else None
+            return data
+
+        return node_json(self)
 
 
 @dataclass(frozen=True, eq=False)
@@ -224,11 +248,11 @@ class PolicyResult:
         return self.root.expected_cost
 
     def nodes(self) -> int:
-        """Nodes in the policy tree (leaves included)."""
+        """Distinct nodes in the policy (leaves included)."""
         return self.root.size()
 
     def as_json(self, model: Model) -> dict[str, Any]:
-        """What ``plan --policy --json`` prints: the status, the expected cost, the whole tree."""
+        """What ``plan --policy --json`` prints: the status, the expected cost, the whole policy."""
         return {
             "found": self.found,
             "status": self.status.value,
@@ -315,7 +339,7 @@ def plan_policy(
 
     ``prices`` are the estimate's (:func:`information_prices` when None; a caller that plans often
     computes them once per model; ignored with ``Heuristic.ZERO``). Deterministic: the same inputs
-    give the same tree."""
+    give the same policy."""
     start = time.perf_counter()
     evaluator = evaluator or SuccessorEvaluator(model)
     if heuristic is Heuristic.ZERO:
@@ -326,10 +350,7 @@ def plan_policy(
     root = search.root(belief)
     status = PlanStatus.FOUND
     expanded = 0
-    while True:
-        tip = search.next_tip()
-        if tip is None:
-            break
+    while (tip := search.next_tip(root)) is not None:
         if expanded >= max_expansions or time.perf_counter() - start > time_limit:
             status = PlanStatus.BUDGET_EXCEEDED
             break
@@ -344,7 +365,7 @@ def plan_policy(
 
 
 class _Search:
-    """The tree, its tips and its backups."""
+    """The graph, its values, its best policy and that policy's tips."""
 
     def __init__(
         self,
@@ -364,38 +385,41 @@ class _Search:
         self.generated = 0
         self._numbers = itertools.count()
         self._signature = _signature_groups(model)
-        self._tips: list[tuple[float, int, _Node]] = []
-        self._loops_into: dict[int, list[_Node]] = {}
-        """Loop leaves by the number of the node whose belief they repeat (above their parent)."""
+        self._nodes: dict[tuple[float, float, float], list[_Node]] = {}
+        """Every node that is not a goal, by its belief's entropy, maximum and projection on
+        :attr:`_probe` (rounded)."""
+        self._probe = np.cos(np.arange(model.n_states) * 0.7548776662466927)
         self._cache: BeliefCache | None = None
 
     def root(self, belief: np.ndarray) -> _Node:
         self._cache = BeliefCache(max(4, _CACHE_BYTES // max(1, belief.nbytes)))
-        node = self._node(None, -1, None, 1.0, entropy(belief), float(belief.max()), belief)
-        self._cache.put(node.number, belief)
-        self._push(node)
+        node = self._node(None, entropy(belief), float(belief.max()), belief)
+        self._cache.put(node.number, belief)  # a goal is not cached by _node, the root must be
+        node.reach = 1.0
         return node
 
-    def _node(
-        self,
-        parent: _Node | None,
-        action: int,
-        observation: int | None,
-        p: float,
-        h: float,
-        top: float,
-        belief: np.ndarray | None = None,
-    ) -> _Node:
-        node = _Node(next(self._numbers), parent, action, observation, p, h, top)
+    def _node(self, origin: tuple[_Node, int, int | None] | None, h: float, top: float, belief: np.ndarray) -> _Node:
+        """The node of ``belief``: the one that has it already, or a new goal or frontier node."""
+        node = _Node(next(self._numbers), origin, h, top)
         if top >= self.threshold:
-            node.leaf, node.value = LeafKind.GOAL, 0.0
-        elif self.kappa > 0.0:
-            assert self._cache is not None
-            if belief is None:
-                belief = self.evaluator.successor(self.belief(parent), action, observation) if parent else None
-            assert belief is not None
-            self._cache.put(node.number, belief)
-            node.value = self.estimate(belief, h)
+            node.leaf = LeafKind.GOAL
+            return node
+        # a summary picks the candidates (mirror images share entropy and maximum, not the projection);
+        # the beliefs themselves decide
+        summary = (
+            round(h, _SUMMARY_DIGITS),
+            round(top, _SUMMARY_DIGITS),
+            round(float(belief @ self._probe), _SUMMARY_DIGITS),
+        )
+        same = self._nodes.setdefault(summary, [])
+        for existing in same:
+            known = self.belief(existing)
+            if np.all(np.abs(known - belief) <= _MERGE * np.maximum(known, belief) + _NEGLIGIBLE):
+                return existing
+        same.append(node)
+        assert self._cache is not None
+        self._cache.put(node.number, belief)
+        node.value = self.estimate(belief, h) if self.kappa > 0.0 else 0.0
         return node
 
     def estimate(self, belief: np.ndarray, h: float) -> float:
@@ -417,173 +441,210 @@ class _Search:
         chain = []
         while (cached := self._cache.get(node.number)) is None:
             chain.append(node)
-            assert node.parent is not None
-            node = node.parent
+            assert node.origin is not None
+            node = node.origin[0]
         current = cached
         for child in reversed(chain):
-            current = self.evaluator.successor(current, child.action, child.observation)
+            assert child.origin is not None
+            _, action, observation = child.origin
+            current = self.evaluator.successor(current, action, observation)
             self._cache.put(child.number, current)
         return current
 
-    def _push(self, node: _Node) -> None:
-        heapq.heappush(self._tips, (-node.reach * max(node.value, 1e-300), node.number, node))
-
-    def next_tip(self) -> _Node | None:
-        """The frontier tip of the current best policy with the most expected cost at stake."""
-        while self._tips:
-            _, _, node = heapq.heappop(self._tips)
-            if node.leaf is LeafKind.FRONTIER and self._in_policy(node):
-                return node
-        return None
-
-    @staticmethod
-    def _in_policy(node: _Node) -> bool:
-        while node.parent is not None:
-            if node.parent.best != node.action:
-                return False
-            node = node.parent
-        return True
-
     def expand(self, node: _Node) -> None:
+        """Give ``node`` its actions' branches, then back the values up (:meth:`_revise`)."""
         belief = self.belief(node)
-        node.key = belief_key(belief)
         node.leaf = None
-        children: dict[int, list[_Node]] = {}
-        for stats in self.evaluator.evaluate(belief):
-            child = self._node(
-                node, stats.action, stats.observation, stats.probability, stats.entropy, stats.max_belief
-            )
+        for stats, successor in self.evaluator.successors(belief):
+            child = self._node((node, stats.action, stats.observation), stats.entropy, stats.max_belief, successor)
+            child.parents.append(node)
+            node.children.setdefault(stats.action, []).append((stats.probability, stats.observation, child))
             self.generated += 1
-            if child.leaf is None or child.leaf is LeafKind.FRONTIER:
-                if child.reach < self.prune_below:
-                    child.leaf = LeafKind.PRUNED
-                elif (repeated := self._repeated(child)) is not None:
-                    child.leaf, child.repeats = LeafKind.LOOP, repeated
-                    if repeated is not node:
-                        self._loops_into.setdefault(repeated.number, []).append(child)
-            children.setdefault(stats.action, []).append(child)
-        node.children = children
         self._revise(node)
 
-    def _repeated(self, child: _Node) -> _Node | None:
-        """The node on the child's path with the child's belief, if any (compared by key when entropy
-        and max agree)."""
-        ancestor = child.parent
-        key: bytes | None = None
-        while ancestor is not None:
-            if abs(ancestor.entropy - child.entropy) <= _SAME and abs(ancestor.max_belief - child.max_belief) <= _SAME:
-                if key is None:
-                    key = belief_key(self.belief(child))
-                if key == ancestor.key:
-                    return ancestor
-            ancestor = ancestor.parent
-        return None
-
-    def _revise(self, node: _Node) -> None:
-        """Back the values up from ``node``. A node whose value moved moves the loop leaves that repeat
-        it, so their parents are backed up in turn until the values agree (the loops' equations solved
-        by iteration, at most :data:`_MAX_REVISIONS` backups); then queue the new tips."""
-        pending = [node]
-        tops: dict[int, _Node] = {}
-        for _ in range(_MAX_REVISIONS):
-            if not pending:
-                break
-            top, moved = self._backup(pending.pop())
-            tops[top.number] = top
-            for changed in moved:
-                pending.extend(leaf.parent for leaf in self._loops_into.get(changed.number, ()) if leaf.parent)
-        for top in tops.values():
-            self._push_tips(top)
-
     def _q(self, node: _Node, action: int) -> float:
-        """``γ(a) + Σ p V``, where a loop branch is worth the node it repeats. Coming back here with
-        probability ``q`` is solved at once: ``Q = (γ(a) + Σ_rest p V) / (1 - q)``. An action all of whose
-        branches loop is worth nothing to a policy (infinite)."""
+        """``γ(a) + Σ p V``. Coming back to ``node`` itself with probability ``q`` is solved at once:
+        ``Q = (γ(a) + Σ_rest p V) / (1 - q)``; an action that always comes back is worth nothing to a
+        policy (infinite)."""
         here = 0.0
         total = self.costs[action]
-        every_loop = True
-        for branch in node.children[action]:
-            if branch.repeats is node:
-                here += branch.probability
-                continue
-            if branch.repeats is not None:
-                total += branch.probability * branch.repeats.value
+        for p, _, child in node.children[action]:
+            if child is node:
+                here += p
             else:
-                every_loop = False
-                total += branch.probability * branch.value
-        if every_loop or here >= 1.0 - _SAME:
+                total += p * child.value
+        if here >= 1.0 - _SAME:
             return math.inf
         return total / (1.0 - here)
 
-    def _backup(self, node: _Node) -> tuple[_Node, list[_Node]]:
-        """New values from ``node`` up to the root (stopping where nothing moves); returns the highest
-        node whose best action changed (``node`` itself when none above it did) and the nodes whose
-        value moved."""
-        changed = node
-        moved = []
-        current: _Node | None = node
-        while current is not None:
+    def _revise(self, node: _Node) -> None:
+        """Bellman backups from ``node`` to every node that leads to it, as long as values move: the
+        equations of the loops among them solved by iteration (Gauss-Seidel, at most
+        :data:`_MAX_REVISIONS` backups per expansion). Values that keep climbing after
+        :data:`_TRAP_CHECK` backups are looked at once: beliefs from which no policy reaches a goal or the
+        frontier for sure (:meth:`_dead_ends`) are worth nothing (infinite), which ends their climb."""
+        pending = collections.deque([node])
+        queued = {node.number}
+        first = True  # the expanded node's value went from the estimate to its backup: always passed on
+        for backups in range(_MAX_REVISIONS):
+            if not pending:
+                break
+            if backups == _TRAP_CHECK:
+                for dead in self._dead_ends():
+                    dead.best, dead.value = -1, math.inf
+                    for parent in dead.parents:
+                        if parent.number not in queued:
+                            queued.add(parent.number)
+                            pending.append(parent)
+            current = pending.popleft()
+            queued.discard(current.number)
             best, value = -1, math.inf
             for action in current.children:
                 q = self._q(current, action)
                 if q < value:
                     best, value = action, q
-            if best != current.best:
-                changed = current
-            same_value = value == current.value or abs(value - current.value) <= _SAME * max(1.0, abs(value))
-            if not same_value:
-                moved.append(current)
-            unchanged = best == current.best and same_value
-            current.best, current.value = best, value
-            if unchanged and current is not node:
-                break
-            current = current.parent
-        return changed, moved
+            current.best = best
+            settled = value == current.value or abs(value - current.value) <= _SAME * max(1.0, abs(value))
+            if settled and not first:
+                continue
+            first = False
+            current.value = value
+            for parent in current.parents:
+                if parent.number not in queued:
+                    queued.add(parent.number)
+                    pending.append(parent)
 
-    def _push_tips(self, top: _Node) -> None:
-        """Queue the frontier tips of the best policy under ``top``."""
-        stack = [top]
+    def _dead_ends(self) -> list[_Node]:
+        """Expanded nodes of finite value from which no policy ends at a goal or a frontier leaf with
+        probability 1: the complement of the largest set whose nodes reach such a leaf by actions that
+        never leave the set (almost-sure reachability, by shrinking the set until it holds)."""
+        expanded = [n for same in self._nodes.values() for n in same if n.leaf is None and n.value < math.inf]
+        alive = {n.number for n in expanded}
+
+        def ending(child: _Node) -> bool:
+            return child.leaf is not None and child.value < math.inf
+
+        while True:
+            safe = {n.number: self._staying(n, alive) for n in expanded if n.number in alive}
+            reached: set[int] = set()
+
+            def reaches(n: _Node, safe: dict[int, list[int]] = safe, reached: set[int] = reached) -> bool:
+                return any(any(ending(c) or c.number in reached for _, _, c in n.children[a]) for a in safe[n.number])
+
+            queue = [n for n in expanded if n.number in alive and reaches(n)]
+            reached.update(n.number for n in queue)
+            while queue:
+                for parent in queue.pop().parents:
+                    if parent.number in alive and parent.number not in reached and reaches(parent):
+                        reached.add(parent.number)
+                        queue.append(parent)
+            if reached == alive:
+                return [n for n in expanded if n.number not in alive]
+            alive = reached
+
+    @staticmethod
+    def _staying(node: _Node, alive: set[int]) -> list[int]:
+        """The actions of ``node`` whose every branch ends at a finite leaf or stays in ``alive``."""
+        return [
+            action
+            for action, branches in node.children.items()
+            if all((c.leaf is not None and c.value < math.inf) or c.number in alive for _, _, c in branches)
+        ]
+
+    def best_policy(self, root: _Node) -> list[_Node]:
+        """The nodes of the best policy from ``root`` in topological order (a node after every node that
+        leads to it, loops cut where they close), each with its :attr:`_Node.reach`."""
+        postorder: list[_Node] = []
+        seen = {root.number}
+        stack: list[tuple[_Node, Iterator[_Node]]] = [(root, self._policy_children(root))]
         while stack:
-            node = stack.pop()
-            if node.leaf is LeafKind.FRONTIER:
-                self._push(node)
-            elif node.leaf is None and node.best >= 0:
-                stack.extend(node.children[node.best])
+            node, children = stack[-1]
+            for child in children:
+                if child.number not in seen:
+                    seen.add(child.number)
+                    stack.append((child, self._policy_children(child)))
+                    break
+            else:
+                stack.pop()
+                postorder.append(node)
+        order = postorder[::-1]
+        position = {node.number: i for i, node in enumerate(order)}
+        for node in order:
+            node.reach = 0.0
+        root.reach = 1.0
+        for i, node in enumerate(order):
+            if node.leaf is None and node.best >= 0:
+                for p, _, child in node.children[node.best]:
+                    if position[child.number] > i:
+                        child.reach += node.reach * p
+        return order
+
+    @staticmethod
+    def _policy_children(node: _Node) -> Iterator[_Node]:
+        if node.leaf is None and node.best >= 0:
+            for _, _, child in node.children[node.best]:
+                yield child
+
+    def next_tip(self, root: _Node) -> _Node | None:
+        """The frontier node of the best policy with the most expected cost at stake (reach × estimate),
+        among those reached with at least ``prune_below``; None when there is none (the policy is
+        complete)."""
+        best: _Node | None = None
+        for node in self.best_policy(root):
+            open_tip = node.leaf is LeafKind.FRONTIER and node.reach >= self.prune_below and node.reach > 0.0
+            if open_tip and (best is None or node.reach * node.value > best.reach * best.value):
+                best = node
+        return best
 
     def policy(self, root: _Node) -> tuple[PolicyNode, float]:
-        """The best policy as frozen nodes, and the probability of ending at an open leaf."""
-        open_share = 0.0
-
-        def freeze(node: _Node) -> PolicyNode:
-            nonlocal open_share
+        """The best policy as a graph of :class:`PolicyNode`, and the probability of ending at a leaf
+        that is not a goal (absorption in the policy's Markov chain, solved as a linear system)."""
+        order = self.best_policy(root)
+        frozen: dict[int, PolicyNode] = {}
+        for node in order:
             most_likely = int(np.argmax(self.belief(node)))
-            if node.leaf is not None or node.best < 0:
-                leaf = node.leaf or LeafKind.LOOP
-                if leaf is not LeafKind.GOAL:
-                    open_share += node.reach
-                value, up = node.value, None
-                if node.repeats is not None:
-                    value, up = node.repeats.value, _levels_up(node, node.repeats)
-                return PolicyNode(value, node.max_belief, most_likely, None, None, (), leaf, up)
-            action = self.model.actions[node.best]
-            branches = tuple(
-                PolicyBranch(
-                    None if child.observation is None else action.observation.name(child.observation),
-                    child.observation,
-                    child.probability,
-                    freeze(child),
+            if node.leaf is None and node.best >= 0:
+                action = self.model.actions[node.best]
+                frozen[node.number] = PolicyNode(
+                    node.number, node.value, node.max_belief, most_likely, action.name, node.best, None
                 )
-                for child in node.children[node.best]
-            )
-            return PolicyNode(node.value, node.max_belief, most_likely, action.name, node.best, branches, None, None)
+            else:
+                kind = node.leaf or LeafKind.LOOP
+                if kind is LeafKind.FRONTIER and node.reach < self.prune_below:
+                    kind = LeafKind.PRUNED
+                frozen[node.number] = PolicyNode(
+                    node.number, node.value, node.max_belief, most_likely, None, None, kind
+                )
+        position = {node.number: i for i, node in enumerate(order)}
+        rows, cols, probabilities = [], [], []
+        ends = np.zeros(len(order))
+        for i, node in enumerate(order):
+            policy_node = frozen[node.number]
+            if policy_node.action_index is None:
+                ends[i] = 0.0 if policy_node.leaf is LeafKind.GOAL else 1.0
+                continue
+            action = self.model.actions[node.best]
+            branches = []
+            for p, observation, child in node.children[node.best]:
+                name = None if observation is None else action.observation.name(observation)
+                branches.append(PolicyBranch(name, observation, p, frozen[child.number]))
+                rows.append(i)
+                cols.append(position[child.number])
+                probabilities.append(p)
+            policy_node.branches = tuple(branches)
+        return frozen[root.number], _absorbed(ends, rows, cols, probabilities)
 
-        return freeze(root), open_share
 
-
-def _levels_up(leaf: _Node, repeated: _Node) -> int:
-    """How many levels above ``leaf`` the node ``repeated`` is (1: its parent)."""
-    levels, node = 0, leaf
-    while node is not repeated:
-        assert node.parent is not None
-        node, levels = node.parent, levels + 1
-    return levels
+def _absorbed(ends: np.ndarray, rows: list[int], cols: list[int], probabilities: list[float]) -> float:
+    """The probability that the chain started in state 0 ends in a state whose ``ends`` is 1 (its
+    transitions: ``rows -> cols`` with ``probabilities``; states without any end there)."""
+    n = len(ends)
+    chain = scipy.sparse.csr_matrix((probabilities, (rows, cols)), shape=(n, n))
+    system = (scipy.sparse.identity(n, format="csr") - chain).tocsc()
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", scipy.sparse.linalg.MatrixRankWarning)
+            absorbed = scipy.sparse.linalg.spsolve(system, ends)
+    except scipy.sparse.linalg.MatrixRankWarning:
+        return 1.0  # a loop the policy never leaves: it ends nowhere, so the robot replans
+    return float(np.clip(np.atleast_1d(absorbed)[0], 0.0, 1.0))

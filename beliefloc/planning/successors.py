@@ -22,6 +22,7 @@ Beliefs are materialised only for nodes the search actually expands (:meth:`succ
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -92,6 +93,20 @@ class SuccessorEvaluator:
                 continue
             out.extend(self._observe(index, groups, predicted))
         return out
+
+    def successors(self, belief: np.ndarray) -> Iterator[tuple[SuccessorStats, np.ndarray]]:
+        """:meth:`evaluate` with each successor belief too (one prediction per action)."""
+        for index, action in enumerate(self.model.actions):
+            predicted = predict(action, belief)
+            groups = self._groups[index]
+            if groups is None:
+                yield SuccessorStats(index, None, 1.0, entropy(predicted), float(predicted.max())), predicted
+                continue
+            for stats in self._observe(index, groups, predicted):
+                assert stats.observation is not None
+                weighted: np.ndarray = predicted * action.observation.likelihood(stats.observation)
+                weighted /= weighted.sum()
+                yield stats, weighted
 
     def _observe(self, index: int, groups: _Groups, predicted: np.ndarray) -> list[SuccessorStats]:
         ordered = predicted[groups.order]

@@ -90,7 +90,7 @@ def _pm(mean: float | None, spread: float | None, fmt: str) -> str:
 def policy_tree(result: PolicyResult, model: Model, title: str, depth: int) -> Tree:
     """The first ``depth`` levels of a contingent policy as a rich tree: each node's action, expected
     cost and max belief, each branch's observation and probability, leaves by kind (the pruned and
-    loop leaves of a node on one line)."""
+    dead-end leaves of a node on one line), and branches back to a belief above as such."""
     from beliefloc.planning.contingent import LeafKind
 
     tree = Tree(title)
@@ -102,23 +102,29 @@ def policy_tree(result: PolicyResult, model: Model, title: str, depth: int) -> T
             return f"[bold]{kind}[/] ({where}; expected cost {node.expected_cost:.2f})"
         return f"[bold]{escape(node.action)}[/] (expected cost {node.expected_cost:.2f}; {where})"
 
-    def grow(branch: Tree, node: PolicyNode, level: int) -> None:
+    def grow(branch: Tree, node: PolicyNode, level: int, path: dict[int, int]) -> None:
         if node.action is None:
             return
         if level >= depth:
             branch.add(f"… {node.size() - 1} more nodes below")
             return
+        path = {**path, node.number: level}
         replan = [c for c in node.branches if c.node.leaf in (LeafKind.PRUNED, LeafKind.LOOP)]
         for child in node.branches:
             if child in replan:
                 continue
             seen = "" if child.observation is None else f"{escape(child.observation)}, "
-            grow(branch.add(f"{seen}p = {child.probability:.3f}: {label(child.node)}"), child.node, level + 1)
+            if child.node.number in path:  # a loop: the belief of a node above, carried on from there
+                up = level + 1 - path[child.node.number]
+                where = "this belief again" if up == 1 else f"the belief {up} levels up again"
+                branch.add(f"{seen}p = {child.probability:.3f}: {where} (expected cost {child.node.expected_cost:.2f})")
+                continue
+            grow(branch.add(f"{seen}p = {child.probability:.3f}: {label(child.node)}"), child.node, level + 1, path)
         if replan:
             total = sum(c.probability for c in replan)
             branch.add(f"[dim]{len(replan)} unlikely or uninformative observations, p = {total:.3f}: plan again[/]")
 
-    grow(tree.add(label(result.root)), result.root, 0)
+    grow(tree.add(label(result.root)), result.root, 0, {})
     return tree
 
 
