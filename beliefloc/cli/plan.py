@@ -53,8 +53,8 @@ PolicyOption = Annotated[
     bool,
     typer.Option(
         "--policy",
-        help="Plan a contingent policy instead of one path: a tree that branches on every observation, "
-        "with the least expected cost AO* finds (--planner uniform: the exact least, small maps only).",
+        help="Plan a contingent policy instead of one path: it branches on every observation, with the "
+        "least expected cost LAO* finds (--planner uniform: the exact least, small maps only).",
     ),
 ]
 DEFAULT_POLICY_DEPTH = 4
@@ -64,7 +64,7 @@ PolicyDepthOption = Annotated[
         "--policy-depth",
         parser=whole(low=1),
         metavar="N",
-        help="--policy: levels of the tree printed on the terminal (--json prints all of it).",
+        help="--policy: levels of the policy printed on the terminal (--json prints all of it).",
     ),
 ]
 PlanPictureOption = Annotated[
@@ -108,10 +108,12 @@ def plan_command(
     the perceptions starred and numbered by step, and the step table (action, expected observation,
     max belief, cost) under the map.
 
-    With --policy, a contingent plan: a tree whose perceptions branch on what they return, each
-    leaf a goal, an observation too unlikely to plan for (--prune-below), or, when the budget ran
-    out first, a frontier where the robot would plan again (exit code 1: the policy is not
-    complete). --json prints the whole tree with each branch's probability and expected cost.
+    With --policy, a contingent plan: a policy whose perceptions branch on what they return (a
+    belief reached by several paths is one node; a branch may lead back to a belief above), each
+    leaf a goal, a belief too unlikely to plan for (--prune-below), or, when the budget ran out
+    first, a frontier where the robot would plan again (exit code 1: the policy is not complete).
+    --json prints the whole policy with each branch's probability and expected cost; a node met
+    again appears as {"id": n, "same_as": n}.
 
     Examples:
 
@@ -218,7 +220,7 @@ def _plan_policy(
     depth: int,
     json_output: bool,
 ) -> None:
-    """``plan --policy``: the contingent planner, its tree printed (``depth`` levels on the terminal)."""
+    """``plan --policy``: the contingent planner, its policy printed (``depth`` levels on the terminal)."""
     from beliefloc.planning.best_first import PlanStatus
     from beliefloc.planning.contingent import plan_policy
     from beliefloc.render.plan import policy_line, policy_tree
