@@ -112,7 +112,6 @@ class _Node:
     __slots__ = (
         "best",
         "children",
-        "entropy",
         "leaf",
         "max_belief",
         "number",
@@ -122,12 +121,11 @@ class _Node:
         "value",
     )
 
-    def __init__(self, number: int, origin: tuple[_Node, int, int | None] | None, entropy: float, top: float) -> None:
+    def __init__(self, number: int, origin: tuple[_Node, int, int | None] | None, top: float) -> None:
         self.number = number
         self.origin = origin
         """The parent, action and observation the node was first reached by (its belief is recomputed
         along them when it is no longer cached); None at the root."""
-        self.entropy = entropy
         self.max_belief = top
         self.value = 0.0
         self.leaf: LeafKind | None = LeafKind.FRONTIER
@@ -335,7 +333,7 @@ def plan_policy(
     prices: InformationPrices | None = None,
     progress: SearchProgress | None = None,
 ) -> PolicyResult:
-    """The least-expected-cost policy AO* finds from ``belief`` within the budgets (module docstring).
+    """The least-expected-cost policy LAO* finds from ``belief`` within the budgets (module docstring).
 
     ``prices`` are the estimate's (:func:`information_prices` when None; a caller that plans often
     computes them once per model; ignored with ``Heuristic.ZERO``). Deterministic: the same inputs
@@ -389,10 +387,9 @@ class _Search:
         """Every node that is not a goal, by its belief's entropy, maximum and projection on
         :attr:`_probe` (rounded)."""
         self._probe = np.cos(np.arange(model.n_states) * 0.7548776662466927)
-        self._cache: BeliefCache | None = None
+        self._cache = BeliefCache(max(4, _CACHE_BYTES // (8 * max(1, model.n_states))))
 
     def root(self, belief: np.ndarray) -> _Node:
-        self._cache = BeliefCache(max(4, _CACHE_BYTES // max(1, belief.nbytes)))
         node = self._node(None, entropy(belief), float(belief.max()), belief)
         self._cache.put(node.number, belief)  # a goal is not cached by _node, the root must be
         node.reach = 1.0
@@ -400,8 +397,8 @@ class _Search:
 
     def _node(self, origin: tuple[_Node, int, int | None] | None, h: float, top: float, belief: np.ndarray) -> _Node:
         """The node of ``belief``: the one that has it already, or a new goal or frontier node."""
-        node = _Node(next(self._numbers), origin, h, top)
         if top >= self.threshold:
+            node = _Node(next(self._numbers), origin, top)
             node.leaf = LeafKind.GOAL
             return node
         # a summary picks the candidates (mirror images share entropy and maximum, not the projection);
@@ -416,8 +413,8 @@ class _Search:
             known = self.belief(existing)
             if np.all(np.abs(known - belief) <= _MERGE * np.maximum(known, belief) + _NEGLIGIBLE):
                 return existing
+        node = _Node(next(self._numbers), origin, top)
         same.append(node)
-        assert self._cache is not None
         self._cache.put(node.number, belief)
         node.value = self.estimate(belief, h) if self.kappa > 0.0 else 0.0
         return node
@@ -437,7 +434,6 @@ class _Search:
         return self.kappa * within + self.perceiving * between
 
     def belief(self, node: _Node) -> np.ndarray:
-        assert self._cache is not None
         chain = []
         while (cached := self._cache.get(node.number)) is None:
             chain.append(node)
@@ -520,36 +516,11 @@ class _Search:
         never leave the set (almost-sure reachability, by shrinking the set until it holds)."""
         expanded = [n for same in self._nodes.values() for n in same if n.leaf is None and n.value < math.inf]
         alive = {n.number for n in expanded}
-
-        def ending(child: _Node) -> bool:
-            return child.leaf is not None and child.value < math.inf
-
         while True:
-            safe = {n.number: self._staying(n, alive) for n in expanded if n.number in alive}
-            reached: set[int] = set()
-
-            def reaches(n: _Node, safe: dict[int, list[int]] = safe, reached: set[int] = reached) -> bool:
-                return any(any(ending(c) or c.number in reached for _, _, c in n.children[a]) for a in safe[n.number])
-
-            queue = [n for n in expanded if n.number in alive and reaches(n)]
-            reached.update(n.number for n in queue)
-            while queue:
-                for parent in queue.pop().parents:
-                    if parent.number in alive and parent.number not in reached and reaches(parent):
-                        reached.add(parent.number)
-                        queue.append(parent)
+            reached = _reaching_an_end([n for n in expanded if n.number in alive], alive)
             if reached == alive:
                 return [n for n in expanded if n.number not in alive]
             alive = reached
-
-    @staticmethod
-    def _staying(node: _Node, alive: set[int]) -> list[int]:
-        """The actions of ``node`` whose every branch ends at a finite leaf or stays in ``alive``."""
-        return [
-            action
-            for action, branches in node.children.items()
-            if all((c.leaf is not None and c.value < math.inf) or c.number in alive for _, _, c in branches)
-        ]
 
     def best_policy(self, root: _Node) -> list[_Node]:
         """The nodes of the best policy from ``root`` in topological order (a node after every node that
@@ -633,6 +604,32 @@ class _Search:
                 probabilities.append(p)
             policy_node.branches = tuple(branches)
         return frozen[root.number], _absorbed(ends, rows, cols, probabilities)
+
+
+def _ends(node: _Node) -> bool:
+    """A leaf of finite value: a goal or a frontier belief."""
+    return node.leaf is not None and node.value < math.inf
+
+
+def _reaching_an_end(nodes: list[_Node], alive: set[int]) -> set[int]:
+    """The numbers of ``nodes`` (those of ``alive``) that reach a leaf of finite value by actions whose
+    every branch ends there or stays in ``alive``."""
+    staying = {
+        n.number: [b for b in n.children.values() if all(_ends(c) or c.number in alive for _, _, c in b)] for n in nodes
+    }
+    reached: set[int] = set()
+
+    def reaches(node: _Node) -> bool:
+        return any(any(_ends(c) or c.number in reached for _, _, c in b) for b in staying[node.number])
+
+    queue = [n for n in nodes if reaches(n)]
+    reached.update(n.number for n in queue)
+    while queue:
+        for parent in queue.pop().parents:
+            if parent.number in alive and parent.number not in reached and reaches(parent):
+                reached.add(parent.number)
+                queue.append(parent)
+    return reached
 
 
 def _absorbed(ends: np.ndarray, rows: list[int], cols: list[int], probabilities: list[float]) -> float:

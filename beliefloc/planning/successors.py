@@ -17,7 +17,9 @@ sums ``A_g = Σ_{j∈g} predicted_j``, ``B_g = Σ_{j∈g} predicted_j ln predict
     max b'_o = max_g M_g C[g, o] / p_o
 
 which costs O(|S|) per action plus O(groups × observations) -- never |Ω| posterior vectors.
-Beliefs are materialised only for nodes the search actually expands (:meth:`successor`).
+Best-first search materialises beliefs only for the nodes it expands (:meth:`successor`); the
+contingent planner, which merges equal beliefs, takes them all with their statistics
+(:meth:`successors`).
 """
 
 from __future__ import annotations
