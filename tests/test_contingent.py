@@ -9,6 +9,7 @@ strategy) is computed exactly by solving the linear equations of its controller.
 
 from __future__ import annotations
 
+import heapq
 import math
 from typing import Any
 
@@ -77,37 +78,43 @@ def exact_policy(model: Model, belief: np.ndarray, **budget: Any) -> PolicyResul
 
 MERGED = 1e-9
 """The planner merges beliefs that agree to 1e-9 in every state (or differ by less than 1e-15 where they
-are that small), and Bayes updates may magnify such differences further down. So a belief recomputed along
-another path must agree with the merged node's, and the policy's numbers with those recomputed here, to
-within this much *times the probability that the robot gets there*: what matters to the expected cost."""
+are that small), and Bayes updates may magnify such differences: a dozen looks that contradict each other
+turn 1e-16 into 0.01. So a belief recomputed along a path must agree with the merged node's, and the
+policy's numbers with those recomputed here, to within this much *times the probability of that path*:
+what matters to the expected cost."""
 
 
-def walk(model: Model, root: PolicyNode, belief: np.ndarray) -> list[tuple[PolicyNode, np.ndarray]]:
+def walk(model: Model, root: PolicyNode, belief: np.ndarray) -> list[tuple[PolicyNode, np.ndarray, float]]:
     """Every node of the policy graph once, with its belief recomputed by the Bayes filter from ``belief``
-    along the first path that meets it (depth first). A branch to a node met before -- by another path, or
-    back up a loop -- must lead to that node's belief (:data:`MERGED`): the planner merges equal beliefs
-    only."""
-    weight = visits(model, root)
-    beliefs = {root.number: belief}
+    along the most likely path to it, and that path's probability (the product of its branches'). A branch
+    to a node met before -- by another path, or back up a loop -- must lead to that node's belief
+    (:data:`MERGED`): the planner merges equal beliefs only."""
     objects = {root.number: root}
-    order = []
-    stack = [root]
-    while stack:
-        node = stack.pop()
-        order.append((node, beliefs[node.number]))
+    best = {root.number: 1.0}
+    arrivals: list[tuple[int, np.ndarray, float]] = []
+    order: list[tuple[PolicyNode, np.ndarray, float]] = []
+    beliefs: dict[int, np.ndarray] = {}
+    queue = [(-1.0, root.number, belief)]
+    while queue:  # the most likely paths first (Dijkstra's search with products of probabilities)
+        negative, number, current = heapq.heappop(queue)
+        if number in beliefs:
+            continue
+        beliefs[number] = current
+        node, reach = objects[number], -negative
+        order.append((node, current, reach))
         if node.action_index is None:
             continue
         action = model.actions[node.action_index]
         for branch in node.branches:
-            successor, _ = update(model, beliefs[node.number], action, branch.observation_index)
-            number = branch.node.number
-            if number in beliefs:
-                assert objects[number] is branch.node  # one number, one node
-                gap = float(np.abs(successor - beliefs[number]).max())
-                assert gap * weight[node.number] * branch.probability <= MERGED
-            else:
-                beliefs[number], objects[number] = successor, branch.node
-                stack.append(branch.node)
+            successor, _ = update(model, current, action, branch.observation_index)
+            child, chance = branch.node.number, reach * branch.probability
+            assert objects.setdefault(child, branch.node) is branch.node  # one number, one node
+            arrivals.append((child, successor, chance))
+            if child not in beliefs and chance > best.get(child, 0.0):
+                best[child] = chance
+                heapq.heappush(queue, (-chance, child, successor))
+    for child, successor, chance in arrivals:
+        assert float(np.abs(successor - beliefs[child]).max()) * chance <= MERGED
     return order
 
 
@@ -179,9 +186,7 @@ def open_probability(model: Model, root: PolicyNode) -> float:
 def check_tree_against_bayes(model: Model, result: PolicyResult, start: np.ndarray) -> None:
     """Branch probabilities are p(o | a, b) of the recomputed beliefs, every possible observation has its
     branch, and every node's max_belief and most likely state are those of its recomputed belief."""
-    weight = visits(model, result.root)
-    for node, belief in walk(model, result.root, start):
-        here = weight[node.number]
+    for node, belief, here in walk(model, result.root, start):
         assert abs(node.max_belief - float(belief.max())) * here <= MERGED
         assert abs(belief[node.most_likely] - float(belief.max())) * here <= MERGED
         if node.action_index is None:
@@ -201,7 +206,7 @@ def check_tree_against_bayes(model: Model, result: PolicyResult, start: np.ndarr
                 assert branch.observation == action.observation.name(branch.observation_index)
 
 
-def leaves(model: Model, result: PolicyResult, start: np.ndarray) -> list[tuple[PolicyNode, np.ndarray]]:
+def leaves(model: Model, result: PolicyResult, start: np.ndarray) -> list[tuple[PolicyNode, np.ndarray, float]]:
     return [item for item in walk(model, result.root, start) if item[0].action_index is None]
 
 
@@ -306,7 +311,7 @@ def test_expected_cost_and_branches_match_an_independent_recomputation(
     assume(result.status is not PlanStatus.NO_PLAN)
     assert result.expected_cost == result.root.expected_cost
     solved = solved_costs(model, result.root)
-    for node, _ in walk(model, result.root, start):  # every node, not only the root
+    for node, _, _ in walk(model, result.root, start):  # every node, not only the root
         assert solved[node.number] == pytest.approx(node.expected_cost, rel=1e-8, abs=1e-10)
     check_tree_against_bayes(model, result, start)
     assert result.open_share == pytest.approx(open_probability(model, result.root), rel=1e-8, abs=1e-10)
@@ -353,7 +358,7 @@ def test_exact_policy_is_never_costlier_than_best_first_with_replanning(data: di
     result = exact_policy(model, start)
     assert result.status is PlanStatus.FOUND, (result.status, result.expanded)
     assert result.open_share == pytest.approx(open_probability(model, result.root), abs=1e-10)
-    assert {n.leaf for n, _ in leaves(model, result, start)} <= {LeafKind.GOAL}
+    assert {n.leaf for n, _, _ in leaves(model, result, start)} <= {LeafKind.GOAL}
     assert result.expected_cost <= replanning + 1e-9 * max(1.0, replanning)
 
 
@@ -366,14 +371,14 @@ def test_goal_leaves_reach_the_threshold(data: dict[str, Any], budget: int, prun
     model = model_of(data)
     start = uniform(model.n_states)
     result = plan_policy(model, start, threshold=THRESHOLD, max_expansions=budget, prune_below=prune)
-    for node, belief in walk(model, result.root, start):
+    for node, belief, _ in walk(model, result.root, start):
         if node.leaf is LeafKind.GOAL:
             assert node.max_belief >= THRESHOLD
             assert belief.max() >= THRESHOLD - 1e-9
             assert node.expected_cost == 0.0
         elif node.action_index is not None:
             assert node.max_belief < THRESHOLD  # a node that acts is not at the goal yet
-    kinds = {node.leaf for node, _ in leaves(model, result, start)}
+    kinds = {node.leaf for node, _, _ in leaves(model, result, start)}
     if result.status is PlanStatus.FOUND:
         assert LeafKind.FRONTIER not in kinds
         if prune == 0.0:
@@ -389,7 +394,7 @@ def test_a_complete_unpruned_policy_ends_in_goals(data: dict[str, Any]):
     start = uniform(model.n_states)
     result = exact_policy(model, start, max_expansions=3000)
     assume(result.status is PlanStatus.FOUND)
-    for node, belief in leaves(model, result, start):
+    for node, belief, _ in leaves(model, result, start):
         assert node.leaf is LeafKind.GOAL
         if node.leaf is LeafKind.GOAL:
             assert node.max_belief >= THRESHOLD and belief.max() >= THRESHOLD - 1e-9
@@ -471,7 +476,7 @@ def test_branch_probabilities_and_costs_are_well_formed(
     assert math.isfinite(result.expected_cost) and result.expected_cost >= 0.0
     assert math.isfinite(result.open_share) and -1e-12 <= result.open_share <= 1.0 + 1e-9
     ending = ending_probabilities(model, result.root)
-    for node, _ in walk(model, result.root, start):
+    for node, _, _ in walk(model, result.root, start):
         assert math.isfinite(node.expected_cost) and node.expected_cost >= 0.0
         assert 0.0 < node.max_belief <= 1.0
         assert 0 <= node.most_likely < model.n_states
@@ -486,11 +491,11 @@ def test_branch_probabilities_and_costs_are_well_formed(
         probabilities = [b.probability for b in node.branches]
         assert all(0.0 < p <= 1.0 for p in probabilities)
         assert math.fsum(probabilities) == pytest.approx(1.0, abs=1e-9)
-    open_leaves = [n for n, _ in leaves(model, result, start) if n.leaf is LeafKind.FRONTIER]
+    open_leaves = [n for n, _, _ in leaves(model, result, start) if n.leaf is LeafKind.FRONTIER]
     if prune > 0.0:  # "at most 1 / prune_below branching leaves"
         assert len(open_leaves) <= 1.0 / prune + 1e-9
     if heuristic is Heuristic.ZERO:  # h = 0: every open leaf is worth 0, so the cost is a lower bound
-        for node, _ in leaves(model, result, start):
+        for node, _, _ in leaves(model, result, start):
             if node.leaf is LeafKind.FRONTIER:
                 assert node.expected_cost == 0.0
 
@@ -505,7 +510,7 @@ def test_one_expansion_is_not_enough_for_the_kitchen():
     assert result.status is PlanStatus.BUDGET_EXCEEDED and not result.found
     assert result.expanded == 1
     assert result.root.action is not None
-    kinds = [node.leaf for node, _ in leaves(model, result, start)]
+    kinds = [node.leaf for node, _, _ in leaves(model, result, start)]
     assert LeafKind.FRONTIER in kinds
     assert result.open_share > 0.0
     assert result.open_share == pytest.approx(open_probability(model, result.root), abs=1e-12)
@@ -525,7 +530,7 @@ def test_a_budget_of_one_expansion_is_reported_when_more_are_needed(data: dict[s
     result = exact_policy(model, start, max_expansions=1)
     assert result.status is PlanStatus.BUDGET_EXCEEDED
     assert result.expanded == 1
-    assert LeafKind.FRONTIER in {node.leaf for node, _ in leaves(model, result, start)}
+    assert LeafKind.FRONTIER in {node.leaf for node, _, _ in leaves(model, result, start)}
     assert result.open_share > 0.0
     assert result.expected_cost <= complete.expected_cost + 1e-9  # h = 0 is admissible
 
