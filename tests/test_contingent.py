@@ -12,6 +12,7 @@ from __future__ import annotations
 import heapq
 import math
 from typing import Any
+from unittest.mock import patch
 
 import numpy as np
 import pytest
@@ -21,8 +22,9 @@ from hypothesis import strategies as st
 from beliefloc import compile_model, load_map
 from beliefloc.belief import observation_probabilities, point, uniform, update
 from beliefloc.model import Model
+from beliefloc.planning import contingent
 from beliefloc.planning.best_first import PlanStatus, PlanStep, belief_key, plan
-from beliefloc.planning.contingent import LeafKind, PolicyNode, PolicyResult, plan_policy
+from beliefloc.planning.contingent import LeafKind, PolicyNode, PolicyPlanner, PolicyResult, plan_policy
 from beliefloc.planning.settings import Heuristic
 from beliefloc.planning.successors import SuccessorEvaluator
 from beliefloc.simulation.episode import EpisodeRecord, StepRecord, run_episode, run_experiment
@@ -500,7 +502,85 @@ def test_branch_probabilities_and_costs_are_well_formed(
                 assert node.expected_cost == 0.0
 
 
-# --- 6. budgets and a start at the goal ---------------------------------------------------------
+# --- 6. a planner that keeps its graph from one call to the next --------------------------------
+
+
+def check_policy(model: Model, result: PolicyResult, start: np.ndarray) -> None:
+    """Every node's expected cost solves the policy's Markov chain, beliefs and branches agree with Bayes
+    from ``start``, and ``open_share`` with the chain's absorption."""
+    solved = solved_costs(model, result.root)
+    for node, _, _ in walk(model, result.root, start):
+        assert solved[node.number] == pytest.approx(node.expected_cost, rel=1e-8, abs=1e-10)
+    check_tree_against_bayes(model, result, start)
+    assert result.open_share == pytest.approx(open_probability(model, result.root), rel=1e-8, abs=1e-10)
+
+
+def a_belief_ahead(model: Model, result: PolicyResult, start: np.ndarray) -> np.ndarray | None:
+    """The Bayes belief of the deepest-numbered node the policy acts at below its root (a frontier leaf when
+    it acts at the root alone; None when it does not act)."""
+    below = [(node, belief) for node, belief, _ in walk(model, result.root, start) if node is not result.root]
+    acting = [item for item in below if item[0].action_index is not None]
+    open_leaves = [item for item in below if item[0].leaf is LeafKind.FRONTIER]
+    chosen = acting or open_leaves
+    return max(chosen, key=lambda item: item[0].number)[1] if chosen else None
+
+
+@QUICK
+@given(
+    data=small_maps(),
+    heuristic=st.sampled_from(list(Heuristic)),
+    budget=st.sampled_from([3, 40]),
+    prune=st.sampled_from([0.0, 1e-3]),
+    elsewhere=st.integers(0, 10**6),
+)
+def test_a_kept_graph_gives_policies_that_match_an_independent_recomputation(
+    data: dict[str, Any], heuristic: Heuristic, budget: int, prune: float, elsewhere: int
+):
+    """Plan calls on one planner, whose belief cache holds four beliefs (so beliefs are recomputed along
+    chains that end at earlier starts): from the start, from a belief down its policy, from a belief the
+    graph has not seen, and from the start again. Each policy is checked from its own start."""
+    model = model_of(data)
+    with patch.object(contingent, "_CACHE_BYTES", 4 * 8 * model.n_states):
+        planner = PolicyPlanner(model, threshold=THRESHOLD, heuristic=heuristic, prune_below=prune)
+    start = uniform(model.n_states)
+    first = planner.plan(start, max_expansions=budget)
+    assume(first.status is not PlanStatus.NO_PLAN)
+    check_policy(model, first, start)
+    ahead = a_belief_ahead(model, first, start)
+    unseen = 0.5 * start + 0.5 * point(model.n_states, elsewhere % model.n_states)
+    for belief in [b for b in (ahead, unseen, start) if b is not None]:
+        result = planner.plan(belief, max_expansions=budget)
+        assert result.expanded <= budget
+        assert result.status is not PlanStatus.BUDGET_EXCEEDED or result.expanded == budget
+        if result.status is not PlanStatus.NO_PLAN:
+            check_policy(model, result, belief)
+
+
+@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(data=tiny_maps(), budget=st.sampled_from([1, 4, 30]))
+def test_planning_on_from_a_kept_graph_finds_the_least_expected_cost(data: dict[str, Any], budget: int):
+    """h = 0, nothing pruned: once the kept graph's policy from a belief down the first policy is complete,
+    it costs what a fresh search from that belief finds -- the least expected cost (values learnt by the
+    earlier call are exact backups or lower bounds, never misleading)."""
+    model = model_of(data)
+    start = uniform(model.n_states)
+    planner = PolicyPlanner(model, threshold=THRESHOLD, heuristic=Heuristic.ZERO, prune_below=0.0)
+    first = planner.plan(start, max_expansions=budget)
+    assume(first.status is not PlanStatus.NO_PLAN)
+    ahead = a_belief_ahead(model, first, start)
+    assume(ahead is not None)
+    assert ahead is not None
+    kept = planner.plan(ahead, max_expansions=20_000, time_limit=30.0)
+    fresh = exact_policy(model, ahead)
+    assume(fresh.status is PlanStatus.FOUND)
+    assert kept.status is PlanStatus.FOUND
+    assert kept.expected_cost == pytest.approx(fresh.expected_cost, rel=1e-8, abs=1e-10)
+    again = planner.plan(start, max_expansions=20_000, time_limit=30.0)
+    assert again.status is PlanStatus.FOUND
+    assert again.expected_cost == pytest.approx(exact_policy(model, start).expected_cost, rel=1e-8, abs=1e-10)
+
+
+# --- 7. budgets and a start at the goal ---------------------------------------------------------
 
 
 def test_one_expansion_is_not_enough_for_the_kitchen():
@@ -562,7 +642,7 @@ def test_no_action_leads_anywhere_is_no_plan():
     assert record.status is EpisodeStatus.NO_PLAN and record.steps == 0
 
 
-# --- 7. the kitchen: every contingent episode localizes -----------------------------------------
+# --- 8. the kitchen: every contingent episode localizes -----------------------------------------
 
 
 def test_kitchen_contingent_episodes_localize_with_beliefs_that_stay_distributions():

@@ -35,10 +35,16 @@ always comes back (a look at states that all read alike) is worth nothing, and b
 policy leaves for sure (look-alike states no action tells apart) are dead ends, worth nothing too
 (:meth:`_Search._dead_ends`); such a belief is a *loop* leaf, where the robot replans.
 
+**Planning on.** :class:`PolicyPlanner` keeps its graph from one plan call to the next, as the
+paper's robot keeps its closed list: a call from a belief the graph has already (one the robot reached
+by following the policy) starts from every value and expansion earlier calls made below it, and spends
+its ``max_expansions`` deeper. :func:`plan_policy` is one call on a fresh planner.
+
 **Honest ends.** :attr:`PlanStatus.FOUND`: the policy is complete (every leaf is a goal or a pruned
 belief). :attr:`PlanStatus.BUDGET_EXCEEDED`: the expansion or time budget ran out first; the policy
-then has *frontier* leaves, valued by the estimate, and a robot following it replans when it reaches
-one. :attr:`PlanStatus.NO_PLAN`: the start is a dead end.
+then has *frontier* leaves, valued by the estimate (a robot following it plans on at every step until
+its policy is complete, :class:`beliefloc.simulation.strategies.ContingentStrategy`).
+:attr:`PlanStatus.NO_PLAN`: the start is a dead end.
 """
 
 from __future__ import annotations
@@ -338,28 +344,66 @@ def plan_policy(
     ``prices`` are the estimate's (:func:`information_prices` when None; a caller that plans often
     computes them once per model; ignored with ``Heuristic.ZERO``). Deterministic: the same inputs
     give the same policy."""
-    start = time.perf_counter()
-    evaluator = evaluator or SuccessorEvaluator(model)
-    if heuristic is Heuristic.ZERO:
-        prices = NO_PRICES
-    elif prices is None:
-        prices = information_prices(model, evaluator)
-    search = _Search(model, evaluator, threshold, prices, prune_below)
-    root = search.root(belief)
-    status = PlanStatus.FOUND
-    expanded = 0
-    while (tip := search.next_tip(root)) is not None:
-        if expanded >= max_expansions or time.perf_counter() - start > time_limit:
-            status = PlanStatus.BUDGET_EXCEEDED
-            break
-        search.expand(tip)
-        expanded += 1
-        if progress is not None and expanded % _PROGRESS_EVERY == 0:
-            progress(expanded, search.generated, time.perf_counter() - start)
-    if root.leaf is None and root.best < 0:
-        status = PlanStatus.NO_PLAN
-    policy, open_share = search.policy(root)
-    return PolicyResult(status, policy, expanded, search.generated, time.perf_counter() - start, prices, open_share)
+    planner = PolicyPlanner(
+        model, threshold=threshold, heuristic=heuristic, prune_below=prune_below, evaluator=evaluator, prices=prices
+    )
+    return planner.plan(belief, max_expansions=max_expansions, time_limit=time_limit, progress=progress)
+
+
+class PolicyPlanner:
+    """LAO* that keeps its graph from one plan call to the next, as the paper's robot keeps its closed
+    list: a robot that follows a policy to a leaf and plans again from there starts from everything
+    the earlier calls learnt about the beliefs ahead of it (values and expansions), so each call's
+    ``max_expansions`` deepens the search instead of redoing it. Deterministic: the same calls give the
+    same policies."""
+
+    def __init__(
+        self,
+        model: Model,
+        *,
+        threshold: float = DEFAULT_THRESHOLD,
+        heuristic: Heuristic = Heuristic.ENTROPY_MAX_PROB,
+        prune_below: float = DEFAULT_PRUNE_BELOW,
+        evaluator: SuccessorEvaluator | None = None,
+        prices: InformationPrices | None = None,
+    ) -> None:
+        evaluator = evaluator or SuccessorEvaluator(model)
+        if heuristic is Heuristic.ZERO:
+            prices = NO_PRICES
+        elif prices is None:
+            prices = information_prices(model, evaluator)
+        self.prices = prices
+        self._search = _Search(model, evaluator, threshold, prices, prune_below)
+
+    def plan(
+        self,
+        belief: np.ndarray,
+        *,
+        max_expansions: int = DEFAULT_MAX_EXPANSIONS,
+        time_limit: float = DEFAULT_TIME_LIMIT,
+        progress: SearchProgress | None = None,
+    ) -> PolicyResult:
+        """The best policy from ``belief`` after at most ``max_expansions`` more expansions (those of
+        earlier calls count for nothing here) or ``time_limit`` seconds."""
+        start = time.perf_counter()
+        search = self._search
+        generated = search.generated
+        root = search.root(belief)
+        status = PlanStatus.FOUND
+        expanded = 0
+        while (tip := search.next_tip(root)) is not None:
+            if expanded >= max_expansions or time.perf_counter() - start > time_limit:
+                status = PlanStatus.BUDGET_EXCEEDED
+                break
+            search.expand(tip)
+            expanded += 1
+            if progress is not None and expanded % _PROGRESS_EVERY == 0:
+                progress(expanded, search.generated - generated, time.perf_counter() - start)
+        if root.leaf is None and root.best < 0:
+            status = PlanStatus.NO_PLAN
+        policy, open_share = search.policy(root)
+        seconds = time.perf_counter() - start
+        return PolicyResult(status, policy, expanded, search.generated - generated, seconds, self.prices, open_share)
 
 
 class _Search:
@@ -388,10 +432,14 @@ class _Search:
         :attr:`_probe` (rounded)."""
         self._probe = np.cos(np.arange(model.n_states) * 0.7548776662466927)
         self._cache = BeliefCache(max(4, _CACHE_BYTES // (8 * max(1, model.n_states))))
+        self._starts: dict[int, np.ndarray] = {}
+        """The beliefs of the nodes plans started from that no branch had reached."""
 
     def root(self, belief: np.ndarray) -> _Node:
+        """The node of ``belief`` (one the graph has already, or a new one) as the policy's start."""
         node = self._node(None, entropy(belief), float(belief.max()), belief)
-        self._cache.put(node.number, belief)  # a goal is not cached by _node, the root must be
+        if node.origin is None:  # every chain of recomputation ends at a start: never evicted
+            self._starts[node.number] = belief
         node.reach = 1.0
         return node
 
@@ -435,7 +483,7 @@ class _Search:
 
     def belief(self, node: _Node) -> np.ndarray:
         chain = []
-        while (cached := self._cache.get(node.number)) is None:
+        while (cached := self._starts.get(node.number, self._cache.get(node.number))) is None:
             chain.append(node)
             assert node.origin is not None
             node = node.origin[0]

@@ -8,8 +8,10 @@
 * ``ec2``: Khalvati & Mackworth's Algorithm 1 -- the heaviest action by the pairwise edge weights
   (:mod:`beliefloc.planning.ec2`), a random basic action when no action has a positive weight.
 * ``contingent``: a policy that branches on every observation (:mod:`beliefloc.planning.contingent`),
-  planned ``lookahead`` expansions deep and followed branch by branch; the robot replans when it
-  reaches a leaf that is not a goal (the frontier, or an observation the policy did not plan for).
+  planned ``lookahead`` expansions at a time and followed branch by branch. One planner serves the
+  whole episode and keeps its graph: while the policy is incomplete (it has frontier leaves) every step
+  plans ``lookahead`` expansions more from the robot's belief, and the robot also plans at a leaf
+  that is not a goal (an observation the policy did not plan for, or a dead end).
 * ``ec2-macros``: their Algorithm 3 -- macros (:mod:`beliefloc.planning.macros`) are candidates too;
   a chosen macro is executed one basic action at a time and abandoned when an observation differs
   from the one expected (the noise-free observation of the most likely state's path).
@@ -30,9 +32,9 @@ from beliefloc.planning.best_first import ClosedList, PlanResult, PlanStatus, Pl
 from beliefloc.planning.contingent import (
     InformationPrices,
     PolicyNode,
+    PolicyPlanner,
     PolicyResult,
     information_prices,
-    plan_policy,
 )
 from beliefloc.planning.ec2 import PairContext, hypotheses, pair_context, select
 from beliefloc.planning.macros import MacroTable, build_macros, macro_candidates
@@ -106,7 +108,8 @@ class PlannerSettings:
     weight: float = DEFAULT_WEIGHT
     """Best-first search ranks nodes by ``g + weight · h`` (1: the paper's)."""
     lookahead: int | None = None
-    """``contingent``: beliefs expanded per plan call (within ``max_expansions``); None:
+    """``contingent``: beliefs expanded per plan call, one call per step while the policy is
+    incomplete (within ``max_expansions``); None:
     :func:`beliefloc.planning.settings.default_lookahead` of the model's size."""
     prune_below: float = DEFAULT_PRUNE_BELOW
     """``contingent``: observation branches less likely than this are not planned for."""
@@ -173,8 +176,11 @@ class PlanningStrategy:
 
 @dataclass
 class ContingentStrategy:
-    """Follow a contingent policy branch by branch; plan a new one from the current belief at a leaf
-    that is not a goal (:mod:`beliefloc.planning.contingent`)."""
+    """Follow a contingent policy branch by branch, and go on planning with the same
+    :class:`PolicyPlanner` (which keeps its graph) at every step while the policy is incomplete, and at
+    a leaf that is not a goal (:mod:`beliefloc.planning.contingent`). Planning on from each belief the
+    robot reaches spends the lookahead where the episode goes: on the hallway, one call of 937
+    expansions from the start leaves 88 % of the policy's probability at frontier leaves."""
 
     name: str
     model: Model
@@ -185,20 +191,25 @@ class ContingentStrategy:
     policies: list[PolicyResult] = field(default_factory=list)
     new_plan: PlanResult | None = None
     _node: PolicyNode | None = None
+    _planner: PolicyPlanner | None = None
 
     def next_action(self, belief: np.ndarray) -> str | GiveUp:
-        if self._node is None or self._node.action is None:
+        complete = bool(self.policies) and self.policies[-1].found
+        if self._node is None or self._node.action is None or not complete:
             s = self.settings
-            result = plan_policy(
-                self.model,
+            if self._planner is None:
+                self._planner = PolicyPlanner(
+                    self.model,
+                    threshold=s.threshold,
+                    heuristic=s.heuristic,
+                    prune_below=s.prune_below,
+                    evaluator=self.evaluator,
+                    prices=self.prices,
+                )
+            result = self._planner.plan(
                 belief,
-                threshold=s.threshold,
-                heuristic=s.heuristic,
                 max_expansions=min(s.lookahead or default_lookahead(self.model.n_states), s.max_expansions),
                 time_limit=s.time_limit,
-                prune_below=s.prune_below,
-                evaluator=self.evaluator,
-                prices=self.prices,
             )
             self.policies.append(result)
             self.plan_seconds.append(result.seconds)
