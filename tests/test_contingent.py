@@ -1,10 +1,11 @@
-"""Contingent plans (planning/contingent.py): AO* policy trees checked against independent recomputations.
+"""Contingent plans (planning/contingent.py): LAO* policy graphs checked against independent recomputations.
 
 Random small maps come from :func:`tests.test_planning.small_maps`; the exact comparison with best-first
-search uses :func:`tiny_maps` (few enough states for AO* with ``h = 0`` to finish). Every expected cost,
-branch probability and belief of a policy is recomputed here with :func:`beliefloc.belief.update` along
-the tree's paths, and the expected cost of best-first search with replanning (the ``bestfirst``
-strategy) is computed exactly by solving the linear equations of its controller.
+search uses :func:`tiny_maps` (few enough states for LAO* with ``h = 0`` to finish). Every expected cost
+of a policy is recomputed by solving its Markov chain, every branch probability and belief with
+:func:`beliefloc.belief.update` along the policy's paths (also for policies planned on from a graph kept
+between calls), and the expected cost of best-first search with replanning (the ``bestfirst`` strategy)
+is computed exactly by solving the linear equations of its controller.
 """
 
 from __future__ import annotations

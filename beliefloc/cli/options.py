@@ -189,8 +189,10 @@ LookaheadOption = Annotated[
         "--lookahead",
         parser=whole(low=1),
         metavar="N",
-        help="contingent: beliefs expanded per plan call before the robot acts; it follows the policy's "
-        "branches and plans again at a leaf that is not a goal. Default: 30,000 / states, at least 32.",
+        help="contingent: beliefs expanded per plan call. The robot follows the policy's branches, plans "
+        "on from its belief at every step while the policy has unexpanded leaves, and plans again at a leaf "
+        "that is not a goal; the search keeps what it learnt for the whole episode. "
+        "Default: 30,000 / states, at least 32.",
         show_default=False,
     ),
 ]
