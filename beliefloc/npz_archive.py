@@ -338,5 +338,3 @@ def file_format(path: str | Path) -> str | None:
     except _DECODE_ERRORS:
         return None
     return prelude.format if isinstance(prelude.format, str) else None
-
-
