@@ -147,6 +147,19 @@ def test_simulate_show_tells_the_story(runner):
     assert "localized correctly" in out and "true state" in out
 
 
+def test_simulate_says_which_options_no_chosen_strategy_reads(runner):
+    kitchen = str(MAPS / "kitchen.yaml")
+    result = runner.invoke(app, ["simulate", kitchen, "-n", "1", "--lookahead", "5", "--gamma", "0.1", "--json"])
+    assert result.exit_code == 0
+    assert "--lookahead is ignored: it is for -s contingent" in result.stderr
+    assert "--gamma is ignored: it is for -s ec2 or -s ec2-macros" in result.stderr
+    assert "--prune-below" not in result.stderr
+    used = runner.invoke(
+        app, ["simulate", kitchen, "-n", "1", "-s", "contingent", "-s", "ec2", "--lookahead", "50", "--gamma", "0.1"]
+    )
+    assert used.exit_code == 0 and "ignored" not in used.stderr
+
+
 def test_simulate_unknown_strategy_and_failing_episodes(runner, tmp_path):
     result = runner.invoke(app, ["simulate", str(MAPS / "kitchen.yaml"), "-s", "astar"])
     assert result.exit_code == 2 and "unknown strategy 'astar'" in result.stderr

@@ -21,6 +21,7 @@ from beliefloc.cli.common import (
     print_json,
     refuse_unreachable,
     run_sweep,
+    warn,
     warn_if_too_wide,
 )
 from beliefloc.cli.options import (
@@ -189,6 +190,15 @@ def simulate(
     chosen_heuristic = resolve_heuristic(Planner.BESTFIRST, heuristic, h_weight)
     names = [strategy_name(name) for name in strategy or [StrategyName.BESTFIRST.value]]
     inputs = [map_file, *(p for p in (world, macros) if p is not None), *belief_inputs(belief)]
+    _warn_unused(
+        names,
+        {
+            "--lookahead": lookahead is not None,
+            "--prune-below": prune_below != DEFAULT_PRUNE_BELOW,
+            "--gamma": gamma is not None,
+            "--macros": macros is not None,
+        },
+    )
     _check_in_process(show, record, resume, workers, scheduler)
     check_sweep_options(workers, scheduler, out_file, resume, tuple(inputs))
     recording = _recording(record, record_episode, record_frames, episodes, inputs)
@@ -303,6 +313,23 @@ def simulate(
         _write_recording(model, smap, recorder.trace, recording, stderr_console() if json_output else out)
     if any(r.status is not EpisodeStatus.LOCALIZED for r in records):
         raise typer.Exit(EXIT_NEGATIVE)
+
+
+_USED_BY = {
+    "--lookahead": (StrategyName.CONTINGENT,),
+    "--prune-below": (StrategyName.CONTINGENT,),
+    "--gamma": (StrategyName.EC2, StrategyName.EC2_MACROS),
+    "--macros": (StrategyName.EC2_MACROS,),
+}
+"""The options that only some strategies read."""
+
+
+def _warn_unused(names: list[StrategyName], given: dict[str, bool]) -> None:
+    """An option given for strategies that do not run would be silently ignored: say so."""
+    for option, users in _USED_BY.items():
+        if given[option] and not set(users) & set(names):
+            wanted = " or ".join(f"-s {u.value}" for u in users)
+            warn(f"{option} is ignored: it is for {wanted}, which this run does not use")
 
 
 def _check_in_process(show: bool, record: Path | None, resume: bool, workers: int, scheduler: str | None) -> None:

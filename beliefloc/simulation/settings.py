@@ -27,4 +27,4 @@ class StrategyName(str, enum.Enum):
     EC2_MACROS = "ec2-macros"
     """Their Algorithm 3: macro actions are candidates too."""
     CONTINGENT = "contingent"
-    """A policy tree that branches on every observation (AO* over beliefs), followed until it ends."""
+    """A policy that branches on every observation (LAO* over beliefs), planned on while incomplete."""
