@@ -33,7 +33,6 @@ import json
 import math
 import os
 import shlex
-import subprocess
 import sys
 import tempfile
 import time
@@ -44,7 +43,7 @@ from typing import Any
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the repository root: import benchmarks.*
 
 from benchmarks.machine import cpu_name
-from benchmarks.planning.settings import ROOT, peak_rss_mib, say, single_threaded
+from benchmarks.planning.settings import ROOT, peak_rss_mib, run_json_child, say, single_threaded
 from benchmarks.planning.worlds import build_model, world_seed
 from benchmarks.stats import DASH, difference_ci, fmt, mean, paired_p, win_counts
 
@@ -153,14 +152,7 @@ CHILDREN = {"worlds": child_worlds, "map": child_map}
 def run_child(params: dict[str, Any]) -> dict[str, Any]:
     """Run one part in a fresh ``python benchmarks/bench_contingent.py --child`` at the repository root."""
     command = [sys.executable, str(Path(__file__).resolve()), "--child", json.dumps(params)]
-    started = time.perf_counter()
-    # stderr (progress) goes straight to ours
-    done = subprocess.run(command, stdout=subprocess.PIPE, text=True, check=False, env=os.environ.copy(), cwd=ROOT)
-    if done.returncode != 0:
-        raise SystemExit(f"benchmark child {params['label']} failed (exit {done.returncode})")
-    result: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
-    result["wall_s"] = time.perf_counter() - started
-    return result
+    return run_json_child(command, params["label"])
 
 
 # --- the statistics of a row ----------------------------------------------------------------------------------

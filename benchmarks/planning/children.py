@@ -7,8 +7,6 @@ seeds, so every part sees the same worlds.
 from __future__ import annotations
 
 import json
-import os
-import subprocess
 import sys
 import tempfile
 import time
@@ -19,7 +17,7 @@ from typing import Any
 
 from benchmarks.stats import mean_or_none
 
-from .settings import EXACT_MAX_STATES, KEY_TOLERANCE, ROOT, THRESHOLD, peak_rss_mib, say
+from .settings import EXACT_MAX_STATES, KEY_TOLERANCE, THRESHOLD, peak_rss_mib, run_json_child, say
 from .worlds import build_model, replay, world_seed
 
 
@@ -244,11 +242,4 @@ def run_child(params: dict[str, Any]) -> dict[str, Any]:
     """Run one part in a fresh ``python -m benchmarks.planning --child`` at the repository root; its
     result, with the wall-clock seconds it took."""
     command = [sys.executable, "-m", "benchmarks.planning", "--child", json.dumps(params)]
-    started = time.perf_counter()
-    # stderr (progress) goes straight to ours
-    done = subprocess.run(command, stdout=subprocess.PIPE, text=True, check=False, env=os.environ.copy(), cwd=ROOT)
-    if done.returncode != 0:
-        raise SystemExit(f"benchmark child {params['kind']} {params['states']} failed (exit {done.returncode})")
-    result: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
-    result["wall_s"] = time.perf_counter() - started
-    return result
+    return run_json_child(command, f"{params['kind']} {params['states']}")

@@ -6,10 +6,14 @@ Nothing here imports numpy: :func:`single_threaded` must run before its first im
 
 from __future__ import annotations
 
+import json
 import os
 import resource
+import subprocess
 import sys
+import time
 from pathlib import Path
+from typing import Any
 
 ROOT = Path(__file__).resolve().parents[2]
 """The repository root: the children run ``python -m benchmarks.planning`` there."""
@@ -42,3 +46,15 @@ def peak_rss_mib() -> float:
 
 def say(text: str) -> None:
     print(text, file=sys.stderr, flush=True)
+
+
+def run_json_child(command: list[str], label: str) -> dict[str, Any]:
+    """Run a benchmark child process at the repository root, its progress straight to our stderr; its
+    result (the JSON on the last line of its stdout) with the wall-clock seconds it took, ``wall_s``."""
+    started = time.perf_counter()
+    done = subprocess.run(command, stdout=subprocess.PIPE, text=True, check=False, env=os.environ.copy(), cwd=ROOT)
+    if done.returncode != 0:
+        raise SystemExit(f"benchmark child {label} failed (exit {done.returncode})")
+    result: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
+    result["wall_s"] = time.perf_counter() - started
+    return result
