@@ -245,7 +245,10 @@ def _plan_policy(
         out.print(policy_tree(result, model, title, depth))
         out.print(policy_line(result))
     if result.status is PlanStatus.NO_PLAN:
-        stderr_console().print("[bold]no plan:[/] every action from the start belief leads back to it.")
+        stderr_console().print(
+            "[bold]no plan:[/] no policy from the start belief reaches the goal or the search's frontier for "
+            f"sure: it is a dead end, with states of {escape(model.name)} that no action tells apart."
+        )
         raise typer.Exit(EXIT_NEGATIVE)
     if result.status is PlanStatus.BUDGET_EXCEEDED:
         stderr_console().print(
