@@ -32,7 +32,8 @@ from typing import Any
 
 from beliefloc.errors import InvalidValueError, ModelError
 from beliefloc.model import Action, Model
-from beliefloc.semantic_map.schema import HereSensor, LookSensor, ScanSensor, SemanticMap, Sensor, here_classes
+from beliefloc.semantic_map.schema import SemanticMap, here_classes
+from beliefloc.semantic_map.sections import HereSensor, LookSensor, ScanSensor, Sensor
 
 EDGE_TOLERANCE = 1e-9
 """A value within this of a bin's upper edge is in that bin (compile.py's ``- 1e-9``)."""

@@ -22,7 +22,7 @@ from beliefloc.belief import observation_probabilities, predict
 from beliefloc.errors import FieldError
 from beliefloc.model import NONE_OBSERVATION, Model
 from beliefloc.semantic_map import SemanticMap
-from beliefloc.semantic_map.schema import MOVES_BY_HEADINGS
+from beliefloc.semantic_map.sections import MOVES_BY_HEADINGS
 
 SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 CLASS_POOL = ["chair", "plant", "door", "screen"]

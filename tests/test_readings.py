@@ -17,7 +17,7 @@ from beliefloc.errors import InvalidValueError, ModelError
 from beliefloc.model import Model
 from beliefloc.readings import ReadingBinner, scan_bin
 from beliefloc.semantic_map import SemanticMap, geometry
-from beliefloc.semantic_map.schema import ScanSensor
+from beliefloc.semantic_map.sections import ScanSensor
 
 from .conftest import MAPS
 

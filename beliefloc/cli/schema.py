@@ -154,6 +154,7 @@ _ANNOTATION_FIELDS = {
 def map_schema() -> JsonObject:
     """The JSON Schema (draft-07) of a semantic map file."""
     from beliefloc.semantic_map import schema as models
+    from beliefloc.semantic_map import sections
 
     schema = _generate(models.SemanticMap)
     defs = schema["definitions"]
@@ -164,15 +165,15 @@ def map_schema() -> JsonObject:
         "A semantic map: the grid, walls, landmarks, actions and sensors. See docs/map-format.md.",
     )
     for name, model, extra in (
-        ("Grid", models.Grid, _GRID_FIELDS),
-        ("Landmark", models.Landmark, _LANDMARK_FIELDS),
-        ("ActionSpec", models.ActionSpec, _ACTION_FIELDS),
-        ("LookSensor", models.LookSensor, _SENSOR_FIELDS),
-        ("ScanSensor", models.ScanSensor, _SENSOR_FIELDS),
-        ("HereSensor", models.HereSensor, _SENSOR_FIELDS),
-        ("RoomRectangle", models.RoomRectangle, {}),
-        ("Rooms", models.Rooms, _ROOMS_FIELDS),
-        ("Annotation", models.Annotation, _ANNOTATION_FIELDS),
+        ("Grid", sections.Grid, _GRID_FIELDS),
+        ("Landmark", sections.Landmark, _LANDMARK_FIELDS),
+        ("ActionSpec", sections.ActionSpec, _ACTION_FIELDS),
+        ("LookSensor", sections.LookSensor, _SENSOR_FIELDS),
+        ("ScanSensor", sections.ScanSensor, _SENSOR_FIELDS),
+        ("HereSensor", sections.HereSensor, _SENSOR_FIELDS),
+        ("RoomRectangle", sections.RoomRectangle, {}),
+        ("Rooms", sections.Rooms, _ROOMS_FIELDS),
+        ("Annotation", sections.Annotation, _ANNOTATION_FIELDS),
     ):
         _describe(defs, name, model, extra)
     props = schema["properties"]
@@ -185,7 +186,7 @@ def map_schema() -> JsonObject:
     # grid: rows and cols come from the image on an occupancy map, and are required otherwise;
     # robot_radius and occupancy go together, and layout does not go with occupancy
     defs["Grid"].pop("required", None)
-    moves = models.MOVES_BY_HEADINGS
+    moves = sections.MOVES_BY_HEADINGS
     compass, turning = list(moves[1]), list(dict.fromkeys([*moves[4], *moves[8]]))
     occupancy_given = {"required": ["occupancy"], "properties": {"occupancy": {"type": "string"}}}
     # ``errorMessage`` is yaml-language-server's (other validators ignore it); a property whose

@@ -23,15 +23,8 @@ from beliefloc.model import (
 )
 from beliefloc.semantic_map import geometry, pixel_geometry
 from beliefloc.semantic_map.observations import label, look_values, scan_values
-from beliefloc.semantic_map.schema import (
-    HereSensor,
-    LookSensor,
-    ScanSensor,
-    SemanticMap,
-    Sensor,
-    _grid_lines,
-    here_classes,
-)
+from beliefloc.semantic_map.schema import SemanticMap, here_classes
+from beliefloc.semantic_map.sections import HereSensor, LookSensor, ScanSensor, Sensor, grid_lines
 
 
 def layout_of(smap: SemanticMap) -> GridLayout:
@@ -373,7 +366,7 @@ def _here_part(
     lookup = {cls: i for i, cls in enumerate(classes)}
     cell_class = np.full((layout.rows, layout.cols), lookup.get(sensor.default, 0), dtype=np.int32)
     if sensor.labels is not None:
-        for r, line in enumerate(_grid_lines(sensor.labels)):
+        for r, line in enumerate(grid_lines(sensor.labels)):
             for c, ch in enumerate(line):
                 if layout.free[r, c]:
                     cell_class[r, c] = lookup[sensor.legend[ch] if sensor.legend else ch]

@@ -1,28 +1,26 @@
-"""The semantic map file format: pydantic models of ``maps/*.yaml``.
+"""The semantic map file format: :class:`SemanticMap`, the pydantic model of ``maps/*.yaml``.
 
 Every field is documented in ``docs/map-format.md``. Validation happens here, once; code downstream
 works on the frozen, checked :class:`SemanticMap`. Cross-reference checks (a landmark on a blocked
 cell, an annotation naming an unknown class) raise :class:`~beliefloc.errors.FieldError` with the path
-of the offending value, so the loader can name its line.
+of the offending value, so the loader can name its line. The sections it is made of live in
+:mod:`~beliefloc.semantic_map.sections`, the room checks in :mod:`~beliefloc.semantic_map.room_checks`,
+what an occupancy map fills in before validation in :mod:`~beliefloc.semantic_map.occupancy_section`.
 """
 
 from __future__ import annotations
 
-import collections
 import math
 import re
 from functools import cached_property
-from typing import TYPE_CHECKING, Annotated, Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 from pydantic import (
     BaseModel,
-    BeforeValidator,
-    ConfigDict,
     Field,
     PrivateAttr,
     ValidationInfo,
-    field_validator,
     model_validator,
 )
 
@@ -31,273 +29,40 @@ from beliefloc.limits import GEOMETRY_TESTS, MODEL_ENTRIES
 from beliefloc.model import MapFrame, SourceInfo
 from beliefloc.semantic_map import observations
 from beliefloc.semantic_map.observations import ObservationSet, PartGroup, PartSpec
-from beliefloc.semantic_map.occupancy_grid import free_cells, grid_shape, rooms_from_mask, rooms_from_polygons
+from beliefloc.semantic_map.occupancy_grid import free_cells, rooms_from_mask, rooms_from_polygons
+from beliefloc.semantic_map.occupancy_section import grid_from_occupancy, landmark_cells, too_much_geometry
+from beliefloc.semantic_map.room_checks import check_rooms
+from beliefloc.semantic_map.sections import (
+    BLOCKED,
+    FREE,
+    MAX_METRES,
+    MOVES_BY_HEADINGS,
+    ActionSpec,
+    Annotation,
+    Grid,
+    HereSensor,
+    Landmark,
+    LookSensor,
+    Name,
+    RoomRectangle,
+    Rooms,
+    ScanSensor,
+    Sensor,
+    StrictModel,
+    TaggedSensor,
+    grid_lines,
+)
 from beliefloc.source import refuse_field_name
 
 if TYPE_CHECKING:
     from beliefloc.occupancy import OccupancyMap
 
-MAX_COST = 1e6
-"""The largest cost of an action: plans add costs up, and a sum must stay a finite number."""
-MAX_METRES = 1e9
-"""The largest length or map-frame coordinate, in metres (UTM coordinates fit)."""
-MIN_CELL_SIZE = 1e-3
-"""The smallest ``cell_size``, in metres."""
 
-# Numbers are strict: YAML's true and false are booleans, never 1 and 0 (a strict float still
-# takes an integer). Every float that enters arithmetic is finite and bounded.
-Integer = Annotated[int, Field(strict=True)]
-Probability = Annotated[float, Field(strict=True, ge=0.0, le=1.0, allow_inf_nan=False)]
-Cost = Annotated[float, Field(strict=True, ge=0.0, le=MAX_COST, allow_inf_nan=False)]
-Length = Annotated[float, Field(strict=True, ge=0.0, le=MAX_METRES, allow_inf_nan=False)]
-"""Metres, from 0."""
-CellSize = Annotated[float, Field(strict=True, ge=MIN_CELL_SIZE, le=MAX_METRES, allow_inf_nan=False)]
-Coordinate = Annotated[float, Field(strict=True, ge=-MAX_METRES, le=MAX_METRES, allow_inf_nan=False)]
-"""A map-frame x or y, in metres."""
-Degrees = Annotated[float, Field(strict=True, allow_inf_nan=False)]
-Name = Annotated[str, Field(pattern=r"^[A-Za-z0-9_\-]+$", max_length=64)]
-"""Class, action and sensor names: they become parts of observation names on the command line."""
-
-FREE, BLOCKED = ".", "#"
-MOVES_BY_HEADINGS: dict[int, tuple[str, ...]] = {
-    1: ("up", "down", "left", "right"),
-    4: ("forward", "backward", "rotate_cw", "rotate_ccw"),
-    8: ("forward", "backward", "rotate_cw", "rotate_ccw"),
-}
 _NAME_CHAR = re.compile(r"^[A-Za-z0-9_\-]$")
-NO_ROOM = FREE
-"""In a room layout, a free cell in no room (blocked cells stay ``#``)."""
 _STATE_RE = re.compile(r"^\s*(-?\d+)\s*,\s*(-?\d+)\s*(?:,\s*(-?\d+)\s*)?$")
 
 
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
-
-
-def _no_boolean(value: Any) -> Any:
-    """YAML's true and false are not the numbers 1 and 0 (a Literal would take them)."""
-    if isinstance(value, bool):
-        raise ValueError(f"should be a number, got {str(value).lower()}")
-    return value
-
-
-class Grid(_Strict):
-    rows: Integer = Field(ge=1, le=100_000)
-    """On a map with ``occupancy:``, rows and cols come from the image (the loader fills them in)."""
-    cols: Integer = Field(ge=1, le=100_000)
-    cell_size: CellSize = 1.0
-    """Side of a cell in meters; ranges and scan bins are in meters too."""
-    headings: Annotated[Literal[1, 4, 8], BeforeValidator(_no_boolean)] = 4
-    """1: no orientation, compass moves; 4 or 8: a triangle per heading, 0 = north, clockwise."""
-    robot_radius: Length | None = None
-    """Occupancy maps: a cell is a state only when a disc of this radius on its centre touches no
-    occupied or unknown pixel (:mod:`beliefloc.semantic_map.occupancy_grid`). Default 0."""
-
-
-class Landmark(_Strict):
-    """An object of a class the robot recognises: at a ``cell`` ``[row, col]``, or at ``x``, ``y`` in
-    map-frame metres (what RViz's Publish Point gives; the loader fills in its cell)."""
-
-    class_: Name = Field(alias="class")
-    cell: tuple[Integer, Integer]
-    x: Coordinate | None = None
-    y: Coordinate | None = None
-    name: str | None = None
-    """Optional label for humans (shown by ``beliefloc show``)."""
-
-    @property
-    def position(self) -> tuple[float, float] | None:
-        """Map-frame metres, when the file gave them."""
-        return None if self.x is None or self.y is None else (self.x, self.y)
-
-
-class ActionSpec(_Strict):
-    cost: Cost = 1.0
-    failure: Probability = 0.0
-    """Probability that the move fails and the robot stays where it is."""
-
-
-class _SensorBase(_Strict):
-    cost: Cost = 1.0
-    passive: bool = False
-    """Also observe after every actuation action (Khalvati's setting)."""
-    as_action: bool = True
-    """Offer the sensor as a perception action of its own."""
-
-
-class LookSensor(_SensorBase):
-    """Which of ``classes`` are seen, each independently with false positives and negatives."""
-
-    type: Literal["look"]
-    classes: list[Name]
-    false_positive: Probability = 0.0
-    false_negative: Probability = 0.0
-    range: Length | None = None
-    """Meters between cell centres; unlimited when omitted."""
-    fov: Annotated[Degrees, Field(gt=0.0, le=360.0)] | None = None
-    """Field of view in degrees, centred on the heading. Default 90 (360 on maps with headings 1)."""
-    angle_bins: list[Annotated[Degrees, Field(gt=0.0, le=180.0)]] | None = None
-    """Upper edges (degrees) of viewing-angle bins: [18, 30, 45] reports 0-18, 18-30 or 30-45."""
-    occlusion: bool = True
-    """Blocked cells between the robot and a landmark hide it."""
-
-    @field_validator("classes")
-    @classmethod
-    def _classes(cls, value: list[str]) -> list[str]:
-        if not value:
-            raise ValueError("a look sensor needs at least one class, or it has no observations")
-        counts = collections.Counter(value)
-        duplicates = sorted(c for c, n in counts.items() if n > 1)
-        if duplicates:
-            raise ValueError(f"classes listed twice: {', '.join(duplicates)}")
-        return value
-
-    @field_validator("angle_bins")
-    @classmethod
-    def _bins(cls, value: list[float] | None) -> list[float] | None:
-        if value is not None:
-            if not value:
-                raise ValueError("angle_bins needs at least one edge, e.g. [18, 30, 45]")
-            if any(b >= a for a, b in zip(value[1:], value[:-1], strict=False)):
-                raise ValueError(f"angle_bins must be strictly increasing, got {value}")
-        return value
-
-    def effective_fov(self, headings: int) -> float:
-        if headings == 1:
-            return 360.0
-        if self.fov is not None:
-            return self.fov
-        return 2.0 * self.angle_bins[-1] if self.angle_bins else 90.0
-
-
-class ScanSensor(_SensorBase):
-    """Distance to the wall or blocked cell in front, binned; 'no_wall' beyond the last bin."""
-
-    type: Literal["scan"]
-    bins: list[Annotated[Length, Field(gt=0.0)]]
-    """Upper edges in meters: [0.2, 0.8, 1.1, 1.5] gives wall_0-0.2 ... wall_1.1-1.5 and no_wall."""
-    error: Probability = 0.0
-    """Probability of reading another bin, spread evenly over the others."""
-    beams: list[Annotated[Degrees, Field(gt=-360.0, lt=360.0)]] = Field(default_factory=lambda: [0.0])
-    """Directions of the beams in degrees, relative to the heading (clockwise positive), each read
-    independently with the same bins and error: ``[-90, 0, 90]`` looks left, ahead and right.
-    Multiples of 360/headings. The default ``[0]`` is one beam straight ahead."""
-
-    @field_validator("beams")
-    @classmethod
-    def _beams(cls, value: list[float]) -> list[float]:
-        if not value:
-            raise ValueError("a scan needs at least one beam, e.g. [0] (straight ahead)")
-        turns = [v % 360.0 for v in value]
-        if len(set(turns)) != len(turns):
-            raise ValueError(f"beams point the same way twice: {value}")
-        return value
-
-    @property
-    def multi_beam(self) -> bool:
-        return self.beams != [0.0]
-
-    @field_validator("bins")
-    @classmethod
-    def _bins(cls, value: list[float]) -> list[float]:
-        if not value:
-            raise ValueError("a scan sensor needs at least one bin edge, e.g. [0.2, 0.8, 1.1, 1.5]")
-        if any(b >= a for a, b in zip(value[1:], value[:-1], strict=False)):
-            raise ValueError(f"bins must be strictly increasing, got {value}")
-        return value
-
-    def observation_names(self) -> list[str]:
-        return list(observations.scan_values(self.bins))
-
-
-class HereSensor(_SensorBase):
-    """The class of the robot's current cell (Colledanchise's Window, Khalvati's 0/1 labels)."""
-
-    type: Literal["here"]
-    labels: str | None = None
-    """One character per cell, a row per line (like ``layout``); omitted: from landmarks."""
-    legend: dict[str, Name] | None = None
-    """Character -> class name; omitted: the character itself is the class."""
-    default: Name = "nothing"
-    """Class of a cell with no landmark, when ``labels`` is omitted."""
-    error: Probability = 0.0
-    """Probability of reading another class, spread evenly over the others."""
-
-
-Sensor = LookSensor | ScanSensor | HereSensor
-"""A perception action's sensor; the map file says which by ``type``."""
-_TaggedSensor = Annotated[Sensor, Field(discriminator="type")]
-
-RoomName = Annotated[str, Field(pattern=r"^[a-z][a-z0-9_]*$", max_length=64)]
-"""A lowercase letter, then lowercase letters, digits and ``_``: the room names of a domain's
-knowledge base (clingo constants), so that a domain can reference the map's rooms."""
-
-
-class RoomRectangle(_Strict):
-    """``{from: [r0, c0], to: [r1, c1]}``: the cells from ``[r0, c0]`` to ``[r1, c1]``, both corners included."""
-
-    from_: tuple[Integer, Integer] = Field(alias="from")
-    to: tuple[Integer, Integer]
-
-
-class Rooms(_Strict):
-    """Named rooms: a letter per cell (``layout`` with a ``legend``) or ``rectangles`` of cells.
-
-    Every room has at least one cell, its cells are free, and rooms do not overlap; free cells in
-    no room are allowed (a doorway, say).
-    """
-
-    model_config = ConfigDict(extra="allow", frozen=True, populate_by_name=True)
-    layout: str | None = None
-    """Like the map's ``layout``: a legend letter per cell of a room, '.' for a free cell in no
-    room, '#' for a blocked cell."""
-    legend: dict[str, RoomName] | None = None
-    """Letter -> room name: ``{K: kitchen}``."""
-    rectangles: dict[RoomName, RoomRectangle | list[RoomRectangle]] | None = None
-    """Room name -> a rectangle, or a list of them (an L-shaped room)."""
-    mask: str | None = None
-    """Occupancy maps: a region mask in the Nav2 costmap-filter style -- a second map YAML and image
-    with the map's size, resolution and origin, where pixel value k means region k -- relative to
-    this file; ``labels`` names the regions. A cell is in the room its centre's pixel says."""
-    labels: dict[Integer, RoomName] | None = None
-    """``{1: aisle_a, 2: dock}``: the room of each pixel value of ``mask``."""
-    polygons: dict[RoomName, list[tuple[Coordinate, Coordinate]]] | None = None
-    """Room name -> its outline, ``[[x, y], ...]`` in map-frame metres (at least three corners). A
-    cell is in the room when its centre is inside."""
-
-    @field_validator("legend", mode="before")
-    @classmethod
-    def _digit_letters(cls, value: Any) -> Any:
-        # YAML reads ``1: bedroom`` with an integer key; the room layout has the character '1'
-        if isinstance(value, dict):
-            return {str(k) if isinstance(k, int) and not isinstance(k, bool) else k: v for k, v in value.items()}
-        return value
-
-
-class Annotation(BaseModel):
-    """``{state: "1,1,0", look: [potted_plant]}``: the expected observation of a state, by hand.
-
-    ``state`` names one state, or a whole cell (``"r,c"`` on a map with headings); ``states`` lists
-    several (generated maps use it). Other keys are sensor names, checked against the map's sensors.
-    """
-
-    model_config = ConfigDict(extra="allow", frozen=True)
-    state: str | None = None
-    states: list[str] | None = None
-
-    @property
-    def readings(self) -> dict[str, Any]:
-        return dict(self.model_extra or {})
-
-    @property
-    def targets(self) -> list[tuple[str, tuple[str | int, ...]]]:
-        """Each state named, with the path of where it was written."""
-        if self.state is not None:
-            return [(self.state, ("state",))]
-        return [(name, ("states", i)) for i, name in enumerate(self.states or [])]
-
-
-class SemanticMap(_Strict):
+class SemanticMap(StrictModel):
     name: Name
     description: str | None = None
     occupancy: str | None = None
@@ -310,7 +75,7 @@ class SemanticMap(_Strict):
     layout: str | None = None
     landmarks: list[Landmark] = Field(default_factory=list)
     actions: dict[str, ActionSpec]
-    sensors: dict[Name, _TaggedSensor] = Field(default_factory=dict)
+    sensors: dict[Name, TaggedSensor] = Field(default_factory=dict)
     annotations: list[Annotation] = Field(default_factory=list)
     room_spec: Rooms | None = Field(default=None, alias="rooms")
     """The ``rooms:`` section as written; :attr:`rooms` gives each room's cells."""
@@ -322,6 +87,11 @@ class SemanticMap(_Strict):
     def occupancy_map(self) -> OccupancyMap | None:
         """The occupancy map named by ``occupancy:`` (set by ``load_map``)."""
         return self._occupancy
+
+    @property
+    def region_mask(self) -> np.ndarray | None:
+        """The region mask named by ``rooms.mask`` (set by ``load_map``): pixel value k is region k."""
+        return self._region_mask
 
     @property
     def frame(self) -> MapFrame:
@@ -343,8 +113,8 @@ class SemanticMap(_Strict):
         context = info.context or {}
         occupancy: OccupancyMap | None = context.get("occupancy")
         if occupancy is not None:
-            data = _grid_from_occupancy(data, occupancy)
-        return _landmark_cells(data, occupancy)
+            data = grid_from_occupancy(data, occupancy)
+        return landmark_cells(data, occupancy)
 
     # --- derived geometry -----------------------------------------------------------------------
     @cached_property
@@ -357,7 +127,7 @@ class SemanticMap(_Strict):
             return free_cells(occ.blocked(), occ.resolution, self.grid.cell_size, radius)
         if self.layout is None:
             return np.ones((self.grid.rows, self.grid.cols), dtype=bool)
-        lines = _grid_lines(self.layout)
+        lines = grid_lines(self.layout)
         return np.array([[ch == FREE for ch in line] for line in lines], dtype=bool)
 
     @cached_property
@@ -384,7 +154,7 @@ class SemanticMap(_Strict):
                 masks[name] = mask
             return masks
         assert spec.layout is not None and spec.legend is not None  # checked at validation
-        letters = np.array([list(line) for line in _grid_lines(spec.layout)])
+        letters = np.array([list(line) for line in grid_lines(spec.layout)])
         return {name: letters == letter for letter, name in spec.legend.items()}
 
     @property
@@ -441,7 +211,7 @@ class SemanticMap(_Strict):
         self._check_observations()
         self._check_annotations()
         self._warn_unseen_classes(context.get("warnings"))
-        self._check_rooms()
+        check_rooms(self)
         return self
 
     def _check_occupancy(self) -> None:
@@ -459,7 +229,7 @@ class SemanticMap(_Strict):
     def _check_layout(self) -> None:
         if self.layout is None:
             return
-        lines = _grid_lines(self.layout)
+        lines = grid_lines(self.layout)
         g = self.grid
         if len(lines) != g.rows:
             raise FieldError(("layout",), f"has {len(lines)} rows, but grid.rows is {g.rows}")
@@ -582,7 +352,7 @@ class SemanticMap(_Strict):
             where = "range" if sensor.range is not None else "classes"
             raise FieldError(
                 ("sensors", name, where),
-                _too_much_geometry(tests, f"{landmarks:,} landmarks, each seen from up to {states:,} states"),
+                too_much_geometry(tests, f"{landmarks:,} landmarks, each seen from up to {states:,} states"),
             )
 
     def _warn_unseen_classes(self, warnings: list[tuple[tuple[str | int, ...], str]] | None) -> None:
@@ -626,7 +396,7 @@ class SemanticMap(_Strict):
             if sensor.legend is not None:
                 raise FieldError(("sensors", name, "legend"), "a legend needs labels")
             return
-        lines = _grid_lines(sensor.labels)
+        lines = grid_lines(sensor.labels)
         g = self.grid
         path = ("sensors", name, "labels")
         if len(lines) != g.rows:
@@ -673,185 +443,6 @@ class SemanticMap(_Strict):
                     known = ", ".join(self.sensors) or "none"
                     raise FieldError(path, f"unknown sensor {key!r}; the map's sensors are: {known}")
                 _check_reading(sensor, value, path, self)
-
-    def _check_rooms(self) -> None:
-        spec = self.room_spec
-        if spec is None:
-            return
-        if spec.model_extra:
-            key = next(iter(spec.model_extra))
-            raise FieldError(
-                ("rooms", key),
-                f"unknown key {key!r}; expected one of: layout, legend (a letter per cell), rectangles, "
-                "mask with labels, or polygons",
-            )
-        letters = spec.layout is not None or spec.legend is not None
-        region = spec.mask is not None or spec.labels is not None
-        given = [
-            name
-            for name, on in (
-                ("layout", letters),
-                ("rectangles", spec.rectangles is not None),
-                ("mask", region),
-                ("polygons", spec.polygons is not None),
-            )
-            if on
-        ]
-        if len(given) > 1:
-            raise FieldError(("rooms", given[1]), f"give one way of drawing rooms, not {' and '.join(given)}")
-        if spec.rectangles is not None:
-            self._check_room_rectangles(spec.rectangles)
-        elif region:
-            self._check_room_mask()
-        elif spec.polygons is not None:
-            self._check_room_polygons(spec.polygons)
-        elif not letters:
-            raise FieldError(("rooms",), "give layout with a legend (a letter per cell), rectangles, mask or polygons")
-        elif spec.layout is None or spec.legend is None:
-            missing = "legend" if spec.legend is None else "layout"
-            example = "{K: kitchen}" if missing == "legend" else "a letter per cell, like the map's layout"
-            raise FieldError(("rooms",), f"a room layout needs a {missing} ({example}); or give rectangles")
-        else:
-            self._check_room_layout(spec.layout, spec.legend)
-
-    def _check_room_mask(self) -> None:
-        spec = self.room_spec
-        assert spec is not None
-        if spec.mask is None or spec.labels is None:
-            missing = "mask (a region map YAML beside this file)" if spec.mask is None else "labels ({1: aisle_a})"
-            raise FieldError(("rooms",), f"a region mask needs both mask and labels; {missing} is missing")
-        if self._occupancy is None:
-            raise FieldError(("rooms", "mask"), "a region mask belongs to a map with occupancy:; use rectangles")
-        if self._region_mask is None:
-            raise FieldError(("rooms", "mask"), "the region mask was not read: load the map file with load_map")
-        names: dict[str, int] = {}
-        for value, name in spec.labels.items():
-            if name in names:
-                raise FieldError(("rooms", "labels", value), f"room {name!r} already has the value {names[name]}")
-            names[name] = value
-        for name, mask in self.rooms.items():
-            if not mask.any():
-                value = names[name]
-                raise FieldError(
-                    ("rooms", "labels", value),
-                    f"no cell of the map has its centre on a pixel of value {value} in {spec.mask}: room {name!r} "
-                    "would be empty",
-                )
-
-    def _check_room_polygons(self, polygons: dict[str, list[tuple[float, float]]]) -> None:
-        if not polygons:
-            raise FieldError(("rooms", "polygons"), "no rooms; e.g. dock: [[0, 0], [4, 0], [4, 3], [0, 3]]")
-        corners = sum(len(vertices) for vertices in polygons.values())
-        cells = self.grid.rows * self.grid.cols
-        if corners * cells > GEOMETRY_TESTS.value:
-            raise FieldError(
-                ("rooms", "polygons"),
-                _too_much_geometry(corners * cells, f"{corners:,} corners, each tested against {cells:,} cells"),
-            )
-        for name, vertices in polygons.items():
-            if len(vertices) < 3:
-                raise FieldError(("rooms", "polygons", name), f"room {name!r} needs at least three corners [x, y]")
-            if not all(math.isfinite(v) for corner in vertices for v in corner):
-                raise FieldError(("rooms", "polygons", name), f"room {name!r} has a corner that is not a number")
-        owner = np.full(self.free.shape, "", dtype=object)
-        for name, mask in self.rooms.items():
-            if not mask.any():
-                raise FieldError(("rooms", "polygons", name), f"no free cell has its centre inside room {name!r}")
-            taken = np.argwhere(mask & (owner != ""))
-            if len(taken):
-                r, c = (int(v) for v in taken[0])
-                raise FieldError(
-                    ("rooms", "polygons", name), f"room {name!r} overlaps room {owner[r, c]!r} at cell [{r}, {c}]"
-                )
-            owner[mask] = name
-
-    def _check_room_rectangles(self, rooms: dict[str, RoomRectangle | list[RoomRectangle]]) -> None:
-        g = self.grid
-        owner = np.full((g.rows, g.cols), "", dtype=object)
-        if not rooms:
-            raise FieldError(("rooms", "rectangles"), "no rooms; e.g. kitchen: {from: [1, 1], to: [3, 4]}")
-        for name, rectangles in rooms.items():
-            listed = isinstance(rectangles, list)
-            items = rectangles if isinstance(rectangles, list) else [rectangles]
-            if not items:
-                raise FieldError(("rooms", "rectangles", name), "no rectangle: a room needs at least one cell")
-            for k, rect in enumerate(items):
-                path: tuple[str | int, ...] = ("rooms", "rectangles", name, *((k,) if listed else ()))
-                for corner, (r, c) in (("from", rect.from_), ("to", rect.to)):
-                    if not (0 <= r < g.rows and 0 <= c < g.cols):
-                        raise FieldError((*path, corner), f"cell [{r}, {c}] is outside the {g.rows}x{g.cols} grid")
-                (r0, c0), (r1, c1) = rect.from_, rect.to
-                if r0 > r1 or c0 > c1:
-                    raise FieldError(
-                        (*path, "to"),
-                        f"the rectangle from [{r0}, {c0}] to [{r1}, {c1}] is empty: 'to' is the bottom-right "
-                        "corner, at or below and right of 'from'",
-                    )
-                blocked = np.argwhere(~self.free[r0 : r1 + 1, c0 : c1 + 1])
-                if len(blocked):
-                    r, c = int(blocked[0][0]) + r0, int(blocked[0][1]) + c0
-                    raise FieldError(
-                        path, f"cell [{r}, {c}] of room {name!r} is blocked in the layout: room cells must be free"
-                    )
-                taken = np.argwhere((owner[r0 : r1 + 1, c0 : c1 + 1] != "") & (owner[r0 : r1 + 1, c0 : c1 + 1] != name))
-                if len(taken):
-                    r, c = int(taken[0][0]) + r0, int(taken[0][1]) + c0
-                    raise FieldError(path, f"room {name!r} overlaps room {owner[r, c]!r} at cell [{r}, {c}]")
-                owner[r0 : r1 + 1, c0 : c1 + 1] = name
-
-    def _check_room_layout(self, layout: str, legend: dict[str, str]) -> None:
-        g = self.grid
-        for letter in legend:
-            if len(letter) != 1 or letter in (FREE, BLOCKED) or letter.isspace():
-                raise FieldError(
-                    ("rooms", "legend", letter),
-                    f"{letter!r} should be one character other than '{FREE}' and '{BLOCKED}', e.g. K: kitchen",
-                )
-        named: dict[str, str] = {}
-        for letter, name in legend.items():
-            if name in named:
-                raise FieldError(("rooms", "legend", letter), f"room {name!r} already has the letter {named[name]!r}")
-            named[name] = letter
-        lines = _grid_lines(layout)
-        path = ("rooms", "layout")
-        if len(lines) != g.rows:
-            raise FieldError(path, f"has {len(lines)} rows, but grid.rows is {g.rows}")
-        used: set[str] = set()
-        for r, line in enumerate(lines):
-            if len(line) != g.cols:
-                raise FieldError(path, f"row {r} has {len(line)} cells, but grid.cols is {g.cols}", row=r)
-            for c, ch in enumerate(line):
-                free = bool(self.free[r, c])
-                if ch == BLOCKED:
-                    if free:
-                        raise FieldError(
-                            path,
-                            f"row {r} has '{BLOCKED}' on a free cell of the layout; write '{NO_ROOM}' for a free "
-                            "cell in no room, or a room's letter",
-                            row=r,
-                            column=c,
-                        )
-                elif not free:
-                    raise FieldError(
-                        path, f"row {r} has {ch!r} on a blocked cell of the layout; write '{BLOCKED}'", row=r, column=c
-                    )
-                elif ch != NO_ROOM:
-                    if ch not in legend:
-                        letters = ", ".join(f"{k}: {v}" for k, v in legend.items())
-                        raise FieldError(
-                            path,
-                            f"row {r} has {ch!r}, which the legend does not name ({letters}); "
-                            f"'{NO_ROOM}' is a free cell in no room",
-                            row=r,
-                            column=c,
-                        )
-                    used.add(ch)
-        for letter, name in legend.items():
-            if letter not in used:
-                raise FieldError(
-                    ("rooms", "legend", letter),
-                    f"no cell of rooms.layout has {letter!r}: room {name!r} would be empty",
-                )
 
 
 def _sensor_groups(name: str, sensor: Sensor, smap: SemanticMap) -> tuple[PartGroup, ...]:
@@ -1001,126 +592,12 @@ def _refuse_at(where: tuple[str | int, ...], model: type[BaseModel], data: Any, 
         raise FieldError((*where, *exc.path), exc.message) from None
 
 
-def _grid_from_occupancy(data: dict[str, Any], occupancy: OccupancyMap) -> dict[str, Any]:
-    """The grid's rows and cols of a map with ``occupancy:``: as many cells of ``cell_size`` as it
-    takes to cover the image. The file must not give them. Refused before any cell is laid out: a
-    cell size too small for the limits (:data:`~beliefloc.limits.MODEL_ENTRIES`), a robot radius
-    that would take too long to test (:data:`~beliefloc.limits.GEOMETRY_TESTS`)."""
-    grid = data.get("grid")
-    if not isinstance(grid, dict):
-        return data  # the field validator says what is wrong
-    for key in ("rows", "cols"):
-        if key in grid:
-            raise FieldError(("grid", key), f"comes from the occupancy image ({data.get('occupancy')}); drop it")
-    written = grid.get("cell_size", 1.0)
-    cell_size = _number(written)
-    if cell_size is None or not MIN_CELL_SIZE <= cell_size <= MAX_METRES:  # no size of the grid without it
-        shown = str(written).lower() if isinstance(written, bool) else repr(written)
-        raise FieldError(
-            ("grid", "cell_size"),
-            f"should be a number of metres from {MIN_CELL_SIZE:g} to {MAX_METRES:g}, got {shown}: the cells of "
-            f"the occupancy map {data.get('occupancy')} are laid out by it",
-        )
-    height, width = occupancy.pixels.shape
-    rows, cols = grid_shape(height, width, occupancy.resolution, cell_size)
-    headings = grid.get("headings", 4)
-    turns = headings if headings in (1, 4, 8) and not isinstance(headings, bool) else 8
-    observations.check_grid(rows, cols, turns, ("grid", "cell_size"))
-    radius = _number(grid.get("robot_radius"))
-    if radius is not None and 0 < radius <= MAX_METRES:
-        reach = math.ceil(radius / occupancy.resolution) + 1  # the offsets occupancy_grid.free_cells tries
-        tests = (2 * reach + 1) ** 2 * rows * cols
-        if tests > GEOMETRY_TESTS.value:
-            raise FieldError(
-                ("grid", "robot_radius"),
-                _too_much_geometry(
-                    tests,
-                    f"a robot radius of {radius:g} m is {radius / occupancy.resolution:,.0f} pixels of "
-                    f"{occupancy.resolution:g} m, tested around each of {rows * cols:,} cells",
-                ),
-            )
-    return {**data, "grid": {**grid, "rows": rows, "cols": cols}}
-
-
-def _too_much_geometry(tests: int, lead: str) -> str:
-    limit = GEOMETRY_TESTS
-    return (
-        f"{lead}: {tests:,} {limit.what} is more than the limit of {limit.value:,}; "
-        f"if the input is what you meant, raise it with the environment variable {limit.variable}=N"
-    )
-
-
-def _landmark_cells(data: dict[str, Any], occupancy: OccupancyMap | None) -> dict[str, Any]:
-    """The cell of every landmark written as ``x``, ``y`` in map-frame metres; a landmark off the map
-    or (on an occupancy map) on an occupied pixel is refused where it was written."""
-    landmarks, grid = data.get("landmarks"), data.get("grid")
-    if not isinstance(landmarks, list) or not isinstance(grid, dict):
-        return data
-    rows, cols, size = (
-        _number(grid.get(key, default)) for key, default in (("rows", None), ("cols", None), ("cell_size", 1.0))
-    )
-    if rows is None or cols is None or size is None or size <= 0:
-        return data
-    frame = occupancy.frame if occupancy is not None else MapFrame()
-    filled = []
-    for i, landmark in enumerate(landmarks):
-        if not isinstance(landmark, dict) or ("x" not in landmark and "y" not in landmark):
-            filled.append(landmark)
-            continue
-        if "cell" in landmark:
-            raise FieldError(("landmarks", i, "cell"), "give a landmark's cell or its x and y, not both")
-        if "x" not in landmark or "y" not in landmark:
-            missing = "y" if "y" not in landmark else "x"
-            raise FieldError(
-                ("landmarks", i), f"has {'x' if missing == 'y' else 'y'} but no {missing}: give both, in metres"
-            )
-        x, y = _number(landmark["x"]), _number(landmark["y"])
-        if x is None or y is None:
-            filled.append(landmark)  # the field validator says what is wrong
-            continue
-        gx, gy = frame.to_grid(x, y)
-        if occupancy is not None:
-            height, width = occupancy.pixels.shape
-            j, i_px = (
-                math.floor(float(gx) / occupancy.resolution),
-                height - 1 - math.floor(float(gy) / occupancy.resolution),
-            )
-            if not (0 <= i_px < height and 0 <= j < width):
-                raise FieldError(("landmarks", i, "x"), f"({x:g}, {y:g}) is off the map {data.get('occupancy')}")
-            if occupancy.blocked()[i_px, j]:
-                raise FieldError(
-                    ("landmarks", i, "x"),
-                    f"({x:g}, {y:g}) is on an occupied or unknown pixel of {data.get('occupancy')}: put the object "
-                    "on the free pixel in front of it, where the robot sees it from",
-                )
-        row = int(rows) - 1 - math.floor(float(gy) / size)  # rows and cols are whole: checked by the grid
-        col = math.floor(float(gx) / size)
-        if not (0 <= row < rows and 0 <= col < cols):
-            raise FieldError(
-                ("landmarks", i, "x"), f"({x:g}, {y:g}) is off the {rows:g}x{cols:g} grid of {size:g} m cells"
-            )
-        filled.append({**landmark, "cell": [row, col]})
-    return {**data, "landmarks": filled}
-
-
-def _number(value: Any) -> float | None:
-    """``value`` as a finite float, or None when it is not a number (booleans are not numbers)."""
-    if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
-        return float(value)
-    return None
-
-
 def here_classes(sensor: HereSensor, smap: SemanticMap) -> list[str]:
     """The classes a ``here`` sensor can read, in a stable order."""
     if sensor.labels is not None:
         if sensor.legend is not None:
             return list(dict.fromkeys(sensor.legend.values()))
-        lines = _grid_lines(sensor.labels)
+        lines = grid_lines(sensor.labels)
         free = smap.free
         return sorted({ch for r, line in enumerate(lines) for c, ch in enumerate(line) if free[r, c]})
     return list(dict.fromkeys([sensor.default, *(lm.class_ for lm in smap.landmarks)]))
-
-
-def _grid_lines(text: str) -> list[str]:
-    """Rows of a character grid: blank lines dropped, surrounding spaces stripped."""
-    return [line.strip() for line in text.splitlines() if line.strip()]
