@@ -69,7 +69,7 @@ class OutputError(BeliefLocError):
 
 
 class LimitError(BeliefLocError):
-    """An input is larger than a documented bound (:mod:`beliefloc.limits`); the message names the
+    """An input is larger than a documented bound (:mod:`beliefloc.source.limits`); the message names the
     bound and the environment variable that raises it."""
 
 

@@ -1,5 +1,5 @@
 """The compiled belief model (Colledanchise Defs. 1-7): states, and for every action a transition
-and an observation model, plus costs. No I/O here; see :mod:`beliefloc.model_file` and
+and an observation model, plus costs. No I/O here; see :mod:`beliefloc.files.model_file` and
 :mod:`beliefloc.pomdp_format` for files.
 
 Conventions

@@ -105,7 +105,7 @@ def marked_map(n_corridors: int, length: int, seed: int) -> dict[str, Any]:
 def child_build(spec: str, output: str) -> dict[str, Any]:
     """Compile a map and build its macros; report time and peak memory."""
     from beliefloc import compile_model, load_map
-    from beliefloc.macro_file import save_macros
+    from beliefloc.files.macro_file import save_macros
     from beliefloc.planning.macros import build_macros
     from beliefloc.semantic_map import SemanticMap
 
@@ -132,7 +132,7 @@ def tables(map_path: str, macros_path: str, trials: int, seed: int, max_actions:
     import numpy as np
 
     from beliefloc import compile_model, load_map
-    from beliefloc.macro_file import load_macros
+    from beliefloc.files.macro_file import load_macros
     from beliefloc.planning.ec2 import pair_context
     from beliefloc.simulation.episode import run_episode
     from beliefloc.simulation.strategies import EpisodeStatus, PlannerSettings

@@ -22,39 +22,31 @@ import argparse
 import json
 import os
 import platform
-import resource
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 from typing import Any
 
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the repository root: import benchmarks.*
+
+from benchmarks.planning.settings import peak_rss_mib, run_json_child, single_threaded
+
 RESULTS = Path(__file__).resolve().parent / "results" / "model.md"
-THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 TARGET_COMPILE_S = 30.0
 TARGET_PEAK_MIB = 2048.0
 TARGET_UPDATE_MS = 50.0
 TARGET_STATES = 10**6
 
 
-def _single_threaded() -> None:
-    """One BLAS thread, set before numpy is first imported (the children import it)."""
-    for name in THREAD_VARIABLES:
-        os.environ[name] = "1"
-
-
-def _peak_rss_mib() -> float:
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # KiB on Linux
-
-
 def child_generate(states: int, seen_model: str, seed: int, path: Path) -> dict[str, Any]:
     """Generate a world and write its map (what ``beliefloc generate gridworld`` does)."""
     import numpy as np
 
-    from beliefloc.atomic_write import write_atomically
-    from beliefloc.generate import SeenModel, generate_gridworld, gridworld_yaml
+    from beliefloc.simulation.gridworld import generate_gridworld, gridworld_yaml
+    from beliefloc.simulation.settings import SeenModel
+    from beliefloc.source.atomic_write import write_atomically
 
     start = time.perf_counter()
     world = generate_gridworld(states, np.random.default_rng(seed), SeenModel(seen_model))
@@ -69,7 +61,7 @@ def child_generate(states: int, seen_model: str, seed: int, path: Path) -> dict[
         "annotated_states": annotated,
         "generate_s": seconds,
         "file_mib": path.stat().st_size / 2**20,
-        "generate_peak_mib": _peak_rss_mib(),
+        "generate_peak_mib": peak_rss_mib(),
     }
 
 
@@ -104,16 +96,13 @@ def child_model(path: Path, repeats: int) -> dict[str, Any]:
         "update_forward_ms": median_ms("forward", "none"),
         "look_observation": look.observation.name(seen),
         "transition_nonzeros": sum(a.transition.nnz for a in model.actuation_actions if a.transition is not None),
-        "model_peak_mib": _peak_rss_mib(),
+        "model_peak_mib": peak_rss_mib(),
     }
 
 
 def _run_child(args: list[str]) -> dict[str, Any]:
-    command = [sys.executable, str(Path(__file__).resolve()), "--child", *args]
-    done = subprocess.run(command, capture_output=True, text=True, check=False, env=os.environ.copy())
-    if done.returncode != 0:
-        raise SystemExit(f"benchmark child {' '.join(args)} failed:\n{done.stderr}")
-    result: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
+    result = run_json_child([sys.executable, str(Path(__file__).resolve()), "--child", *args], " ".join(args))
+    del result["wall_s"]  # each child times what it measures itself
     return result
 
 
@@ -162,7 +151,7 @@ def verdict(rows: list[dict[str, Any]]) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    _single_threaded()
+    single_threaded()
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--child", nargs="+", help=argparse.SUPPRESS)
     parser.add_argument("--sizes", nargs="*", type=float, default=[1e4, 1e5, 1e6], help="objects-model sizes")

@@ -23,9 +23,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import resource
-import subprocess
 import sys
 import tempfile
 import time
@@ -33,13 +30,13 @@ from pathlib import Path
 from typing import Any
 
 ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))  # the repository root: import benchmarks.*
+
+from benchmarks.planning.settings import peak_rss_mib, run_json_child, single_threaded  # noqa: E402
+
 RESULTS = ROOT / "benchmarks" / "results" / "occupancy.md"
 TARGETS = {"depot_compile_s": 3.0, "depot_plan_s": 1.0, "warehouse_compile_s": 15.0, "warehouse_peak_mib": 2048.0}
 TARGET_MACROS_S = 60.0
-
-
-def _peak_rss_mib() -> float:
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # KiB on Linux
 
 
 def write_warehouse(folder: Path, seed: int = 0) -> Path:
@@ -112,7 +109,7 @@ def child_compile(path: str, plan: bool) -> dict[str, Any]:
 
         outcome = best_first(model, uniform(model.n_states))
         result.update(plan_s=outcome.seconds, plan_status=outcome.status.value, plan_steps=len(outcome.steps))
-    result["peak_mib"] = _peak_rss_mib()
+    result["peak_mib"] = peak_rss_mib()
     return result
 
 
@@ -130,16 +127,14 @@ def child_macros(path: str) -> dict[str, Any]:
         "macros_s": seconds,
         "pairs": summary.get("indistinguishable_pairs"),
         "never": summary.get("never_distinguishable_pairs"),
-        "peak_mib": _peak_rss_mib(),
+        "peak_mib": peak_rss_mib(),
     }
 
 
 def _run_child(*args: str) -> dict[str, Any]:
-    env = {**os.environ, "OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
-    done = subprocess.run(
-        [sys.executable, __file__, "--child", *args], capture_output=True, text=True, check=True, env=env, cwd=ROOT
-    )
-    result: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
+    single_threaded()  # the children import numpy
+    result = run_json_child([sys.executable, __file__, "--child", *args], " ".join(args))
+    del result["wall_s"]  # each child times what it measures itself
     return result
 
 

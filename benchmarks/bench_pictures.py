@@ -7,7 +7,7 @@ Run by hand from the repository root (not part of the test suite)::
 
 Cases (issue 14), on a 2-core machine:
 
-* a generated grid world (``beliefloc.generate``, Sec. VII-A) of about 10^5 states, with a belief
+* a generated grid world (``beliefloc.simulation.gridworld``, Sec. VII-A) of about 10^5 states, with a belief
   that gives every state some probability (the worst case: every triangle drawn) -- target <= 1 s;
 * a warehouse the size of Nav2's (``bench_occupancy.write_warehouse``: 1700 x 1000 px at 0.03 m,
   cells of 0.25 m, 8 headings, about 1.7·10^5 states) with the uniform belief: the occupancy image,
@@ -44,9 +44,10 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 from bench_occupancy import write_warehouse  # noqa: E402
 from machine import cpu_name  # noqa: E402
 
-from beliefloc.generate import SeenModel, generate_gridworld, gridworld_yaml  # noqa: E402
 from beliefloc.model import Model  # noqa: E402
 from beliefloc.semantic_map import SemanticMap, compile_model, load_map  # noqa: E402
+from beliefloc.simulation.gridworld import generate_gridworld, gridworld_yaml  # noqa: E402
+from beliefloc.simulation.settings import SeenModel  # noqa: E402
 
 RESULTS = ROOT / "benchmarks" / "results" / "pictures.md"
 TARGETS = {"gridworld": 1.0, "warehouse": 3.0}

@@ -9,9 +9,9 @@ Run by hand from the repository root (not part of the test suite; needs ``pip in
    --rotation-failure 0`` (the authors' setting, as ``benchmarks/planning`` with
    ``--rotation-failure 0``), 100 episodes of ``bestfirst`` from uniformly drawn starts, the uniform
    start belief, threshold 0.95 (``benchmarks.planning.settings.THRESHOLD``). The sweep
-   (:class:`beliefloc.simulation.episode.EpisodeSweep`) runs on :class:`~beliefloc.sweep.SerialBackend`
-   (``--workers 1``), :class:`~beliefloc.sweep.PoolBackend` of 2 processes (``--workers 2``; their
-   start-up and the model's trip to them counted) and :class:`~beliefloc.sweep.DaskBackend` on a
+   (:class:`beliefloc.simulation.episode.EpisodeSweep`) runs on :class:`~beliefloc.simulation.sweep.SerialBackend`
+   (``--workers 1``), :class:`~beliefloc.simulation.sweep.PoolBackend` of 2 processes (``--workers 2``; their
+   start-up and the model's trip to them counted) and :class:`~beliefloc.simulation.sweep.DaskBackend` on a
    ``LocalCluster(n_workers=2, threads_per_worker=1)`` started beforehand (a user's cluster is
    running already; scattering the model is counted). Speed-up = serial seconds / backend seconds;
    targets: >= 1.7x for the pool, >= 1.5x for Dask. The results of every backend are compared (they
@@ -70,7 +70,7 @@ def best_of(repeats: int, run: Callable[[], Any]) -> tuple[float, Any]:
 
 
 def sweep_results(backend: Any, sweep: Any, count: int) -> list[dict[str, Any]]:
-    from beliefloc.sweep import in_order
+    from beliefloc.simulation.sweep import in_order
 
     indices = list(range(count))
     return [result for _, result in in_order(backend.run(sweep, indices), indices)]
@@ -93,7 +93,7 @@ def main() -> None:
     from beliefloc.semantic_map import compile_model, load_map
     from beliefloc.simulation.episode import EpisodeSweep
     from beliefloc.simulation.strategies import PlannerSettings
-    from beliefloc.sweep import DaskBackend, PoolBackend, SerialBackend
+    from beliefloc.simulation.sweep import DaskBackend, PoolBackend, SerialBackend
 
     folder = Path(tempfile.mkdtemp(prefix="bench-sweeps-"))
     world = folder / "world.yaml"
@@ -219,7 +219,7 @@ def main() -> None:
 
 
 def _own_peak() -> int:
-    from beliefloc.sweep import peak_rss
+    from beliefloc.simulation.sweep import peak_rss
 
     return peak_rss()
 

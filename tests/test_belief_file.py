@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from beliefloc import compile_model, load_map
-from beliefloc.belief_file import load_belief
 from beliefloc.errors import BeliefFileError
+from beliefloc.files.belief_file import load_belief
 
 from .conftest import MAPS
 

@@ -12,7 +12,7 @@ from typer.testing import CliRunner
 from beliefloc import compile_model, load_map
 from beliefloc.cli.app import app
 from beliefloc.errors import InvalidValueError
-from beliefloc.tracking import parse_step, resolve_steps
+from beliefloc.robots.tracking import parse_step, resolve_steps
 
 from .conftest import MAPS
 from .test_render import grid_map, write_map
@@ -276,7 +276,7 @@ def test_help_has_an_example(runner: CliRunner, command: str) -> None:
 
 def test_show_and_track_a_model_without_grid(runner: CliRunner, monkeypatch: pytest.MonkeyPatch) -> None:
     """An imported .pomdp has named states and no grid: a table of the most probable states."""
-    from beliefloc import model_sources
+    from beliefloc.files import model_sources
 
     from .test_render import rooms_model
 

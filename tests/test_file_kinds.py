@@ -1,4 +1,4 @@
-"""beliefloc.file_kinds: what kind of beliefloc file some parsed data or a file name is."""
+"""beliefloc.source.file_kinds: what kind of beliefloc file some parsed data or a file name is."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 import yaml
 
-from beliefloc import file_kinds
-from beliefloc.file_kinds import (
+from beliefloc.source import file_kinds
+from beliefloc.source.file_kinds import (
     BELIEF,
     DOMAIN,
     IMAGE,

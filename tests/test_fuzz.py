@@ -251,7 +251,7 @@ def kitchen():
 @settings(max_examples=100, deadline=PER_EXAMPLE, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(_VALUES)
 def test_a_random_belief_file_loads_or_is_refused(tmp_path: Path, kitchen, data: Any):
-    from beliefloc.belief_file import load_belief
+    from beliefloc.files.belief_file import load_belief
 
     path = tmp_path / "belief.yaml"
     path.write_text(yaml.safe_dump(data, allow_unicode=True))
@@ -268,10 +268,10 @@ _LOADERS = ("map", "domain", "belief", "model", "macros", "pomdp")
 @settings(max_examples=120, deadline=PER_EXAMPLE, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.sampled_from(_LOADERS), st.binary(max_size=600))
 def test_random_bytes_are_refused_by_every_loader(tmp_path: Path, kitchen, loader: str, raw: bytes):
-    from beliefloc.belief_file import load_belief
+    from beliefloc.files.belief_file import load_belief
+    from beliefloc.files.macro_file import load_macros
+    from beliefloc.files.model_file import load_model
     from beliefloc.knowledge import load_domain
-    from beliefloc.macro_file import load_macros
-    from beliefloc.model_file import load_model
     from beliefloc.pomdp_format import read_pomdp
     from beliefloc.semantic_map import load_map
 

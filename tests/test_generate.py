@@ -15,15 +15,15 @@ import pytest
 from beliefloc.cli.app import app
 from beliefloc.cli.generate import parse_count
 from beliefloc.errors import InvalidValueError
-from beliefloc.generate import (
+from beliefloc.model import Model
+from beliefloc.semantic_map import compile_model, load_map
+from beliefloc.simulation.gridworld import (
     CLASSES,
     SeenModel,
     generate_gridworld,
     grid_side,
     gridworld_yaml,
 )
-from beliefloc.model import Model
-from beliefloc.semantic_map import compile_model, load_map
 
 MODELS = [SeenModel.OBJECTS, SeenModel.STATES]
 
@@ -52,7 +52,8 @@ def test_grid_side_refuses_sizes_out_of_range(states: int) -> None:
 _TEXT_SCRIPT = """
 import sys
 import numpy as np
-from beliefloc.generate import SeenModel, generate_gridworld, gridworld_yaml
+from beliefloc.simulation.gridworld import generate_gridworld, gridworld_yaml
+from beliefloc.simulation.settings import SeenModel
 states, seed, seen_model = int(sys.argv[1]), int(sys.argv[2]), SeenModel(sys.argv[3])
 world = generate_gridworld(states, np.random.default_rng(seed), seen_model)
 sys.stdout.buffer.write(gridworld_yaml(world, seed=seed).encode())

@@ -99,7 +99,7 @@ def test_every_help_example_runs_as_written(runner, tmp_path: Path):
 
 
 def test_every_limit_is_documented_in_the_readme():
-    from beliefloc import limits
+    from beliefloc.source import limits
 
     readme = (ROOT / "README.md").read_text()
     bounds = [value for value in vars(limits).values() if isinstance(value, limits.Limit)]

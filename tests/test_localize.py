@@ -1,5 +1,5 @@
-"""``beliefloc localize``: the act-perceive-replan loop (:mod:`beliefloc.localize`), its line protocol
-(:mod:`beliefloc.line_protocol`) and the command, end to end with a robot in another process."""
+"""``beliefloc localize``: the act-perceive-replan loop (:mod:`beliefloc.robots.localize`), its line protocol
+(:mod:`beliefloc.robots.line_protocol`) and the command, end to end with a robot in another process."""
 
 from __future__ import annotations
 
@@ -21,11 +21,11 @@ from typer.testing import CliRunner
 from beliefloc import compile_model, load_map, uniform
 from beliefloc.cli.app import app
 from beliefloc.errors import EXIT_BAD_INPUT, EXIT_NEGATIVE, ReplyError
-from beliefloc.line_protocol import MAX_LINE_CHARS, LineRobot, action_message
-from beliefloc.localize import Command, SimulatedReadingRobot, localize
 from beliefloc.model import Model
 from beliefloc.pose import state_pose
-from beliefloc.readings import RawReading, ReadingBinner
+from beliefloc.robots.line_protocol import MAX_LINE_CHARS, LineRobot, action_message
+from beliefloc.robots.localize import Command, SimulatedReadingRobot, localize
+from beliefloc.robots.readings import RawReading, ReadingBinner
 from beliefloc.semantic_map import SemanticMap
 from beliefloc.simulation.robot import SimulatedRobot
 from beliefloc.simulation.strategies import EpisodeStatus, PlannerSettings

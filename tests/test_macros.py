@@ -15,7 +15,7 @@ import typer
 from beliefloc import compile_model, load_map
 from beliefloc.cli.macros import register as register_macros
 from beliefloc.errors import InvalidValueError, ModelError
-from beliefloc.macro_file import load_macros, save_macros
+from beliefloc.files.macro_file import load_macros, save_macros
 from beliefloc.model import Model
 from beliefloc.planning.ec2 import full_parts, observation_difference, pair_context
 from beliefloc.planning.macros import build_macros, expected_path, indistinguishable_pairs, macro_candidates

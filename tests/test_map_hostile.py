@@ -4,8 +4,8 @@ is allocated; or, for a map that is valid but cannot work as meant, loaded with 
 
 The causes: booleans written for numbers; the internal field names ``class_`` and ``from_``; a Look
 class no landmark has (a warning); observation names that would collide; models too large for
-:data:`beliefloc.limits.MODEL_ENTRIES` and geometry too slow for
-:data:`beliefloc.limits.GEOMETRY_TESTS`; numbers that are not finite or out of range; an annotation
+:data:`beliefloc.source.limits.MODEL_ENTRIES` and geometry too slow for
+:data:`beliefloc.source.limits.GEOMETRY_TESTS`; numbers that are not finite or out of range; an annotation
 without a state; a file of another kind given as a map.
 """
 

@@ -12,7 +12,7 @@ import pytest
 from beliefloc import compile_model, load_map, uniform, update
 from beliefloc.cli.app import app
 from beliefloc.errors import ModelError, OutputError
-from beliefloc.model_file import load_model, save_model
+from beliefloc.files.model_file import load_model, save_model
 
 from .conftest import MAPS
 

@@ -38,15 +38,15 @@ import pytest
 from typer.testing import CliRunner
 
 from beliefloc import compile_model, load_map
-from beliefloc.atomic_write import sweep_stale_temporaries, write_atomically
-from beliefloc.belief_file import load_belief
 from beliefloc.cli.app import app
 from beliefloc.errors import BeliefFileError, BeliefLocError, LimitError, ModelError
-from beliefloc.macro_file import load_macros, read_header, save_macros
+from beliefloc.files.belief_file import load_belief
+from beliefloc.files.macro_file import load_macros, read_header, save_macros
+from beliefloc.files.model_file import load_model, save_model
 from beliefloc.model import Model
-from beliefloc.model_file import load_model, save_model
 from beliefloc.planning.macros import build_macros
 from beliefloc.pomdp_format import parse_pomdp, pomdp_text
+from beliefloc.source.atomic_write import sweep_stale_temporaries, write_atomically
 
 from .conftest import DATA, MAPS, ROOT
 
@@ -691,7 +691,7 @@ def test_stale_temporaries_are_swept_at_the_next_write(tmp_path: Path, window: M
 _WRITER = """
 import sys, time
 from pathlib import Path
-from beliefloc.atomic_write import write_atomically
+from beliefloc.source.atomic_write import write_atomically
 
 def write(handle):
     handle.write(b"half a file")

@@ -1,4 +1,4 @@
-"""ROS/Nav2 occupancy maps (beliefloc.occupancy): tiny images built here with Pillow and checked
+"""ROS/Nav2 occupancy maps (beliefloc.semantic_map.occupancy_map): tiny images built here with Pillow and checked
 against hand-computed values, a plain-loop transcription of Nav2's ``loadMapFromFile`` as the
 oracle of the vectorised reading, every refusal with its message, and the real maps of
 ../shared/ros-maps (with Nav2's own expected cells for its test map)."""
@@ -20,7 +20,7 @@ from PIL import Image
 from beliefloc.cli.app import app
 from beliefloc.errors import EXIT_BAD_INPUT, MapError, OccupancyMapError
 from beliefloc.model import MapFrame
-from beliefloc.occupancy import (
+from beliefloc.semantic_map.occupancy_map import (
     MAX_IMAGE_BYTES,
     MAX_PIXELS,
     MAX_YAML_BYTES,

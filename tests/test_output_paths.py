@@ -191,8 +191,8 @@ def files(tmp_path: Path, built: dict[str, bytes]) -> Files:
 def built(tmp_path_factory: pytest.TempPathFactory) -> dict[str, bytes]:
     """A model and a macro table of the kitchen (the bytes: each test writes its own copy)."""
     from beliefloc import compile_model, load_map
-    from beliefloc.macro_file import save_macros
-    from beliefloc.model_file import save_model
+    from beliefloc.files.macro_file import save_macros
+    from beliefloc.files.model_file import save_model
     from beliefloc.planning.macros import build_macros
 
     folder = tmp_path_factory.mktemp("built")

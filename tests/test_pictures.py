@@ -370,7 +370,7 @@ def test_only_render_figures_imports_matplotlib() -> None:
 def test_a_rotated_occupancy_map_is_drawn_in_the_map_frame(tmp_path: Path) -> None:
     """The TurtleBot3 arena with its origin turned by 0.5 rad: a pillar's unknown inside is grey, the
     free floor white (probability 0), and a state's triangle is shaded where the rotated grid puts it."""
-    from beliefloc.occupancy import Occupancy
+    from beliefloc.semantic_map.occupancy_map import Occupancy
 
     (tmp_path / "occupancy").mkdir()
     source = ROOT / "maps" / "occupancy"

@@ -15,8 +15,8 @@ from typer.testing import CliRunner
 
 from beliefloc.cli.app import app
 from beliefloc.errors import EXIT_BAD_INPUT, EXIT_NEGATIVE
+from beliefloc.files.model_sources import open_model
 from beliefloc.knowledge import KnowledgeBase, load_domain
-from beliefloc.model_sources import open_model
 from beliefloc.object_search.domain_space import search_space
 from beliefloc.object_search.loop import SearchRecord, seeded_search
 from beliefloc.object_search.map_space import MapSearchSpace

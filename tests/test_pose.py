@@ -376,7 +376,7 @@ def test_show_json_without_a_grid_has_a_null_pose(runner: CliRunner) -> None:
 
 
 def test_plan_json_carries_the_pose_of_the_expected_final_belief(runner: CliRunner) -> None:
-    from beliefloc.model_sources import open_model
+    from beliefloc.files.model_sources import open_model
     from beliefloc.planning.best_first import plan
 
     result = runner.invoke(app, ["plan", str(MAPS / "window-2x2.yaml"), "--json"])

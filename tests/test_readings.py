@@ -1,4 +1,4 @@
-"""Raw readings -> observations (:mod:`beliefloc.readings`), checked against the observation names
+"""Raw readings -> observations (:mod:`beliefloc.robots.readings`), checked against the observation names
 that :meth:`ObservationModel.index` parses and against compile.py's own binning of the geometry."""
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 from beliefloc import compile_model, load_map
 from beliefloc.errors import InvalidValueError, ModelError
 from beliefloc.model import Model
-from beliefloc.readings import ReadingBinner, scan_bin
+from beliefloc.robots.readings import ReadingBinner, scan_bin
 from beliefloc.semantic_map import SemanticMap, geometry
 from beliefloc.semantic_map.sections import ScanSensor
 

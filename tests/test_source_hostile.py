@@ -19,8 +19,6 @@ from typing import Any
 
 import pytest
 
-from beliefloc import limits
-from beliefloc.belief_file import load_belief
 from beliefloc.errors import (
     EXIT_BAD_INPUT,
     BeliefFileError,
@@ -31,9 +29,10 @@ from beliefloc.errors import (
     LimitError,
     MapError,
 )
+from beliefloc.files.belief_file import load_belief
 from beliefloc.knowledge import load_domain
 from beliefloc.semantic_map import load_map
-from beliefloc.source import Source, parse_source, read_source, read_text, resolve_plain
+from beliefloc.source import Source, limits, parse_source, read_source, read_text, resolve_plain
 
 from .conftest import DATA, MAPS, ROOT
 

@@ -21,9 +21,30 @@ def _loaded_after(statement: str) -> set[str]:
 def test_building_the_command_line_loads_no_numeric_stack():
     """``beliefloc --help`` must answer at once: the CLI imports scipy and clingo only when a command
     that needs them runs."""
+    heavy = {"numpy", "scipy", "clingo", "matplotlib"}
     loaded = _loaded_after("import beliefloc.cli.app")
     assert "beliefloc" in loaded  # the probe itself works
-    assert not loaded & {"scipy", "clingo", "matplotlib"}, sorted(loaded & {"scipy", "clingo", "matplotlib"})
+    assert not loaded & heavy, sorted(loaded & heavy)
+
+
+def test_help_loads_no_numeric_stack():
+    """``beliefloc --help`` itself, not only the app's import: building every command group's
+    options must not reach numpy (``generate``'s choices come from a module without it)."""
+    code = "import sys; sys.argv = ['beliefloc', '--help']\nfrom beliefloc.cli.app import main\ntry:\n    main()\n"
+    code += "except SystemExit:\n    pass\n"
+    code += "print(' '.join(sorted({m.split('.')[0] for m in sys.modules})), file=sys.stderr)"
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
+    loaded = set(result.stderr.split())
+    assert "beliefloc" in loaded and "Usage" in result.stdout  # the probe itself works
+    assert not loaded & {"numpy", "scipy", "clingo", "matplotlib"}, sorted(loaded & {"numpy", "scipy"})
+
+
+def test_the_package_root_holds_only_its_face():
+    """A newcomer reads the roles off the tree: the root keeps the package's face (the public API,
+    the errors, the model, the belief core and the pose a belief stands for); everything else lives in
+    a subpackage named for its role."""
+    root_modules = {path.stem for path in (ROOT / "beliefloc").glob("*.py")}
+    assert root_modules == {"__init__", "__main__", "errors", "model", "belief", "pose"}, sorted(root_modules)
 
 
 def test_reading_and_validating_a_map_needs_no_scipy():

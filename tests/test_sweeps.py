@@ -16,9 +16,9 @@ from pathlib import Path
 
 import pytest
 
-from beliefloc import sweep as sweeps
 from beliefloc.cli.app import app
-from beliefloc.results_file import differences, header, read_results
+from beliefloc.files.results_file import differences, header, read_results
+from beliefloc.simulation import sweep as sweeps
 
 from .conftest import ROOT
 

@@ -13,7 +13,7 @@ from beliefloc import compile_model, load_map
 from beliefloc.cli.app import app
 from beliefloc.errors import EXIT_BAD_INPUT, ImpossibleObservationError, InputFileError, InvalidValueError
 from beliefloc.pose import belief_pose
-from beliefloc.tracking import StepLine, read_step_file, resolve_steps, step_lines, track_beliefs
+from beliefloc.robots.tracking import StepLine, read_step_file, resolve_steps, step_lines, track_beliefs
 
 from .conftest import MAPS
 
@@ -119,7 +119,7 @@ def test_bad_steps_exit_2_naming_file_and_line(
 
 def test_a_model_without_grid_has_a_null_pose(runner: CliRunner, monkeypatch: pytest.MonkeyPatch) -> None:
     """An imported .pomdp has no grid, so its states have no pose: ``"pose": null``, as ``show`` says."""
-    from beliefloc import model_sources
+    from beliefloc.files import model_sources
 
     from .test_render import rooms_model
 

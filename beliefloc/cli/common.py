@@ -81,7 +81,7 @@ def initial_belief(model: Model, spec: str, smap: SemanticMap | None = None) -> 
     :func:`source_map`): see :func:`beliefloc.knowledge.robot_start_belief`.
     """
     from beliefloc.belief import uniform
-    from beliefloc.belief_file import load_belief
+    from beliefloc.files.belief_file import load_belief
 
     if spec == "uniform":
         return uniform(model.n_states)
@@ -104,9 +104,9 @@ def initial_belief(model: Model, spec: str, smap: SemanticMap | None = None) -> 
 
 
 def open_model(path: Path) -> Model:
-    """A map, model or .pomdp file (:func:`beliefloc.model_sources.open_model`), with what reading
+    """A map, model or .pomdp file (:func:`beliefloc.files.model_sources.open_model`), with what reading
     the map has to say (an occupancy map's unknown grey, say) printed as warnings."""
-    from beliefloc.model_sources import open_model as open_any
+    from beliefloc.files.model_sources import open_model as open_any
 
     return open_any(path, on_warning=warn)
 
@@ -118,13 +118,13 @@ def check_output(
     done: a known suffix, an existing folder that can be written in, not a folder, not one of the
     command's ``inputs`` (a hard link to one counts), and not an existing file of another kind.
 
-    ``kind`` (a noun phrase of :mod:`beliefloc.file_kinds`: ``MODEL``, ``MACROS``, ``MAP``...) is
+    ``kind`` (a noun phrase of :mod:`beliefloc.source.file_kinds`: ``MODEL``, ``MACROS``, ``MAP``...) is
     what the command writes: an existing file of that kind is replaced, any other refused (an empty
     file is always replaced). Without ``kind``, the suffix says what is written, and an existing
     file that is recognisably something else -- a map, a domain, a belief file, a model -- is refused."""
     import os
 
-    from beliefloc.file_kinds import kind_of_path, not_a
+    from beliefloc.source.file_kinds import kind_of_path, not_a
 
     if path.suffix.lower() not in suffixes:
         raise UsageError(f"{option} {path}: unknown kind of file; expected one of: {', '.join(suffixes)}")
@@ -162,16 +162,16 @@ def check_output(
 
 
 def existing_kind(path: Path) -> str | None:
-    """What an existing file is, as a noun phrase of :mod:`beliefloc.file_kinds`: a ``.npz`` file by
+    """What an existing file is, as a noun phrase of :mod:`beliefloc.source.file_kinds`: a ``.npz`` file by
     its header (a model, a macro table, or an archive beliefloc did not write), a YAML or JSON file
     by its content (a map, a domain, a belief file...), anything else by its suffix; None when it
     cannot be told (an unreadable or unrecognisable YAML file, an unknown suffix)."""
-    from beliefloc import file_kinds
     from beliefloc.errors import InputFileError
+    from beliefloc.source import file_kinds
 
     by_suffix = file_kinds.kind_of_path(path)
     if by_suffix == file_kinds.MODEL_OR_MACROS:
-        from beliefloc.npz_archive import file_format
+        from beliefloc.files.npz_archive import file_format
 
         found = file_kinds.kind_of_data({"format": file_format(path)})
         return found if found is not None else "an .npz archive that beliefloc did not write"
@@ -207,8 +207,8 @@ def check_record(option: str, path: Path, inputs: tuple[Path, ...] = ()) -> bool
     file where frames go, a folder holding other files."""
     import os
 
-    from beliefloc.file_kinds import IMAGE
     from beliefloc.render.picture_episode import holds_only_frames
+    from beliefloc.source.file_kinds import IMAGE
 
     if any(path.resolve() == source.resolve() for source in inputs):
         raise UsageError(f"{option} {path}: is an input of the command; name another file")
@@ -241,7 +241,7 @@ def open_with_map(source: Path) -> tuple[Model, SemanticMap | None]:
     """The model, and the map it comes from when there is one (to draw its rooms and its occupancy
     image); None for a model without one, or whose map moved or changed."""
     from beliefloc.errors import BeliefLocError
-    from beliefloc.model_sources import MAP_SUFFIXES, source_map
+    from beliefloc.files.model_sources import MAP_SUFFIXES, source_map
 
     if source.suffix.lower() in MAP_SUFFIXES:
         from beliefloc.semantic_map import compile_model, load_map
@@ -319,9 +319,9 @@ def check_sweep_options(
 ) -> None:
     """``--workers``, ``--scheduler``, ``--out`` and ``--resume``, checked before any work: nothing is
     overwritten by a run that could not start. An existing ``--out`` file must be a results file
-    (:mod:`beliefloc.results_file`): it is replaced, or continued with ``--resume``."""
+    (:mod:`beliefloc.files.results_file`): it is replaced, or continued with ``--resume``."""
     from beliefloc.errors import UsageError
-    from beliefloc.results_file import SUFFIX, is_results_file
+    from beliefloc.files.results_file import SUFFIX, is_results_file
 
     if scheduler is not None and workers != 1:
         raise UsageError(f"--workers {workers} --scheduler {scheduler}: give one of them (the cluster has its own)")
@@ -349,17 +349,17 @@ def run_sweep(
     serial_start: Callable[[], Any] | None = None,
     progress: bool = True,
 ) -> list[dict[str, Any]]:
-    """Every unit of ``sweep`` (:mod:`beliefloc.sweep`; ``head["total"]`` of them) on the backend of
+    """Every unit of ``sweep`` (:mod:`beliefloc.simulation.sweep`; ``head["total"]`` of them) on the backend of
     ``--workers`` and ``--scheduler``, their results in order. With ``--out``, a line per unit written
     as it ends, after the header -- or, with ``--resume``, after the units the file already holds,
     which are not run again (a file of other settings is refused first, naming what differs). A
     progress bar on stderr when it is a terminal. ``serial_start``: the runner of a run in this
     process (with per-step callbacks, say); ``progress`` False: no bar (the steps are drawn)."""
     from beliefloc.errors import UsageError
+    from beliefloc.files.results_file import ResultsWriter, differences, read_results
     from beliefloc.render import stderr_console
     from beliefloc.render.sweep_progress import sweep_progress
-    from beliefloc.results_file import ResultsWriter, differences, read_results
-    from beliefloc.sweep import backend, in_order
+    from beliefloc.simulation.sweep import backend, in_order
 
     total = int(head["total"])
     done: list[dict[str, Any]] = []

@@ -11,7 +11,7 @@ from rich.markup import escape
 from beliefloc.cli.common import boundary, check_output, open_model, print_json
 from beliefloc.cli.options import JsonOption, ModelArgument
 from beliefloc.errors import UsageError
-from beliefloc.model_sources import POMDP_SUFFIX
+from beliefloc.files.model_sources import POMDP_SUFFIX
 from beliefloc.render import stdout_console
 
 
@@ -34,8 +34,8 @@ def export(
     \b
       beliefloc export maps/window-2x2.yaml -o window.pomdp
     """
-    from beliefloc.file_kinds import POMDP
     from beliefloc.pomdp_format import write_pomdp
+    from beliefloc.source.file_kinds import POMDP
 
     if output.suffix.lower() != POMDP_SUFFIX:
         raise UsageError(f"-o {output}: the exported file must end in {POMDP_SUFFIX}")

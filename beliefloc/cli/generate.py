@@ -6,16 +6,15 @@ import re
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 from rich.markup import escape
 
 from beliefloc.cli.common import boundary, check_output, for_option, print_json
 from beliefloc.cli.options import JsonOption
 from beliefloc.errors import UsageError
-from beliefloc.generate import CLASSES, MOVE_FAILURE, SeenModel, generate_gridworld, grid_side, gridworld_yaml
-from beliefloc.model_sources import MAP_SUFFIXES
+from beliefloc.files.model_sources import MAP_SUFFIXES
 from beliefloc.render import stdout_console
+from beliefloc.simulation.settings import CLASSES, MOVE_FAILURE, SeenModel
 
 generate_app = typer.Typer(
     name="generate",
@@ -94,8 +93,11 @@ def gridworld(
     """
     if output.suffix.lower() not in MAP_SUFFIXES:
         raise UsageError(f"{output}: a map file must end in .yaml or .yml")
-    from beliefloc import file_kinds
-    from beliefloc.atomic_write import write_atomically
+    import numpy as np
+
+    from beliefloc.simulation.gridworld import generate_gridworld, grid_side, gridworld_yaml
+    from beliefloc.source import file_kinds
+    from beliefloc.source.atomic_write import write_atomically
 
     check_output("-o", output, MAP_SUFFIXES, (), file_kinds.MAP)
 

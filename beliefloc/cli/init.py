@@ -119,8 +119,8 @@ def _render(kind: str, name: str, target: Path, pointer: str) -> str:
 def _write_new(target: Path, text: str, kind: str) -> None:
     """Write ``text`` to ``target`` all at once: through a temporary file beside it, checked with the
     real loader, then linked into place -- which fails, rather than overwrite, if the file appeared."""
-    from beliefloc.atomic_write import usual_file_mode
     from beliefloc.errors import OutputError
+    from beliefloc.source.atomic_write import usual_file_mode
 
     try:
         fd, temporary = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)

@@ -38,9 +38,9 @@ from beliefloc.simulation.settings import DEFAULT_MAX_STEPS
 if TYPE_CHECKING:
     import numpy as np
 
-    from beliefloc.line_protocol import LineRobot
-    from beliefloc.localize import LocalizeStep
     from beliefloc.model import Model
+    from beliefloc.robots.line_protocol import LineRobot
+    from beliefloc.robots.localize import LocalizeStep
     from beliefloc.semantic_map import SemanticMap
 
 MapArgument = Annotated[
@@ -99,14 +99,14 @@ def localize(
       beliefloc localize maps/window-2x2-perfect.yaml < replies.jsonl   # a robot that saw no window, then moved
       beliefloc localize maps/window-2x2-perfect.yaml --quiet --belief-out belief.json < replies.jsonl
     """
-    from beliefloc.line_protocol import LineRobot, error_message
-    from beliefloc.localize import localize as run
-    from beliefloc.readings import ReadingBinner
+    from beliefloc.robots.line_protocol import LineRobot, error_message
+    from beliefloc.robots.localize import localize as run
+    from beliefloc.robots.readings import ReadingBinner
     from beliefloc.simulation.strategies import EpisodeStatus, PlannerSettings
 
     chosen = resolve_heuristic(planner, heuristic, h_weight)
     if belief_out is not None:
-        from beliefloc import file_kinds
+        from beliefloc.source import file_kinds
 
         inputs = (map_file, *belief_inputs(belief))
         check_output("--belief-out", belief_out, (".json", ".yaml", ".yml"), inputs, file_kinds.BELIEF)
@@ -159,8 +159,8 @@ def localize(
 
 def _write_belief(path: Path, model: Model, belief: np.ndarray) -> None:
     """The final belief as a belief file, written whole or not at all."""
-    from beliefloc.atomic_write import write_atomically
     from beliefloc.belief import by_state_name
+    from beliefloc.source.atomic_write import write_atomically
 
     text = json.dumps({"belief": by_state_name(model, belief)}, indent=2, allow_nan=False) + "\n"
     write_atomically(path, lambda handle: handle.write(text.encode()))
@@ -168,7 +168,7 @@ def _write_belief(path: Path, model: Model, belief: np.ndarray) -> None:
 
 def _open_map(path: Path) -> tuple[SemanticMap, Model]:
     """The map and its model: from the map itself, or from a model built from it (checked unchanged)."""
-    from beliefloc.model_sources import MAP_SUFFIXES, MODEL_SUFFIX, source_map
+    from beliefloc.files.model_sources import MAP_SUFFIXES, MODEL_SUFFIX, source_map
     from beliefloc.semantic_map import compile_model, load_map
 
     suffix = path.suffix.lower()
@@ -176,7 +176,7 @@ def _open_map(path: Path) -> tuple[SemanticMap, Model]:
         smap = load_map(path, on_warning=warn)
         return smap, compile_model(smap)
     if suffix == MODEL_SUFFIX:
-        from beliefloc.model_file import load_model
+        from beliefloc.files.model_file import load_model
 
         model = load_model(path, on_warning=warn)
         return source_map(model), model

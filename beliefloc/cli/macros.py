@@ -46,12 +46,12 @@ def build(
       beliefloc macros build maps/corridors.yaml -o corridors-macros.npz
       beliefloc macros build maps/ladder-symmetric.yaml -o ladder-macros.npz   # exits 1: half-turn twins
     """
-    from beliefloc.file_kinds import MACROS
-    from beliefloc.macro_file import save_macros
-    from beliefloc.model_sources import MODEL_SUFFIX
+    from beliefloc.files.macro_file import save_macros
+    from beliefloc.files.model_sources import MODEL_SUFFIX
     from beliefloc.planning.macros import build_macros
     from beliefloc.render.ec2 import classes_table, macro_summary_table
     from beliefloc.render.progress import progress_bar
+    from beliefloc.source.file_kinds import MACROS
 
     check_output("-o", output, (MODEL_SUFFIX,), (source,), MACROS)
     model = open_model(source)
@@ -129,13 +129,13 @@ def show(
       beliefloc macros show corridors-macros.npz --pair 1,2,1 1,12,1
       beliefloc macros show ladder-macros.npz -o ladder-never.png
     """
-    from beliefloc.macro_file import load_macros, read_header
+    from beliefloc.files.macro_file import load_macros, read_header
     from beliefloc.planning.macros import explain_pair, longest_macros
     from beliefloc.render.ec2 import longest_macros_table, macro_path_table, macro_summary_table
 
     if output is not None:
-        from beliefloc.file_kinds import IMAGE
         from beliefloc.render.figures import PICTURE_SUFFIXES, pyplot
+        from beliefloc.source.file_kinds import IMAGE
 
         inputs = (macros, *(() if model_path is None else (model_path,)))
         check_output("-o", output, PICTURE_SUFFIXES, inputs, IMAGE)

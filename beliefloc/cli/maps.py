@@ -12,7 +12,7 @@ from rich.markup import escape
 from beliefloc.cli.common import boundary, check_output, open_model, print_json, report_error, warn
 from beliefloc.cli.options import JsonOption, ModelArgument
 from beliefloc.errors import EXIT_BAD_INPUT, BeliefLocError, OutputError, UsageError
-from beliefloc.model_sources import MODEL_SUFFIX
+from beliefloc.files.model_sources import MODEL_SUFFIX
 from beliefloc.render import stdout_console
 
 if TYPE_CHECKING:
@@ -102,10 +102,10 @@ def build(
     \b
       beliefloc build maps/kitchen.yaml -o kitchen.npz
     """
-    from beliefloc.file_kinds import MODEL
+    from beliefloc.files.model_file import save_model
     from beliefloc.model import model_summary
-    from beliefloc.model_file import save_model
     from beliefloc.render.tables import model_table
+    from beliefloc.source.file_kinds import MODEL
 
     if output.suffix.lower() != MODEL_SUFFIX:
         raise UsageError(f"-o {output}: a model file must end in {MODEL_SUFFIX}")

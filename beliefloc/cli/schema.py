@@ -42,7 +42,7 @@ KINDS = ("map", "domain")
 _REF_PREFIX = "#/definitions/"
 _ROLE = re.compile(r":(?:class|mod|func|attr|meth|data):`~?([^`]+)`")
 _CODE_ASIDE = re.compile(r"\s*\((?:see )?:(?:mod|func|attr|meth):`[^`]+`\)")
-"""A parenthesis that only points at the code, ``(:mod:`beliefloc.occupancy`)``: dropped for editors."""
+"""A parenthesis that only points at the code, ``(:mod:`beliefloc.semantic_map.load`)``: dropped for editors."""
 
 
 # --- the command ------------------------------------------------------------------------------------
@@ -84,7 +84,7 @@ def schema_command(
     if output is None:
         sys.stdout.write(text)
         return
-    from beliefloc.atomic_write import write_atomically
+    from beliefloc.source.atomic_write import write_atomically
 
     write_atomically(output, lambda handle: handle.write(text), binary=False)
     typer.echo(f"wrote {output}")

@@ -500,11 +500,11 @@ def simulate(
       beliefloc search simulate domains/home.yaml -n 100 --knowledge 0.2 --no-defaults --dynamic-kb
       beliefloc search simulate domains/home.yaml -n 100 --workers 2 --out home.jsonl --no-timings
     """
+    from beliefloc.files.results_file import header
     from beliefloc.knowledge import load_domain
     from beliefloc.object_search.domain_space import search_space
     from beliefloc.object_search.experiment import Arm, TrialRecord, TrialSettings, TrialSweep, run_title, summarize
     from beliefloc.render.search import trials_table
-    from beliefloc.results_file import header
 
     metareasonings = _choices(metareasoning, Metareasoning.EXPECTATION, METAREASONING_OPTION)
     policies = _choices(policy, PolicyName.POMDP, "--policy")
@@ -566,7 +566,7 @@ def simulate(
 
 def _digests(domain_file: Path, kb_files: list[Path]) -> dict[str, str]:
     """The SHA-256 of the domain file and of each of its knowledge-base files, by path."""
-    from beliefloc.results_file import digest
+    from beliefloc.files.results_file import digest
 
     return {str(path): digest(path) for path in [domain_file, *kb_files] if path.is_file()}
 

@@ -57,7 +57,7 @@ def select_command(
     start = initial_belief(model, belief)
     table = None
     if macros is not None:
-        from beliefloc.macro_file import load_macros
+        from beliefloc.files.macro_file import load_macros
 
         table = load_macros(macros, model)
     ctx = pair_context(model, gamma if gamma is not None else (table.gamma if table is not None else None))

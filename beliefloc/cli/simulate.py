@@ -180,10 +180,10 @@ def simulate(
       beliefloc simulate maps/kitchen.yaml -n 40 --workers 2 --out kitchen.jsonl --no-timings
       beliefloc simulate maps/kitchen.yaml -n 60 --workers 2 --out kitchen-60.jsonl --resume
     """
+    from beliefloc.files.results_file import header
     from beliefloc.render.belief_grid import belief_view
     from beliefloc.render.drawing import uses_color
     from beliefloc.render.plan import plan_table, summary_table
-    from beliefloc.results_file import header
     from beliefloc.simulation.episode import EpisodeSweep, records_from_results, strategy_name, summarize
     from beliefloc.simulation.strategies import EpisodeStatus, PlannerSettings
 
@@ -209,7 +209,7 @@ def simulate(
     world_model = _world(world, model) if world is not None else None
     table = None
     if macros is not None:
-        from beliefloc.macro_file import load_macros
+        from beliefloc.files.macro_file import load_macros
 
         table = load_macros(macros, model)
     settings = PlannerSettings(
@@ -352,7 +352,7 @@ def _settings(
 ) -> dict[str, object]:
     """What decides a run's results, for the header of its --out file: the inputs (and their bytes'
     digests), the strategies and every planner setting."""
-    from beliefloc.results_file import digest
+    from beliefloc.files.results_file import digest
 
     settings = sweep.settings
     assert settings is not None

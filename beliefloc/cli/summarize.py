@@ -17,7 +17,7 @@ from beliefloc.render import stderr_console, stdout_console
 if TYPE_CHECKING:
     from rich.console import RenderableType
 
-    from beliefloc.results_file import ResultsContent
+    from beliefloc.files.results_file import ResultsContent
 
 
 @boundary
@@ -44,7 +44,7 @@ def summarize(
       beliefloc simulate maps/kitchen.yaml -n 20 --out kitchen.jsonl && beliefloc summarize kitchen.jsonl
       beliefloc search simulate domains/home.yaml -n 10 --out home.jsonl && beliefloc summarize home.jsonl --json
     """
-    from beliefloc.results_file import ResultsFileError, read_results
+    from beliefloc.files.results_file import ResultsFileError, read_results
 
     if results_file.is_dir():
         raise UsageError(f"{results_file}: is a folder; name a results file (FILE.jsonl)")

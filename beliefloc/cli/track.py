@@ -13,7 +13,7 @@ from beliefloc.errors import UsageError
 from beliefloc.render import stdout_console
 
 if TYPE_CHECKING:
-    from beliefloc.tracking import StepLine
+    from beliefloc.robots.tracking import StepLine
 
 
 StepsArgument = Annotated[
@@ -69,7 +69,7 @@ def track(
     from beliefloc.render.belief_grid import belief_view
     from beliefloc.render.drawing import uses_color
     from beliefloc.render.state_tables import belief_summary, step_header, summary_line
-    from beliefloc.tracking import resolve_steps, track_beliefs
+    from beliefloc.robots.tracking import resolve_steps, track_beliefs
 
     written = _steps(steps, steps_file)
     model = open_model(source)
@@ -108,7 +108,7 @@ def track(
 
 def _steps(arguments: list[str] | None, steps_file: str | None) -> list[str] | list[StepLine]:
     """The steps from the arguments or from ``--steps FILE|-``: one or the other."""
-    from beliefloc.tracking import MAX_STEP_FILE_BYTES, read_step_file, step_lines
+    from beliefloc.robots.tracking import MAX_STEP_FILE_BYTES, read_step_file, step_lines
 
     if steps_file is None:
         if not arguments:

@@ -3,8 +3,8 @@
 clingo grounds in C++ and cannot be interrupted while it does: ``n(0..100000000).`` takes
 gigabytes and ignores Ctrl-C, and ``Control.interrupt`` only stops a search. So the first grounding
 of a knowledge base runs in a forked child process (:func:`run_budgeted`) with its address space
-bounded by :data:`~beliefloc.limits.GROUNDING_BYTES` (more than the parent holds already) and its
-time by :data:`~beliefloc.limits.GROUNDING_SECONDS`; the child sends back what it found (answer sets
+bounded by :data:`~beliefloc.source.limits.GROUNDING_BYTES` (more than the parent holds already) and its
+time by :data:`~beliefloc.source.limits.GROUNDING_SECONDS`; the child sends back what it found (answer sets
 as text, clingo's messages) and exits. A child that runs out of time is killed, one that runs out
 of memory fails in clingo (or is killed by the system), and either way the parent raises
 :class:`~beliefloc.errors.LimitError` naming the budget and the environment variable that raises
@@ -29,8 +29,9 @@ import warnings
 from collections.abc import Callable
 from typing import Any
 
-from beliefloc import errors, limits
+from beliefloc import errors
 from beliefloc.errors import BeliefLocError, LimitError
+from beliefloc.source import limits
 
 _SLICE = 0.05
 """Seconds between looks at a running search (how soon Ctrl-C is noticed)."""

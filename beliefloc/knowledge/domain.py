@@ -34,9 +34,9 @@ from pydantic import (
 )
 
 from beliefloc.errors import DomainError, FieldError, InvalidValueError, KnowledgeBaseError, MapError
-from beliefloc.file_kinds import DOMAIN, kind_of_data, not_a
 from beliefloc.knowledge.robot import DEFAULT_WEIGHT, ROBOT
 from beliefloc.source import Source, format_path, read_source, refuse_field_name, validate_source
+from beliefloc.source.file_kinds import DOMAIN, kind_of_data, not_a
 
 if TYPE_CHECKING:
     from beliefloc.semantic_map import SemanticMap

@@ -2,7 +2,7 @@
 
 clingo is never handed a file of the user's to open. Every ``.lp`` file of a domain (``kb:``), of
 ``--kb`` and every file they ``#include`` is read here: only a regular file (not a folder, a FIFO or
-``/dev/zero``), no more than :data:`~beliefloc.limits.INPUT_BYTES` in all, UTF-8 text (clingo's
+``/dev/zero``), no more than :data:`~beliefloc.source.limits.INPUT_BYTES` in all, UTF-8 text (clingo's
 messages quote the program, and a message that is not UTF-8 crashes its Python binding). The text
 is scanned with clingo's own lexical rules (comments ``%``, ``%* *%``, ``#!``; strings) for the
 directives that reach outside the program:
@@ -33,10 +33,9 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from beliefloc import limits
 from beliefloc.errors import KnowledgeBaseError, LimitError
-from beliefloc.file_kinds import KNOWLEDGE_BASE, kind_of_path
-from beliefloc.source import not_regular_file, read_text
+from beliefloc.source import limits, not_regular_file, read_text
+from beliefloc.source.file_kinds import KNOWLEDGE_BASE, kind_of_path
 
 NOT_LP = "is {} a knowledge base? --kb and kb: take ASP programs (kb/*.lp)"
 OUTSIDE_HINT = "--allow-outside reads it anyway"
@@ -339,7 +338,7 @@ def read_program(roots: Iterable[Root], *, allow_outside: bool = False) -> Progr
     """Read, check and copy every file of a program (see the module docstring).
 
     Raises :class:`KnowledgeBaseError` naming the file (and the line of a directive), or
-    :class:`LimitError` when the files hold more than :data:`~beliefloc.limits.INPUT_BYTES` in all.
+    :class:`LimitError` when the files hold more than :data:`~beliefloc.source.limits.INPUT_BYTES` in all.
     """
     program = Program()
     budget = _Budget()

@@ -33,7 +33,6 @@ from typing import Any
 
 import clingo
 
-from beliefloc import limits
 from beliefloc.errors import InvalidValueError, KnowledgeBaseError
 from beliefloc.knowledge.answer import AnswerSet, Literal, Timings
 from beliefloc.knowledge.budget import run_budgeted, wait_solved
@@ -41,6 +40,7 @@ from beliefloc.knowledge.domain import ASP_NAME, Domain
 from beliefloc.knowledge.files import NOT_LP, Program, Root, read_program
 from beliefloc.knowledge.prior import DEFAULT_FLOOR, RoomPrior, room_prior
 from beliefloc.knowledge.robot import ROBOT
+from beliefloc.source import limits
 
 _SHIPPED = Path(__file__).parent / "lp"
 """The axioms ship inside the package as links to the repository's hand-edited ``kb/`` files; a
@@ -342,7 +342,7 @@ class KnowledgeBase:
     def _search(self) -> tuple[list[str], int]:
         """Solve the grounded program (cautious consequences): the shown atoms as text, and how many
         models were found; raises when there is none. Waited for in slices, so that Ctrl-C and the
-        time budget (:data:`~beliefloc.limits.GROUNDING_SECONDS`) stop it."""
+        time budget (:data:`~beliefloc.source.limits.GROUNDING_SECONDS`) stop it."""
         control = self._control_ready()
         start = time.perf_counter()
         found: dict[str, Any] = {"models": 0, "atoms": []}

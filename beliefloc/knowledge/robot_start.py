@@ -78,12 +78,12 @@ def robot_start_belief(model: Model, domain: Domain, smap: SemanticMap | None = 
     spread over its states (:func:`~beliefloc.knowledge.robot.spread_over_states`).
 
     ``smap`` is the map whose cells give each room's states (default: the map ``model`` was
-    compiled from, :func:`beliefloc.model_sources.source_map`); the domain may reference another
+    compiled from, :func:`beliefloc.files.model_sources.source_map`); the domain may reference another
     copy of it. Raises :class:`InvalidValueError` when the map has no rooms, when the domain's
     rooms are not the map's, or when the map does not fit the model; :class:`ModelError` when the
     model has no map.
     """
-    from beliefloc.model_sources import source_map
+    from beliefloc.files.model_sources import source_map
     from beliefloc.semantic_map import room_states
 
     smap = smap if smap is not None else source_map(model)

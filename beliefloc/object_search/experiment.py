@@ -285,7 +285,7 @@ class TrialRecord:
 
 @dataclass(frozen=True)
 class TrialSweep:
-    """Paired trials as a sweep (:mod:`beliefloc.sweep`): unit ``t`` is trial ``t`` (every arm), its
+    """Paired trials as a sweep (:mod:`beliefloc.simulation.sweep`): unit ``t`` is trial ``t`` (every arm), its
     result :meth:`TrialRecord.as_json`. A trial depends on (``seed``, ``t``) only
     (:func:`~beliefloc.object_search.trials.trial_rng`), so any worker may run it. A worker reads the
     domain's knowledge-base files (``kb/*.lp``) from its own disk: on a cluster they must be at the

@@ -1,6 +1,6 @@
 """Minimum-cost macro actions over pairs of states: Khalvati & Mackworth, Sec. V and Algorithm 2.
 
-Pure numpy, no I/O (files: :mod:`beliefloc.macro_file`).
+Pure numpy, no I/O (files: :mod:`beliefloc.files.macro_file`).
 
 **The pair graph.** A node is an unordered pair of states ``{s_i, s_j}`` that no sensor tells apart
 where they stand: their noise-free readings of every sensor are equal (the paper's ``d <= gamma``;

@@ -17,10 +17,10 @@ from typing import Any
 
 import numpy as np
 
-from beliefloc import limits
 from beliefloc.errors import LimitError
 from beliefloc.pomdp_format.names import FORMAT_VERSION, KINDS, SINGULAR
 from beliefloc.pomdp_format.statements import Comment
+from beliefloc.source import limits
 
 
 @dataclass

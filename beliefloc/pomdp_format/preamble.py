@@ -12,10 +12,10 @@ from typing import NamedTuple
 
 import numpy as np
 
-from beliefloc import limits
 from beliefloc.errors import LimitError
 from beliefloc.pomdp_format.names import IDENTIFIER, NUMBER, RESERVED, SINGULAR, TOLERANCE
 from beliefloc.pomdp_format.statements import Statement, expect_colon, numbers
+from beliefloc.source import limits
 
 _MAX_SHOWN = 6
 """How many declared names a message about an unknown one lists."""
@@ -112,7 +112,7 @@ class Preamble:
     def check_sizes(self, st: Statement) -> None:
         """Once states, actions and observations are all declared (``st`` is the first statement
         after them): every action's T and O have a row per state, O a column per observation, so the
-        sizes are checked against :data:`~beliefloc.limits.MODEL_ENTRIES` before any table is made."""
+        sizes are checked against :data:`~beliefloc.source.limits.MODEL_ENTRIES` before any table is made."""
         n, a, k = self.size("states"), self.size("actions"), self.size("observations")
         limit = limits.MODEL_ENTRIES
         for count, what in ((n * k, f"{n:,} states × {k:,} observations"), (n * a, f"{n:,} states × {a:,} actions")):
@@ -125,7 +125,7 @@ class Preamble:
 
     def spend(self, st: Statement, count: int) -> None:
         """Count ``count`` more table entries given by ``st`` (a ``*`` or a whole matrix gives many),
-        refused past :data:`~beliefloc.limits.MODEL_ENTRIES` before they are made."""
+        refused past :data:`~beliefloc.source.limits.MODEL_ENTRIES` before they are made."""
         self.entries += count
         limit = limits.MODEL_ENTRIES
         if self.entries > limit.value:
@@ -200,7 +200,7 @@ def _shown(token: str) -> str:
 
 
 def _check_count(st: Statement, kind: str, count: int | None) -> None:
-    """Refuse more elements than :data:`~beliefloc.limits.MODEL_ELEMENTS` (None: too many digits to count)."""
+    """Refuse more elements than :data:`~beliefloc.source.limits.MODEL_ELEMENTS` (None: too many digits to count)."""
     limit = limits.MODEL_ELEMENTS
     if count is None or count > limit.value:
         amount = f"{count:,} {kind}" if count is not None else f"a count of {len(st.tokens[2]):,} digits"

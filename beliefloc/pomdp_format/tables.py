@@ -9,7 +9,7 @@ T, observations for O) and in the keywords a row may be (``reset`` only for T):
 
 Entries are only collected here; their checks (probabilities, rows summing to 1) are made when the
 model is built, where the last entry given for a cell is known. How many a statement gives (a ``*``
-or a whole matrix gives many) is counted against :data:`~beliefloc.limits.MODEL_ENTRIES` before
+or a whole matrix gives many) is counted against :data:`~beliefloc.source.limits.MODEL_ENTRIES` before
 they are made (:meth:`~beliefloc.pomdp_format.preamble.Preamble.spend`).
 """
 

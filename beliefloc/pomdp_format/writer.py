@@ -54,10 +54,10 @@ from typing import IO, Any
 import numpy as np
 import scipy.sparse as sp
 
-from beliefloc.atomic_write import write_atomically
 from beliefloc.errors import ModelError, OutputError
 from beliefloc.model import Action, Model
 from beliefloc.pomdp_format.names import FORMAT_VERSION, PREFIX, format_number, identifiers
+from beliefloc.source.atomic_write import write_atomically
 
 DISCOUNT = 0.95
 """Localization has no discount of its own; 0.95 is the conventional value solvers expect."""

@@ -67,7 +67,7 @@ def figure_bytes(fig: Figure, suffix: str) -> bytes:
 
 def save_figure(fig: Figure, path: Path) -> None:
     """Write ``fig`` to ``path`` (PNG or SVG by its suffix), whole or not at all."""
-    from beliefloc.atomic_write import write_atomically
+    from beliefloc.source.atomic_write import write_atomically
 
     data = figure_bytes(fig, path.suffix)
     write_atomically(path, lambda handle: handle.write(data))
@@ -78,7 +78,7 @@ def save_gif(frames: Sequence[bytes], path: Path, *, seconds_per_frame: float = 
     at all. Frames of different sizes are padded to the largest, in white."""
     from PIL import Image
 
-    from beliefloc.atomic_write import write_atomically
+    from beliefloc.source.atomic_write import write_atomically
 
     if not frames:
         raise ValueError("a GIF needs at least one frame")

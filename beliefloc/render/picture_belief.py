@@ -150,7 +150,7 @@ def _extent(grid: GridLayout, smap: SemanticMap | None) -> tuple[float, float, f
         gy0, gy1 = (grid.rows - rows[-1] - 1) * s, (grid.rows - rows[0]) * s
     occupancy = smap.occupancy_map if smap is not None else None
     if occupancy is not None:
-        from beliefloc.occupancy import Occupancy
+        from beliefloc.semantic_map.occupancy_map import Occupancy
 
         known = occupancy.pixels != Occupancy.UNKNOWN
         i = np.flatnonzero(known.any(axis=1))
@@ -488,7 +488,7 @@ def _span(ax: Any) -> float:
 
 
 def _draw_occupancy(ax: Any, occupancy: Any) -> None:
-    from beliefloc.occupancy import Occupancy
+    from beliefloc.semantic_map.occupancy_map import Occupancy
 
     greys = np.full(occupancy.pixels.shape, _UNKNOWN, dtype=np.float32)
     greys[occupancy.pixels == Occupancy.FREE] = _FREE

@@ -12,10 +12,10 @@ from pathlib import Path
 from typing import Any
 
 from beliefloc.errors import MapError
-from beliefloc.file_kinds import MAP, kind_of_data, kind_of_path, not_a
 from beliefloc.model import SourceInfo
 from beliefloc.semantic_map.schema import SemanticMap
 from beliefloc.source import Source, read_source, validate_source
+from beliefloc.source.file_kinds import MAP, kind_of_data, kind_of_path, not_a
 
 Warn = Callable[[str], None]
 
@@ -60,7 +60,11 @@ def _files_named(source: Source) -> dict[str, Any]:
     named = data.get("occupancy")
     if named is None:
         return {}
-    from beliefloc.occupancy import OccupancyRule, load_occupancy, load_region_mask  # Pillow: only for these maps
+    from beliefloc.semantic_map.occupancy_map import (  # Pillow: only for these maps
+        OccupancyRule,
+        load_occupancy,
+        load_region_mask,
+    )
 
     target = _beside(source, ("occupancy",), named, "a ROS map YAML file (map_saver's), e.g. depot.yaml")
     rule_text = data.get("occupancy_rule", OccupancyRule.BELIEFLOC.value)

@@ -7,7 +7,7 @@ twice:
   class, so ``2^k`` observations for ``k`` classes; a Scan a part per beam; every move observes the
   parts of all passive sensors together). The model's size is its states times the observations of
   all its actions, plus the tables of reading probabilities (``n × n`` for a part of ``n``
-  readings); it is checked against :data:`beliefloc.limits.MODEL_ENTRIES` before anything is
+  readings); it is checked against :data:`beliefloc.source.limits.MODEL_ENTRIES` before anything is
   allocated.
 * **Names.** The name of a joint observation joins its parts' readings with ``+`` in part order,
   leaving out the silent ones (Look's "not seen"), or is ``nothing`` when every part is silent
@@ -28,8 +28,8 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 
 from beliefloc.errors import FieldError, Path
-from beliefloc.limits import MODEL_ENTRIES, Limit
 from beliefloc.model import NOTHING
+from beliefloc.source.limits import MODEL_ENTRIES, Limit
 
 
 def label(value: float) -> str:

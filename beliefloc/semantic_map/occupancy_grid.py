@@ -17,7 +17,7 @@ the map is unknown space.
 
 Unknown space is never a place the robot can be; its edge counts as a wall.
 
-Pure numpy, no I/O: the pixels come from :mod:`beliefloc.occupancy`.
+Pure numpy, no I/O: the pixels come from :mod:`beliefloc.semantic_map.occupancy_map`.
 """
 
 from __future__ import annotations

@@ -8,21 +8,21 @@ import math
 from typing import TYPE_CHECKING, Any
 
 from beliefloc.errors import FieldError
-from beliefloc.limits import GEOMETRY_TESTS
 from beliefloc.model import MapFrame
 from beliefloc.semantic_map import observations
 from beliefloc.semantic_map.occupancy_grid import grid_shape
 from beliefloc.semantic_map.sections import MAX_METRES, MIN_CELL_SIZE, as_number
+from beliefloc.source.limits import GEOMETRY_TESTS
 
 if TYPE_CHECKING:
-    from beliefloc.occupancy import OccupancyMap
+    from beliefloc.semantic_map.occupancy_map import OccupancyMap
 
 
 def grid_from_occupancy(data: dict[str, Any], occupancy: OccupancyMap) -> dict[str, Any]:
     """The grid's rows and cols of a map with ``occupancy:``: as many cells of ``cell_size`` as it
     takes to cover the image. The file must not give them. Refused before any cell is laid out: a
-    cell size too small for the limits (:data:`~beliefloc.limits.MODEL_ENTRIES`), a robot radius
-    that would take too long to test (:data:`~beliefloc.limits.GEOMETRY_TESTS`)."""
+    cell size too small for the limits (:data:`~beliefloc.source.limits.MODEL_ENTRIES`), a robot radius
+    that would take too long to test (:data:`~beliefloc.source.limits.GEOMETRY_TESTS`)."""
     grid = data.get("grid")
     if not isinstance(grid, dict):
         return data  # the field validator says what is wrong

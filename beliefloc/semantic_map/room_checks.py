@@ -4,20 +4,38 @@ cells, no two rooms overlapping; each error names the field where it was written
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
 from beliefloc.errors import FieldError
-from beliefloc.limits import GEOMETRY_TESTS
 from beliefloc.semantic_map.occupancy_section import too_much_geometry
-from beliefloc.semantic_map.sections import BLOCKED, FREE, NO_ROOM, RoomRectangle, grid_lines
+from beliefloc.semantic_map.sections import BLOCKED, FREE, NO_ROOM, Grid, RoomRectangle, Rooms, grid_lines
+from beliefloc.source.limits import GEOMETRY_TESTS
 
 if TYPE_CHECKING:
-    from beliefloc.semantic_map.schema import SemanticMap
+    from beliefloc.semantic_map.occupancy_map import OccupancyMap
 
 
-def check_rooms(smap: SemanticMap) -> None:
+class RoomsOfAMap(Protocol):
+    """What the room checks read of a :class:`~beliefloc.semantic_map.schema.SemanticMap` (which
+    calls them from its validator, so they cannot import it)."""
+
+    @property
+    def room_spec(self) -> Rooms | None: ...
+    @property
+    def grid(self) -> Grid: ...
+    @property
+    def free(self) -> np.ndarray: ...
+    @property
+    def rooms(self) -> dict[str, np.ndarray]: ...
+    @property
+    def occupancy_map(self) -> OccupancyMap | None: ...
+    @property
+    def region_mask(self) -> np.ndarray | None: ...
+
+
+def check_rooms(smap: RoomsOfAMap) -> None:
     spec = smap.room_spec
     if spec is None:
         return
@@ -58,7 +76,7 @@ def check_rooms(smap: SemanticMap) -> None:
         _check_room_layout(smap, spec.layout, spec.legend)
 
 
-def _check_room_mask(smap: SemanticMap) -> None:
+def _check_room_mask(smap: RoomsOfAMap) -> None:
     spec = smap.room_spec
     assert spec is not None
     if spec.mask is None or spec.labels is None:
@@ -83,7 +101,7 @@ def _check_room_mask(smap: SemanticMap) -> None:
             )
 
 
-def _check_room_polygons(smap: SemanticMap, polygons: dict[str, list[tuple[float, float]]]) -> None:
+def _check_room_polygons(smap: RoomsOfAMap, polygons: dict[str, list[tuple[float, float]]]) -> None:
     if not polygons:
         raise FieldError(("rooms", "polygons"), "no rooms; e.g. dock: [[0, 0], [4, 0], [4, 3], [0, 3]]")
     corners = sum(len(vertices) for vertices in polygons.values())
@@ -111,7 +129,7 @@ def _check_room_polygons(smap: SemanticMap, polygons: dict[str, list[tuple[float
         owner[mask] = name
 
 
-def _check_room_rectangles(smap: SemanticMap, rooms: dict[str, RoomRectangle | list[RoomRectangle]]) -> None:
+def _check_room_rectangles(smap: RoomsOfAMap, rooms: dict[str, RoomRectangle | list[RoomRectangle]]) -> None:
     g = smap.grid
     owner = np.full((g.rows, g.cols), "", dtype=object)
     if not rooms:
@@ -146,7 +164,7 @@ def _check_room_rectangles(smap: SemanticMap, rooms: dict[str, RoomRectangle | l
             owner[r0 : r1 + 1, c0 : c1 + 1] = name
 
 
-def _check_room_layout(smap: SemanticMap, layout: str, legend: dict[str, str]) -> None:
+def _check_room_layout(smap: RoomsOfAMap, layout: str, legend: dict[str, str]) -> None:
     g = smap.grid
     for letter in legend:
         if len(letter) != 1 or letter in (FREE, BLOCKED) or letter.isspace():

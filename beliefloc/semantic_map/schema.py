@@ -25,7 +25,6 @@ from pydantic import (
 )
 
 from beliefloc.errors import FieldError
-from beliefloc.limits import GEOMETRY_TESTS, MODEL_ENTRIES
 from beliefloc.model import MapFrame, SourceInfo
 from beliefloc.semantic_map import observations
 from beliefloc.semantic_map.observations import ObservationSet, PartGroup, PartSpec
@@ -53,9 +52,10 @@ from beliefloc.semantic_map.sections import (
     grid_lines,
 )
 from beliefloc.source import refuse_field_name
+from beliefloc.source.limits import GEOMETRY_TESTS, MODEL_ENTRIES
 
 if TYPE_CHECKING:
-    from beliefloc.occupancy import OccupancyMap
+    from beliefloc.semantic_map.occupancy_map import OccupancyMap
 
 
 _NAME_CHAR = re.compile(r"^[A-Za-z0-9_\-]$")
@@ -67,7 +67,7 @@ class SemanticMap(StrictModel):
     description: str | None = None
     occupancy: str | None = None
     """A ROS/Nav2 occupancy map (its YAML file, relative to this one) instead of a ``layout``: the
-    grid's rows, columns, free cells and frame come from it (:mod:`beliefloc.occupancy`)."""
+    grid's rows, columns, free cells and frame come from it (:mod:`beliefloc.semantic_map.occupancy_map`)."""
     occupancy_rule: Literal["beliefloc", "nav2"] = "beliefloc"
     """``beliefloc``: the saver's unknown grey is unknown even where Nav2's ``free_thresh`` would call
     it free; ``nav2``: Nav2's reading exactly."""

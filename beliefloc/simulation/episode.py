@@ -238,7 +238,7 @@ def run_experiment(
 
 @dataclass(frozen=True)
 class EpisodeSweep:
-    """Paired episodes as a sweep (:mod:`beliefloc.sweep`): unit ``e`` is episode ``e`` of every
+    """Paired episodes as a sweep (:mod:`beliefloc.simulation.sweep`): unit ``e`` is episode ``e`` of every
     strategy, its result ``{"episode": e, "records": [EpisodeRecord.as_json(), ...]}`` in the order of
     ``strategies``. Episode ``e`` depends on (``seed``, ``e``) only (:func:`episode_rngs`), so any
     worker may run it, in any order, with the same result."""

@@ -9,6 +9,21 @@ from __future__ import annotations
 
 import enum
 
+# The random grid worlds' vocabulary (:mod:`beliefloc.simulation.gridworld`), here for the same reason.
+CLASSES = ("A", "B", "C", "D")
+"""The object classes of a random grid world, named as in the authors' code."""
+MOVE_FAILURE = 0.02
+"""The probability that a move of a random grid world fails, as the paper's text says of every move."""
+
+
+class SeenModel(str, enum.Enum):
+    """Where ``look`` gets what it sees in a random grid world: placed objects, or per-state draws
+    as the authors did."""
+
+    OBJECTS = "objects"
+    STATES = "states"
+
+
 DEFAULT_MAX_STEPS = 200
 """An episode stops after this many actions."""
 

@@ -6,8 +6,8 @@ import os
 import stat
 from pathlib import Path as FilePath
 
-from beliefloc import limits
 from beliefloc.errors import BeliefLocError, LimitError
+from beliefloc.source import limits
 
 # --- reading the file ---------------------------------------------------------------------------
 
@@ -45,7 +45,7 @@ def read_text(path: str | FilePath, error_cls: type[BeliefLocError]) -> tuple[st
     """A UTF-8 text file and its bytes; every failure is ``error_cls`` naming the file.
 
     Only a regular file is opened (a FIFO would block, /dev/zero never end), and no more than
-    :data:`~beliefloc.limits.INPUT_BYTES` bytes are read, whatever size the file claims."""
+    :data:`~beliefloc.source.limits.INPUT_BYTES` bytes are read, whatever size the file claims."""
     file_path = FilePath(path)
     limit = limits.INPUT_BYTES
     try:

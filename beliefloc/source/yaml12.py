@@ -22,8 +22,8 @@ from yaml.events import (
     StreamEndEvent,
 )
 
-from beliefloc import limits
 from beliefloc.errors import InputFileError, Path
+from beliefloc.source import limits
 from beliefloc.source.files import read_text
 from beliefloc.source.located import Source, format_path, gc_paused, shown_value
 

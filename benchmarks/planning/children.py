@@ -48,7 +48,7 @@ def _replan_without_memory(model: Any, evaluator: Any, start: Any, out: list[dic
 
 @dataclass(frozen=True)
 class WorldEpisodes:
-    """The episodes part as a sweep (:mod:`beliefloc.sweep`): unit ``e`` builds world ``e`` from its
+    """The episodes part as a sweep (:mod:`beliefloc.simulation.sweep`): unit ``e`` builds world ``e`` from its
     seed and runs its paired episodes, so the worlds can run on several worker processes
     (``--workers``) with the same results. Picklable: its parameters only."""
 
@@ -105,7 +105,7 @@ def child_episodes(p: dict[str, Any]) -> dict[str, Any]:
     a world per episode, on ``p["workers"]`` processes (1: this one; more: plan times then share the
     cores, so Table I's times are measured with one)."""
     from beliefloc.simulation.episode import EpisodeRecord, summarize
-    from beliefloc.sweep import backend, in_order
+    from beliefloc.simulation.sweep import backend, in_order
 
     states, episodes, tag = p["states"], p["episodes"], p["tag"]
     all_records: list[EpisodeRecord] = []

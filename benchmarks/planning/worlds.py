@@ -23,8 +23,9 @@ def build_model(states: int, wseed: int, directory: Path, rotation_failure: floa
     ``--rotation-failure`` when given), loaded and compiled."""
     import numpy as np
 
-    from beliefloc.generate import MOVE_FAILURE, SeenModel, generate_gridworld, gridworld_yaml
     from beliefloc.semantic_map import compile_model, load_map
+    from beliefloc.simulation.gridworld import generate_gridworld, gridworld_yaml
+    from beliefloc.simulation.settings import MOVE_FAILURE, SeenModel
 
     rotations = MOVE_FAILURE if rotation_failure is None else rotation_failure
     world = generate_gridworld(states, np.random.default_rng(wseed), SeenModel.STATES, rotation_failure=rotations)

@@ -8,7 +8,6 @@ import os
 import platform
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -17,6 +16,7 @@ from beliefloc.knowledge import load_domain
 from beliefloc.object_search.domain_space import search_space
 from beliefloc.object_search.experiment import TrialRecord, trial_world
 from beliefloc.object_search.world import typical_rooms
+from beliefloc.simulation.sweep import backend
 from benchmarks import search_paper
 from benchmarks.machine import cpu_name
 
@@ -89,28 +89,25 @@ def main(argv: list[str] | None = None) -> int:
     domain = load_domain(DOMAIN)
     space = search_space(domain)
     timings: dict[str, float] = {}
-    pool = ProcessPoolExecutor(args.jobs) if args.jobs > 1 else None
+    pool = backend(args.jobs)
     try:
         say(f"knowledge: {len(KNOWLEDGE) * 2} parts x {n_knowledge} trials")
         knowledge: dict[tuple[float, bool], list[TrialRecord]] = {}
         for part in knowledge_parts(n_knowledge):
-            knowledge[part.settings.knowledge, part.settings.defaults], seconds = run_part(
-                part, args.seed, args.jobs, pool
-            )
+            knowledge[part.settings.knowledge, part.settings.defaults], seconds = run_part(part, args.seed, pool)
             timings["H1, Fig. 5, Table I"] = timings.get("H1, Fig. 5, Table I", 0.0) + seconds
         typical: dict[float, list[TrialRecord]] = {}
         for part in typical_parts(n_knowledge):
-            typical[part.settings.knowledge], seconds = run_part(part, args.seed, args.jobs, pool)
+            typical[part.settings.knowledge], seconds = run_part(part, args.seed, pool)
             timings["H1 in default rooms"] = timings.get("H1 in default rooms", 0.0) + seconds
         say(f"kb: 2 parts x {n_kb} trials")
         (noisy_part, matched_part) = kb_parts(n_kb)
-        (noisy, s1), (matched, s2) = (run_part(p, args.seed, args.jobs, pool) for p in (noisy_part, matched_part))
+        (noisy, s1), (matched, s2) = (run_part(p, args.seed, pool) for p in (noisy_part, matched_part))
         timings["Fig. 6"] = s1 + s2
         say(f"meta: {n_meta} trials")
-        meta, timings["Figs. 7-8"] = run_part(meta_part(n_meta), args.seed, args.jobs, pool)
+        meta, timings["Figs. 7-8"] = run_part(meta_part(n_meta), args.seed, pool)
     finally:
-        if pool is not None:
-            pool.shutdown()
+        pool.close()
 
     # POMDP only ran in the (0 %, no defaults) part; every part has the same worlds and targets
     only_records = knowledge[0.0, False]

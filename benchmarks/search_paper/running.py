@@ -3,16 +3,15 @@ index, so chunks of trials can run anywhere and be joined in index order."""
 
 from __future__ import annotations
 
-import math
 import sys
 import time
 from collections.abc import Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
-from typing import Any
 
 from beliefloc.knowledge import load_domain
 from beliefloc.knowledge.domain import Domain
-from beliefloc.object_search.experiment import Arm, ArmOutcome, TrialRecord, TrialSettings, run_trials
+from beliefloc.object_search.domain_space import search_space
+from beliefloc.object_search.experiment import Arm, ArmOutcome, TrialRecord, TrialSweep
+from beliefloc.simulation.sweep import Backend, in_order
 
 from .settings import DOMAIN, Part
 
@@ -24,34 +23,21 @@ def say(text: str) -> None:
 _DOMAINS: dict[str, Domain] = {}
 
 
-def _chunk(path: str, arms: tuple[Arm, ...], settings: TrialSettings, seed: int, first: int, count: int) -> Any:
-    domain = _DOMAINS.get(path)
-    if domain is None:
-        domain = _DOMAINS[path] = load_domain(path)
-    return run_trials(domain, arms, trials=count, seed=seed, settings=settings, first=first)
-
-
-def run_part(part: Part, seed: int, jobs: int, pool: ProcessPoolExecutor | None) -> tuple[list[TrialRecord], float]:
-    """All trials of a part, in index order, and the wall-clock seconds they took."""
+def run_part(part: Part, seed: int, backend: Backend) -> tuple[list[TrialRecord], float]:
+    """All trials of a part, in index order, and the wall-clock seconds they took: the trials run as
+    ``search simulate``'s do, a :class:`~beliefloc.object_search.experiment.TrialSweep` on one of
+    beliefloc's sweep backends (this process, a process pool)."""
     started = time.perf_counter()
-    size = max(1, min(50, math.ceil(part.trials / (4 * jobs))))
-    starts = list(range(0, part.trials, size))
-    done: dict[int, list[TrialRecord]] = {}
-    if pool is None:
-        for first in starts:
-            done[first] = _chunk(str(DOMAIN), part.arms, part.settings, seed, first, min(size, part.trials - first))
-            _progress(part, sum(len(v) for v in done.values()), started)
-    else:
-        futures = {
-            pool.submit(
-                _chunk, str(DOMAIN), part.arms, part.settings, seed, first, min(size, part.trials - first)
-            ): first
-            for first in starts
-        }
-        for future in as_completed(futures):
-            done[futures[future]] = future.result()
-            _progress(part, sum(len(v) for v in done.values()), started)
-    records = [record for first in starts for record in done[first]]
+    domain = _DOMAINS.get(str(DOMAIN))
+    if domain is None:
+        domain = _DOMAINS[str(DOMAIN)] = load_domain(DOMAIN)
+    sweep = TrialSweep(domain, part.arms, seed, part.settings)
+    indices = range(part.trials)
+    space = search_space(domain)
+    records: list[TrialRecord] = []
+    for count, (_, result) in enumerate(in_order(backend.run(sweep, indices), indices), start=1):
+        records.append(TrialRecord.from_json(result, space))
+        _progress(part, count, started)
     seconds = time.perf_counter() - started
     say(f"  {part.label}: {part.trials} trials x {len(part.arms)} arms in {seconds:.1f} s")
     return records, seconds

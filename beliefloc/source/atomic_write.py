@@ -6,7 +6,7 @@ remove the temporary before the signal ends the process. Temporaries left by a k
 (SIGKILL) are swept at the next write of the same output. Models, macro tables, pictures, maps,
 schemas and belief files go through :func:`write_atomically`; a folder of frames
 (:func:`beliefloc.render.picture_episode.save_frames`) and ``init``, which must never replace a
-file, have whole-or-nothing writes of their own; a results file (:mod:`beliefloc.results_file`) grows
+file, have whole-or-nothing writes of their own; a results file (:mod:`beliefloc.files.results_file`) grows
 a line at a time, by design, so that a killed sweep keeps what it finished.
 """
 

@@ -2,9 +2,9 @@
 array checked before use, never unpickled.
 
 Each member's size is taken from the zip directory and its ``.npy`` header and checked against
-:data:`~beliefloc.limits.MODEL_FILE_BYTES` before a byte is decompressed; the header's format and
+:data:`~beliefloc.source.limits.MODEL_FILE_BYTES` before a byte is decompressed; the header's format and
 version are checked before anything else is read (:func:`open_versioned`). Model files
-(:mod:`beliefloc.model_file`) and macro tables (:mod:`beliefloc.macro_file`) are both such archives.
+(:mod:`beliefloc.files.model_file`) and macro tables (:mod:`beliefloc.files.macro_file`) are both such archives.
 """
 
 from __future__ import annotations
@@ -23,8 +23,8 @@ from typing import Any, TypeVar
 import numpy as np
 from pydantic import BaseModel, ConfigDict, ValidationError
 
-from beliefloc import limits
 from beliefloc.errors import BeliefLocError, ModelError
+from beliefloc.source import limits
 
 _HEADER_KEY = "header"
 _ANY_LABEL = "beliefloc file"
@@ -201,7 +201,7 @@ def open_versioned(
     """The beliefloc ``.npz`` file ``path`` of ``file_format`` and ``version``, header read (see
     :class:`Archive`). A :class:`ModelError` for a missing file, something that is not a zip
     archive (not a ``label``), an archive of other arrays (not ``kind``, a noun phrase of
-    :mod:`beliefloc.file_kinds`), a beliefloc file of another kind (named), and another version
+    :mod:`beliefloc.source.file_kinds`), a beliefloc file of another kind (named), and another version
     (``rebuild`` says how to make a new one); a :class:`~beliefloc.errors.LimitError` for an
     archive larger than the limits, told from its directory before anything is decompressed."""
     path = Path(path)
@@ -277,14 +277,14 @@ def _members(archive: Archive, zipped: zipfile.ZipFile, kind: str) -> dict[str, 
 
 
 def _beliefloc(kind: str) -> str:
-    """``a beliefloc model`` for :data:`~beliefloc.file_kinds.MODEL` ``a compiled model``."""
-    from beliefloc.file_kinds import MACROS, MODEL
+    """``a beliefloc model`` for :data:`~beliefloc.source.file_kinds.MODEL` ``a compiled model``."""
+    from beliefloc.source.file_kinds import MACROS, MODEL
 
     return {MODEL: "a beliefloc model", MACROS: "a beliefloc macro table"}.get(kind, kind)
 
 
 def _check_prelude(archive: Archive, file_format: str, version: int, kind: str, rebuild: str) -> None:
-    from beliefloc.file_kinds import kind_of_data, not_a
+    from beliefloc.source.file_kinds import kind_of_data, not_a
 
     path = archive.path
     try:
@@ -307,7 +307,7 @@ def _check_prelude(archive: Archive, file_format: str, version: int, kind: str, 
 
 def _wrong_kind_hint(found: str) -> str:
     """What to do when handed a file of the other kind."""
-    from beliefloc.file_kinds import MACROS, MODEL
+    from beliefloc.source.file_kinds import MACROS, MODEL
 
     if found == MACROS:
         return "; give the map or the model it was built from, and the table with --macros"

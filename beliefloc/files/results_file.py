@@ -23,7 +23,7 @@ from typing import IO, Any
 
 from beliefloc import __version__
 from beliefloc.errors import InputFileError
-from beliefloc.limits import INPUT_BYTES
+from beliefloc.source.limits import INPUT_BYTES
 
 FORMAT = "beliefloc-results"
 FORMAT_VERSION = 1

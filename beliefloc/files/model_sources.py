@@ -31,7 +31,7 @@ def open_model(path: Path, *, on_warning: Callable[[str], None] | None = None) -
 
         return compile_model(load_map(path, on_warning=on_warning))
     if suffix == MODEL_SUFFIX:
-        from beliefloc.model_file import load_model
+        from beliefloc.files.model_file import load_model
 
         return load_model(path, on_warning=on_warning)
     if suffix == POMDP_SUFFIX:

@@ -31,7 +31,7 @@ class _BeliefMapping(RootModel[dict[str, Annotated[float, Field(ge=0.0, allow_in
 
 def load_belief(model: Model, path: str | Path) -> tuple[np.ndarray, list[str]]:
     """The belief in ``path`` as a vector over ``model``'s states, and any warnings."""
-    from beliefloc import file_kinds
+    from beliefloc.source import file_kinds
 
     by_suffix = file_kinds.kind_of_path(path)
     if by_suffix is not None:

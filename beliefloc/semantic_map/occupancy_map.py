@@ -96,7 +96,7 @@ _Q8 = 257
 """An 8-bit channel value times this is its 16-bit quantum (255 -> 65535)."""
 SAVER_UNKNOWN_GREY = 205
 """The grey ``map_saver`` writes for unknown space in trinary mode (8-bit)."""
-_READING = "beliefloc.occupancy/1"
+_READING = "beliefloc.semantic_map.occupancy_map/1"
 """Changes when the reading rules change, so that a cache keyed on :attr:`OccupancyMap.sha256` misses."""
 
 

@@ -54,7 +54,7 @@ _OCCUPANCY_KEYS = frozenset({"image", "resolution", "origin", "negate", "occupie
 _STATE = re.compile(r"^\s*-?\d+\s*,\s*-?\d+\s*(,\s*-?\d+\s*)?$")
 """A state's name, ``"3,4,0"``, or a cell's, ``"3,4"``."""
 _HEADER_FORMATS = {"beliefloc-model": MODEL, "beliefloc-macros": MACROS}
-"""The ``format`` of an ``.npz`` file's JSON header (beliefloc.model_file, beliefloc.macro_file)."""
+"""The ``format`` of an ``.npz`` file's JSON header (beliefloc.files.model_file, beliefloc.files.macro_file)."""
 
 _SUFFIXES = {
     ".lp": KNOWLEDGE_BASE,

@@ -5,9 +5,9 @@ absolute path and sha256) and the arrays (CSR transitions, observation truths an
 tables). Model files are shared like maps, so reading one trusts nothing in it:
 
 * the archive is read member by member, never with pickles, each member's size checked before a
-  byte is decompressed (:mod:`beliefloc.npz_archive`);
+  byte is decompressed (:mod:`beliefloc.files.npz_archive`);
 * the header is validated field by field (:class:`_ModelHeader`), and its sizes against
-  :data:`~beliefloc.limits.MODEL_ENTRIES`, before any array is read;
+  :data:`~beliefloc.source.limits.MODEL_ENTRIES`, before any array is read;
 * every array must be the one the header announces -- its key, type and shape -- and hold what a
   model can use: CSR index arrays inside the states (scipy would write out of bounds otherwise),
   ``indptr`` rising from 0 to the number of entries, finite probabilities in [0, 1], transition rows
@@ -18,7 +18,7 @@ another format is named (``x.npz is a macro table, not a compiled model``), one 
 refused with how to rebuild it, and a model whose source map has changed since it was built
 (stale) refused; when the map is gone, a warning says it cannot be checked.
 
-Writes are whole or nothing (:mod:`beliefloc.atomic_write`).
+Writes are whole or nothing (:mod:`beliefloc.source.atomic_write`).
 """
 
 from __future__ import annotations
@@ -35,9 +35,8 @@ import numpy as np
 import scipy.sparse as sp
 from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt, StrictStr
 
-from beliefloc import limits
-from beliefloc.atomic_write import write_atomically
 from beliefloc.errors import ModelError
+from beliefloc.files.npz_archive import Archive, open_versioned
 from beliefloc.model import (
     Action,
     ActionKind,
@@ -49,7 +48,8 @@ from beliefloc.model import (
     SourceInfo,
     StateSpace,
 )
-from beliefloc.npz_archive import Archive, open_versioned
+from beliefloc.source import limits
+from beliefloc.source.atomic_write import write_atomically
 
 FORMAT = "beliefloc-model"
 VERSION = 1
@@ -198,7 +198,7 @@ def load_model(path: str | Path, *, check_source: bool = True, on_warning: Warn 
     :class:`ModelError` if it is not one, is of another version, is broken, or (with
     ``check_source``) its source map has changed since it was built; when that map is not there
     any more, ``on_warning`` is told that the model cannot be checked."""
-    from beliefloc.file_kinds import MODEL
+    from beliefloc.source.file_kinds import MODEL
 
     path = Path(path)
     with open_versioned(

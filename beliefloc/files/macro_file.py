@@ -6,10 +6,10 @@ file also records the map it was built from (absolute path and sha256), so that 
 finds the model, and so that the refusal says what happened: a table *for another map*, or a
 *stale* table, built for this very map before it was edited.
 
-Reading trusts nothing in the file (:func:`beliefloc.npz_archive.open_versioned`): the header is
+Reading trusts nothing in the file (:func:`beliefloc.files.npz_archive.open_versioned`): the header is
 validated field by field and every array checked before use -- pairs inside the states and sorted,
 actions and pairs that exist, macros that end (each one's follower made before it), lengths that
-count down along a pair's macro. Writes are atomic (:func:`beliefloc.atomic_write.write_atomically`).
+count down along a pair's macro. Writes are atomic (:func:`beliefloc.source.atomic_write.write_atomically`).
 """
 
 from __future__ import annotations
@@ -20,12 +20,12 @@ from typing import Any, Literal
 import numpy as np
 from pydantic import Field, StrictInt, StrictStr
 
-from beliefloc import limits
 from beliefloc.errors import ModelError
+from beliefloc.files.model_file import StrictHeader, absolute, write_versioned
+from beliefloc.files.npz_archive import Archive, open_versioned
 from beliefloc.model import Model
-from beliefloc.model_file import StrictHeader, absolute, write_versioned
-from beliefloc.npz_archive import Archive, open_versioned
 from beliefloc.planning.macros import MacroTable
+from beliefloc.source import limits
 
 FORMAT = "beliefloc-macros"
 VERSION = 1
@@ -86,7 +86,7 @@ def read_header(path: str | Path) -> tuple[dict[str, Any], dict[str, np.ndarray]
 
 
 def _read(path: Path) -> tuple[MacroHeader, dict[str, np.ndarray]]:
-    from beliefloc.file_kinds import MACROS
+    from beliefloc.source.file_kinds import MACROS
 
     rebuild = f"beliefloc macros build MAP -o {path}"
     with open_versioned(path, FORMAT, VERSION, label=FILE_LABEL, kind=MACROS, rebuild=rebuild) as archive:
@@ -178,7 +178,7 @@ class _Checks:
 def load_macros(path: str | Path, model: Model) -> MacroTable:
     """The macro table in ``path``, refused unless it was built for exactly ``model``: a table for
     another map says so, one for this map as it was before an edit is *stale*."""
-    from beliefloc import file_kinds
+    from beliefloc.source import file_kinds
 
     path = Path(path)
     by_suffix = file_kinds.kind_of_path(path)

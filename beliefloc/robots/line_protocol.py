@@ -4,9 +4,9 @@ beliefloc writes an ``action`` message (:func:`action_message`), the robot execu
 answers with one line, ``{"seq": N, "readings": {SENSOR: RAW, ...}}``; at the end beliefloc writes
 a ``result`` message (or an ``error`` message when a reply cannot be used). Every message is
 described, with examples, in ``docs/localize-protocol.md``; the raw readings are binned by
-:mod:`beliefloc.readings`.
+:mod:`beliefloc.robots.readings`.
 
-:class:`LineRobot` is the :class:`~beliefloc.localize.ReadingRobot` on the other end of two line
+:class:`LineRobot` is the :class:`~beliefloc.robots.localize.ReadingRobot` on the other end of two line
 streams. It reads exactly one line per action (never ahead) and checks it before anything else
 uses it: JSON, an object with the right sequence number, no unknown key; a line that is not is a
 :class:`~beliefloc.errors.ReplyError` naming the line.
@@ -20,9 +20,9 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from beliefloc.errors import ReplyError
-from beliefloc.localize import Command, Localization
 from beliefloc.model import Action, GridLayout, Model
-from beliefloc.readings import RawReading, ReadingBinner
+from beliefloc.robots.localize import Command, Localization
+from beliefloc.robots.readings import RawReading, ReadingBinner
 
 PROTOCOL_VERSION = 1
 MAX_LINE_CHARS = 1 << 20

@@ -6,14 +6,14 @@
     while max(b) < threshold:
         if there is no plan: plan with best-first search from b (the closed list is kept)
         send the plan's next action a; the robot executes it and answers with raw readings
-        o <- the readings binned into an observation of a (beliefloc.readings)
+        o <- the readings binned into an observation of a (beliefloc.robots.readings)
         b <- update(b, a, o)                     b'(s_j) ∝ O_a[j, o] Σ_i T_a[i, j] b(s_i)
         if o differs from the observation the plan expected: drop the plan (replan next time)
 
 The planning is :class:`~beliefloc.simulation.strategies.PlanningStrategy`'s, exactly as in a
 simulated episode; the robot is anything with ``act(command) -> raw readings``
 (:class:`ReadingRobot`): a real one over ``beliefloc localize``'s line protocol
-(:class:`beliefloc.line_protocol.LineRobot`), or a simulated one (:class:`SimulatedReadingRobot`).
+(:class:`beliefloc.robots.line_protocol.LineRobot`), or a simulated one (:class:`SimulatedReadingRobot`).
 The loop ends with an honest :class:`~beliefloc.simulation.strategies.EpisodeStatus`.
 """
 
@@ -31,7 +31,7 @@ from beliefloc.model import Action, Model
 from beliefloc.planning.best_first import PlanResult
 from beliefloc.planning.successors import SuccessorEvaluator
 from beliefloc.pose import pose_json
-from beliefloc.readings import RawReading, ReadingBinner
+from beliefloc.robots.readings import RawReading, ReadingBinner
 from beliefloc.simulation.robot import SimulatedRobot
 from beliefloc.simulation.settings import DEFAULT_MAX_STEPS, StrategyName
 from beliefloc.simulation.strategies import EpisodeStatus, GiveUp, PlannerSettings, PlanningStrategy
@@ -53,7 +53,7 @@ class Command:
 
 class ReadingRobot(Protocol):
     """A robot that executes an action and answers with the raw readings of the sensors the action
-    reads, by sensor name (:meth:`beliefloc.readings.ReadingBinner.sensors`; empty when it reads none)."""
+    reads, by sensor name (:meth:`beliefloc.robots.readings.ReadingBinner.sensors`; empty when it reads none)."""
 
     def act(self, command: Command) -> Mapping[str, RawReading]: ...
 

@@ -38,7 +38,6 @@ What ``look`` sees in each state comes from one of two *seen models*:
 
 from __future__ import annotations
 
-import enum
 import itertools
 import math
 from collections.abc import Sequence
@@ -47,13 +46,11 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from beliefloc.errors import InvalidValueError
+from beliefloc.simulation.settings import CLASSES, MOVE_FAILURE, SeenModel
 
-CLASSES = ("A", "B", "C", "D")
-"""The object classes, named as in the authors' code."""
 HEADINGS = 4
 MOVES = ("forward", "backward", "rotate_cw", "rotate_ccw")
 MOVE_COST = 10.0
-MOVE_FAILURE = 0.02
 LOOK_COST = 1.0
 LOOK_NOISE = 0.01
 """False positive and false negative rate of every class."""
@@ -68,13 +65,6 @@ MAX_STATES = 10**7
 """A 1581x1581 grid; beyond that the map file alone is hundreds of megabytes."""
 _WRAP = 100
 """Soft width of the generated file's long flow lists."""
-
-
-class SeenModel(str, enum.Enum):
-    """Where ``look`` gets what it sees: placed objects, or per-state draws as the authors did."""
-
-    OBJECTS = "objects"
-    STATES = "states"
 
 
 @dataclass(frozen=True, eq=False)
