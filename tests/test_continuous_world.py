@@ -24,7 +24,7 @@ from beliefloc.continuous.world import (
     simulate_run,
 )
 from beliefloc.model import MapFrame
-from beliefloc.occupancy import load_occupancy
+from beliefloc.semantic_map.occupancy_map import load_occupancy
 from tests.conftest import MAPS
 
 SANDBOX = MAPS / "occupancy" / "tb3_sandbox.yaml"

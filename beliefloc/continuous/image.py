@@ -4,7 +4,7 @@ continuous simulated world read.
 Pixel ``(i, j)`` (row ``i`` from the top of an image ``H`` pixels high) covers, in the grid frame of
 :class:`~beliefloc.model.MapFrame` (origin at the image's lower-left corner, x along the columns,
 y up the rows), ``j·res <= gx < (j+1)·res`` and ``(H-1-i)·res <= gy < (H-i)·res`` -- the convention
-of :mod:`beliefloc.occupancy` and Nav2's map server. *Pixel coordinates* ``(u, v) = (gx, gy) / res``
+of :mod:`beliefloc.semantic_map.occupancy_map` and Nav2's map server. *Pixel coordinates* ``(u, v) = (gx, gy) / res``
 are continuous: pixel ``(i, j)`` holds the points with ``floor(u) = j`` and ``floor(v) = H-1-i``.
 
 Pure numpy, no I/O.
@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from beliefloc.model import MapFrame
-from beliefloc.occupancy import Occupancy, OccupancyMap
+from beliefloc.semantic_map.occupancy_map import Occupancy, OccupancyMap
 
 
 @dataclass(frozen=True, eq=False)

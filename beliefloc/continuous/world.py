@@ -31,7 +31,7 @@ from beliefloc.continuous.image import OccupancyImage
 from beliefloc.continuous.motion import compose, relative
 from beliefloc.continuous.raycast import cast_rays
 from beliefloc.model import wrap_angle
-from beliefloc.occupancy import Occupancy, OccupancyMap
+from beliefloc.semantic_map.occupancy_map import Occupancy, OccupancyMap
 
 
 @dataclass(frozen=True)
