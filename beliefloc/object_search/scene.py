@@ -189,8 +189,11 @@ class LowLevelPolicy:
         return float(sum(k * (py + pn) for _, k, py, pn in self.outcomes[state]))
 
 
-def solve_low_level(model: SceneModel, target: Appearance, mix: Distractors) -> LowLevelPolicy:
-    """Exact value iteration over the LL's reachable beliefs (module docstring)."""
+def solve_low_level(
+    model: SceneModel, target: Appearance, mix: Distractors, *, apply_all: bool = False
+) -> LowLevelPolicy:
+    """Exact value iteration over the LL's reachable beliefs (module docstring). ``apply_all``: the
+    baseline that applies every operator, in order, and then gives the likelier answer."""
     looks = (target, *(look for look, _ in mix))
     prior = np.array([0.5, *(0.5 * p for _, p in mix)], dtype=float)
     likelihoods = tuple(
@@ -215,6 +218,13 @@ def solve_low_level(model: SceneModel, target: Appearance, mix: Distractors) -> 
         best = model.error_cost * min(target_mass, other_mass)
         action = SAY_OTHER if other_mass >= target_mass else SAY_TARGET
         used = {k for k, _ in history}
+        if apply_all and len(used) < len(costs):
+            k = len(used)
+            best = costs[k] * total + sum(
+                solve(tuple(sorted((*history, (k, o))))) for o in range(likelihoods[k].shape[1])
+            )
+            memo[history], actions[history] = best, k
+            return best
         for k in range(len(costs)):
             if k in used or total <= 0.0:
                 continue
@@ -282,6 +292,9 @@ class SceneOutcome:
     beta: float
     """The LL's P(answer target | the ROI holds a distractor)."""
     low_level: LowLevelPolicy = field(repr=False, compare=False)
+    apply_all: bool = False
+    """The baseline: every operator on every ROI, the likelier answer at the end (no thresholds, no
+    time limit)."""
 
 
 def hl_present(model: SceneModel, alpha: float, beta: float, processed: int, yes: int) -> float:
@@ -314,8 +327,13 @@ def hl_belief(model: SceneModel, alpha: float, beta: float, answers: Sequence[bo
     return result
 
 
-def _decision(model: SceneModel, present: float, processed: int, elapsed: float) -> bool | None:
-    """The HL's termination rule: True present, False absent, None go on."""
+def _decision(
+    model: SceneModel, present: float, processed: int, elapsed: float, apply_all: bool = False
+) -> bool | None:
+    """The HL's termination rule: True present, False absent, None go on. ``apply_all``: only when
+    every ROI is processed."""
+    if apply_all:
+        return present >= 0.5 if processed >= model.rois else None
     if present >= model.present_threshold:
         return True
     if present <= model.absent_threshold:
@@ -325,9 +343,10 @@ def _decision(model: SceneModel, present: float, processed: int, elapsed: float)
     return None
 
 
-def solve_scene(model: SceneModel, target: Appearance, mix: Distractors) -> SceneOutcome:
-    """The SP-POMDP's outcome for a view whose distractors follow ``mix`` (module docstring)."""
-    ll = solve_low_level(model, target, mix)
+def solve_scene(model: SceneModel, target: Appearance, mix: Distractors, *, apply_all: bool = False) -> SceneOutcome:
+    """The SP-POMDP's outcome for a view whose distractors follow ``mix`` (module docstring);
+    ``apply_all``: the baseline that applies every operator to every ROI."""
+    ll = solve_low_level(model, target, mix, apply_all=apply_all)
     weights = np.array([p for _, p in mix], dtype=float)
     target_rows = ll.outcomes[0]
     # the distractor's (time, ops) outcomes, averaged over the distractor distribution
@@ -340,9 +359,10 @@ def solve_scene(model: SceneModel, target: Appearance, mix: Distractors) -> Scen
     distractor_rows = tuple((t, k, py, pn) for (t, k), (py, pn) in sorted(merged.items()))
     alpha = sum(py for _, _, py, _ in target_rows)
     beta = sum(py for _, _, py, _ in distractor_rows)
-    tp, t_in, k_in = _propagate(model, alpha, beta, target_rows, distractor_rows, in_view=True)
-    fp, t_out, k_out = _propagate(model, alpha, beta, target_rows, distractor_rows, in_view=False)
-    return SceneOutcome(tp, fp, t_in, t_out, k_in, k_out, alpha, beta, ll)
+    rows = (target_rows, distractor_rows)
+    tp, t_in, k_in = _propagate(model, alpha, beta, *rows, in_view=True, apply_all=apply_all)
+    fp, t_out, k_out = _propagate(model, alpha, beta, *rows, in_view=False, apply_all=apply_all)
+    return SceneOutcome(tp, fp, t_in, t_out, k_in, k_out, alpha, beta, ll, apply_all)
 
 
 def _propagate(
@@ -353,6 +373,7 @@ def _propagate(
     distractor_rows: Sequence[tuple[float, float, float, float]],
     *,
     in_view: bool,
+    apply_all: bool = False,
 ) -> tuple[float, float, float]:
     """``(P(report present), E[time], E[operators])`` through the HL, exactly: the distribution of
     (processed, yes, target processed, elapsed) moves forward one ROI at a time."""
@@ -363,7 +384,7 @@ def _propagate(
     while frontier:
         nxt: dict[tuple[int, int, bool, float], float] = {}
         for (m, y, seen, elapsed), p in frontier.items():
-            decided = _decision(model, beliefs[m, y], m, elapsed)
+            decided = _decision(model, beliefs[m, y], m, elapsed, apply_all)
             if decided is not None:
                 present += p * decided
                 continue
@@ -387,8 +408,9 @@ class SceneSolver:
     """:func:`solve_scene` with a cache keyed by (target appearance, distractor distribution): the model
     (ROI count and all) is the solver's, so a view is solved once per kind."""
 
-    def __init__(self, model: SceneModel) -> None:
+    def __init__(self, model: SceneModel, *, apply_all: bool = False) -> None:
         self.model = model
+        self.apply_all = apply_all
         self._cache: dict[tuple[Appearance, Distractors], SceneOutcome] = {}
 
     def outcome(self, target_class: str, room_classes: Sequence[str]) -> SceneOutcome:
@@ -397,7 +419,7 @@ class SceneSolver:
         key = (target, mix)
         found = self._cache.get(key)
         if found is None:
-            found = solve_scene(self.model, target, mix)
+            found = solve_scene(self.model, target, mix, apply_all=self.apply_all)
             self._cache[key] = found
         return found
 
@@ -453,6 +475,8 @@ class RoiTrace:
     said_target: bool
     present_belief: float
     """HL: P(target in the image) after this ROI."""
+    belief: tuple[float, ...] = ()
+    """HL: the belief over (target in ROI 1..n, in none) after this ROI (:func:`hl_belief`)."""
 
 
 @dataclass(frozen=True)
@@ -477,6 +501,7 @@ class SceneTrace:
                     "operators": [[model.operators[k].name, model.operators[k].values[o]] for k, o in r.applied],
                     "answer": "target" if r.said_target else "not-target",
                     "p_present": r.present_belief,
+                    "hl_belief": list(r.belief),
                 }
                 for r in self.rois
             ],
@@ -508,7 +533,7 @@ def simulate_scene(
     traces = []
     elapsed, applied_total, yes = 0.0, 0, 0
     present = hl_present(model, outcome.alpha, outcome.beta, 0, 0)
-    decided = _decision(model, present, 0, 0.0)
+    decided = _decision(model, present, 0, 0.0, outcome.apply_all)
     for i, look in enumerate(looks):
         if decided is not None:
             break
@@ -528,7 +553,8 @@ def simulate_scene(
         yes += said
         applied_total += len(order)
         present = hl_present(model, outcome.alpha, outcome.beta, i + 1, yes)
-        traces.append(RoiTrace(i, look, target_roi == i, tuple(order), said, present))
-        decided = _decision(model, present, i + 1, round(elapsed, _TIME_DIGITS))
+        belief = hl_belief(model, outcome.alpha, outcome.beta, answers)
+        traces.append(RoiTrace(i, look, target_roi == i, tuple(order), said, present, tuple(belief.tolist())))
+        decided = _decision(model, present, i + 1, round(elapsed, _TIME_DIGITS), outcome.apply_all)
     assert decided is not None  # every ROI processed ends the image
     return SceneTrace(decided, elapsed, applied_total, tuple(traces), target_roi)
