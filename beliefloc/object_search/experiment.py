@@ -540,9 +540,11 @@ def run_trials(
     settings: TrialSettings | None = None,
     on_trial: Callable[[TrialRecord], None] | None = None,
     first: int = 0,
+    scenes: bool = True,
 ) -> list[TrialRecord]:
     """Trials ``first .. first + trials - 1`` (a trial depends only on ``seed`` and its index, so a run
-    can be split and its parts joined), every arm on each. ``on_trial`` is called after each trial."""
+    can be split and its parts joined), every arm on each. ``on_trial`` is called after each trial.
+    ``scenes`` False: the fixed detector for every arm, whether or not the domain has a scene model."""
     if trials < 1 or not arms:
         raise InvalidValueError("need at least one trial and one arm")
     names = [arm.name for arm in arms]
@@ -551,10 +553,10 @@ def run_trials(
     settings = settings or TrialSettings()
     space = search_space(domain)
     typical = typical_rooms(domain)
-    scenes = SceneSetup.of(domain, typical)
+    setup = SceneSetup.of(domain, typical) if scenes else None
     records = []
     for index in range(first, first + trials):
-        record = run_trial(domain, space, typical, arms, index=index, seed=seed, settings=settings, scenes=scenes)
+        record = run_trial(domain, space, typical, arms, index=index, seed=seed, settings=settings, scenes=setup)
         records.append(record)
         if on_trial is not None:
             on_trial(record)

@@ -24,11 +24,13 @@ def say(text: str) -> None:
 _DOMAINS: dict[str, Domain] = {}
 
 
-def _chunk(path: str, arms: tuple[Arm, ...], settings: TrialSettings, seed: int, first: int, count: int) -> Any:
+def _chunk(
+    path: str, arms: tuple[Arm, ...], settings: TrialSettings, seed: int, first: int, count: int, scenes: bool
+) -> Any:
     domain = _DOMAINS.get(path)
     if domain is None:
         domain = _DOMAINS[path] = load_domain(path)
-    return run_trials(domain, arms, trials=count, seed=seed, settings=settings, first=first)
+    return run_trials(domain, arms, trials=count, seed=seed, settings=settings, first=first, scenes=scenes)
 
 
 def run_part(part: Part, seed: int, jobs: int, pool: ProcessPoolExecutor | None) -> tuple[list[TrialRecord], float]:
@@ -39,12 +41,21 @@ def run_part(part: Part, seed: int, jobs: int, pool: ProcessPoolExecutor | None)
     done: dict[int, list[TrialRecord]] = {}
     if pool is None:
         for first in starts:
-            done[first] = _chunk(str(DOMAIN), part.arms, part.settings, seed, first, min(size, part.trials - first))
+            done[first] = _chunk(
+                str(DOMAIN), part.arms, part.settings, seed, first, min(size, part.trials - first), part.scenes
+            )
             _progress(part, sum(len(v) for v in done.values()), started)
     else:
         futures = {
             pool.submit(
-                _chunk, str(DOMAIN), part.arms, part.settings, seed, first, min(size, part.trials - first)
+                _chunk,
+                str(DOMAIN),
+                part.arms,
+                part.settings,
+                seed,
+                first,
+                min(size, part.trials - first),
+                part.scenes,
             ): first
             for first in starts
         }
