@@ -225,7 +225,9 @@ def run(
     trust_weight: TrustWeightOption = 0.5,
     trust_r: TrustROption = 0.0,
     time_limit: TimeLimitOption = None,
-    scenes: Annotated[str | None, typer.Option("--scenes", metavar="NAME", help=SCENES_HELP, show_default=False)] = None,
+    scenes: Annotated[
+        str | None, typer.Option("--scenes", metavar="NAME", help=SCENES_HELP, show_default=False)
+    ] = None,
     show: Annotated[
         bool,
         typer.Option(

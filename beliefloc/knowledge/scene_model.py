@@ -29,6 +29,7 @@ domain calls with its class hierarchy, so that an error names the line of the cu
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field
@@ -139,7 +140,7 @@ class SceneSection(_Strict):
         return None
 
 
-def _hint(known: dict[str, object]) -> str:
+def _hint(known: Mapping[str, object]) -> str:
     options = sorted(known)
     return "; expected one of: " + ", ".join(options[:12]) + (", ..." if len(options) > 12 else "")
 

@@ -45,9 +45,9 @@ from beliefloc.object_search.dynamic import DynamicFactory, DynamicKnowledge
 from beliefloc.object_search.existence import ExistenceBelief, detection_likelihoods
 from beliefloc.object_search.policy import Policy
 from beliefloc.object_search.posterior import CellBelief, TrustFactor, spread_room_prior
+from beliefloc.object_search.scene import SceneModel, SceneTrace
 from beliefloc.object_search.settings import Metareasoning, PolicyName, Revision, check_time_limit
 from beliefloc.object_search.space import SearchSpace
-from beliefloc.object_search.scene import SceneModel, SceneTrace
 from beliefloc.object_search.world import SceneTarget, SimulatedTarget
 
 ACCURACY_SIGMA = 2.0

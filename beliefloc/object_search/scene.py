@@ -196,9 +196,7 @@ def solve_low_level(
     baseline that applies every operator, in order, and then gives the likelier answer."""
     looks = (target, *(look for look, _ in mix))
     prior = np.array([0.5, *(0.5 * p for _, p in mix)], dtype=float)
-    likelihoods = tuple(
-        op.confusion[np.array([look[k] for look in looks])] for k, op in enumerate(model.operators)
-    )
+    likelihoods = tuple(op.confusion[np.array([look[k] for look in looks])] for k, op in enumerate(model.operators))
     costs = [op.cost for op in model.operators]
     actions: dict[History, int] = {}
     memo: dict[History, float] = {}
@@ -264,8 +262,7 @@ def _ll_outcomes(
                 stack.append((tuple(sorted((*history, (action, o)))), branch, elapsed + costs[action]))
     keys = sorted(table)
     return tuple(
-        tuple((t, float(k), float(table[t, k][s, 0]), float(table[t, k][s, 1])) for t, k in keys)
-        for s in range(states)
+        tuple((t, float(k), float(table[t, k][s, 0]), float(table[t, k][s, 1])) for t, k in keys) for s in range(states)
     )
 
 
@@ -524,7 +521,11 @@ def sample_image(
 
 
 def simulate_scene(
-    model: SceneModel, outcome: SceneOutcome, looks: Sequence[Appearance], target_roi: int | None, rng: np.random.Generator
+    model: SceneModel,
+    outcome: SceneOutcome,
+    looks: Sequence[Appearance],
+    target_roi: int | None,
+    rng: np.random.Generator,
 ) -> SceneTrace:
     """Run the HL and LL policies of ``outcome`` on the ROIs ``looks`` (processed in order), drawing each
     operator's report from its confusion row."""

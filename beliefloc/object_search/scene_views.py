@@ -17,9 +17,9 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 
-from beliefloc.knowledge.domain import Domain
 import numpy as np
 
+from beliefloc.knowledge.domain import Domain
 from beliefloc.object_search.scene import Appearance, SceneModel, SceneSolver, scene_model, scene_rates
 from beliefloc.object_search.settings import Scenes
 from beliefloc.object_search.space import SearchSpace
@@ -33,11 +33,7 @@ def room_classes(
     of ``target_class``; in the domain's object order."""
     excluded = set(instances_of(domain, target_class))
     return tuple(
-        tuple(
-            obj.class_
-            for name, obj in domain.objects.items()
-            if name not in excluded and where.get(name) == room
-        )
+        tuple(obj.class_ for name, obj in domain.objects.items() if name not in excluded and where.get(name) == room)
         for room in rooms
     )
 

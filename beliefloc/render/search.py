@@ -65,9 +65,7 @@ def scene_lines(model: SceneModel, trace: SceneTrace) -> Text:
         text.append(f"    ROI {roi.roi + 1}")
         if roi.holds_target:
             text.append(" (target)", style="bold")
-        applied = ", ".join(
-            f"{model.operators[k].name} {model.operators[k].values[o]}" for k, o in roi.applied
-        )
+        applied = ", ".join(f"{model.operators[k].name} {model.operators[k].values[o]}" for k, o in roi.applied)
         text.append(f": {applied or 'no operator'} → ")
         text.append("target" if roi.said_target else "not target", style="green" if roi.said_target else "dim")
         text.append(f"  P(present) {roi.present_belief:.2f}")

@@ -15,9 +15,9 @@ import numpy as np
 
 from beliefloc.knowledge import load_domain
 from beliefloc.knowledge.domain import Domain
-from beliefloc.object_search.space import SearchSpace
 from beliefloc.object_search.domain_space import search_space
 from beliefloc.object_search.experiment import TrialRecord, trial_world
+from beliefloc.object_search.space import SearchSpace
 from beliefloc.object_search.world import typical_rooms
 from benchmarks import search_paper
 from benchmarks.machine import cpu_name
@@ -76,7 +76,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--output", type=Path, default=None)
     parser.add_argument(
-        "--trials-scenes", type=int, default=None, help="H1 in a correlated world, the scene models (default 1000, quick 100)"
+        "--trials-scenes",
+        type=int,
+        default=None,
+        help="H1 in a correlated world, the scene models (default 1000, quick 100)",
     )
     parser.add_argument(
         "--only-scenes",
