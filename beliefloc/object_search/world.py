@@ -179,8 +179,8 @@ def class_rooms(domain: Domain) -> dict[str, str]:
     """Every class's *home room*, the room a correlated world (:func:`place_objects` with
     ``correlation``) ties it to: the room of the nearest default up the class hierarchy that does not
     except the class (weak, possible or strong); for a class no default covers, the room where the
-    domain file places most instances of the class -- else of its parent, and so on up -- ties going to
-    the room listed first; else the first room the robot can enter."""
+    domain file places most instances of the class (ties: the room listed first), or, when it places
+    none, of its parent, and so on up; else the first room the robot can enter."""
     enterable = [room for room in domain.rooms if domain.rooms[room].accessible] or list(domain.rooms)
     homes: dict[str, str] = {}
     for cls in domain.classes:
