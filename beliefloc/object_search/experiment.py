@@ -465,7 +465,7 @@ def run_trial(
         target: SimulatedTarget | SceneTarget
         detections = trial_rng(seed, index, Stream.TARGET_DETECTIONS)
         if scenes is not None and arm_space.scene is not None:
-            target = scenes.target(arm_space, world.target_cell, world.rooms, detections)
+            target = scenes.target(arm_space, world.target_cell, world.rooms, detections, instance=world.target)
         else:
             target = SimulatedTarget(world.target_cell, world_detector, detections)
         dynamic = None

@@ -3,7 +3,9 @@
 Each iteration (line numbers of Algorithm 1)::
 
     4   v_t  = policy(b_{t-1}, robot)                          choose a view
-    5   o_t  = world.detect(view v_t)                          travel + analysis time units
+    5   o_t  = world.detect(view v_t)                          travel + analysis time units (with a
+                                                               scene model: the SP-POMDP's report
+                                                               and its processing time, scene.py)
     11  p(o_t | E), p(o_t | ¬E)   from b_{t-1}                 Eq. 9 (the predictive likelihood)
     6   b_t ∝ b_ob · b_kb, b_ob *= O(·, v_t, o_t)              Eq. 6-7 (CellBelief.observe_view)
     7   the other objects' detections in v_t; an object whose  dynamic KB only (dynamic.py)

@@ -31,6 +31,11 @@ exists (axis: cell) and ``robot`` the cell the robot stands on. Pure numpy, no r
   first version stood *on* ``m``: a view raises every viewed cell alike, so after a detection ``m``
   and its neighbours rose together, no cell passed τ+ and about 95 % of the trials on ``home.yaml``
   hit the time limit.
+With a scene model (:mod:`beliefloc.object_search.scene`) every view has its own ``p_TP``, ``p_FP`` and
+expected processing time (``SearchSpace.rates``, ``SearchSpace.analysis_time``); the formulas are the
+same, elementwise over views, and a view's analysis time is ``p_in t_in + (1 - p_in) t_out`` with
+``p_in = Σ_{i∈v} b_i``.
+
 * ``pomdp-only`` — the ``pomdp`` selection with a uniform prior instead of the knowledge base's
   (the "POMDP only" baseline): the loop reads :attr:`Policy.kb_prior`.
 """

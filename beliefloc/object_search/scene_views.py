@@ -93,10 +93,18 @@ class SceneSetup:
         return build
 
     def target(
-        self, space: SearchSpace, cell: int | None, where: Mapping[str, str], rng: np.random.Generator
+        self,
+        space: SearchSpace,
+        cell: int | None,
+        where: Mapping[str, str],
+        rng: np.random.Generator,
+        *,
+        instance: str | None = None,
     ) -> SceneTarget:
         """The world's side of a search on ``space`` (built by :meth:`space`) with the objects where
-        ``where`` puts them."""
+        ``where`` puts them; ``instance``: the object hidden as the target, which looks like its own
+        class (None: like the class searched for)."""
         assert space.scene is not None
         looks = self.room_looks(space.rooms, where, space.scene.target_class)
-        return SceneTarget(cell, self.model, space.scene, space.room_of_cell, looks, rng)
+        look = None if instance is None else self.model.look(self.domain.objects[instance].class_)
+        return SceneTarget(cell, self.model, space.scene, space.room_of_cell, looks, rng, look)

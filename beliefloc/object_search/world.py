@@ -88,12 +88,16 @@ class SceneTarget:
     room_of_view: np.ndarray
     room_looks: tuple[tuple[Appearance, ...], ...]
     rng: np.random.Generator
+    look: Appearance | None = None
+    """What the target truly looks like: its instance's class (a search for ``bedding`` finds a pillow);
+    None: the appearance of the class searched for."""
 
     def analyse(self, view: int, cells: np.ndarray) -> SceneTrace:
         """Process the image of view ``view`` (covering ``cells``)."""
         seen = self.cell is not None and _covers(cells, self.cell)
         room = int(self.room_of_view[view])
-        target = self.model.look(self.rates.target_class) if seen else None
+        look = self.look if self.look is not None else self.model.look(self.rates.target_class)
+        target = look if seen else None
         looks, where = sample_image(self.model, target, self.room_looks[room], self.rng)
         return simulate_scene(self.model, self.rates.outcomes[room], looks, where, self.rng)
 
