@@ -233,9 +233,8 @@ class Domain(_Strict):
     """The ``search:`` section of a domain with ``map:``: the geometry comes from the map."""
 
     scene: SceneSection | None = None
-    """The scene model of object search (:mod:`beliefloc.knowledge.scene_model`): visual operators, what
-    each class looks like, ROIs per view. Without one, the ``search:`` section's fixed detector analyses
-    a view."""
+    """The scene model of object search: visual operators, what each class looks like, ROIs per view.
+    Without one, the fixed detector of the search section analyses a view."""
 
     _path: Path | None = PrivateAttr(default=None)
     _map: SemanticMap | None = PrivateAttr(default=None)

@@ -54,10 +54,10 @@ class OperatorSection(_Strict):
     """One visual operator: its time and its confusion table."""
 
     cost: Time
-    """Time units to apply the operator to one ROI."""
+    """Time units to apply the operator to one region of interest (ROI)."""
     confusion: Annotated[dict[Name, dict[Name, Probability]], Field(min_length=2, max_length=MAX_VALUES)]
-    """``confusion[true][reported]``: P(reports ``reported`` | true value ``true``); a value left out of a
-    row has probability 0."""
+    """true value: {reported value: probability}. The rows are the operator's values; each row sums to 1,
+    and a value left out of a row has probability 0."""
 
     @property
     def values(self) -> tuple[str, ...]:
@@ -66,18 +66,28 @@ class OperatorSection(_Strict):
 
 
 class SceneSection(_Strict):
-    """The ``scene:`` section (see the module docstring)."""
+    """The scene model of object search: visual operators, what each class looks like, ROIs per view
+    (docs/domain-format.md, Scene model)."""
 
     rois: Annotated[int, Field(strict=True, ge=1, le=MAX_ROIS)] = 4
+    """Regions of interest per view: the target's (when in view) among distractors from the room's objects."""
     operators: Annotated[dict[Name, OperatorSection], Field(min_length=1, max_length=MAX_OPERATORS)]
+    """The visual operators, by name: each with a time cost and a confusion table."""
     appearance: dict[Name, dict[Name, Name]]
+    """class: {operator: value}, what every operator sees on a ROI holding an object of the class; a class
+    without an entry looks like its nearest ancestor with one."""
     background: dict[Name, Name]
+    """operator: value, what every operator sees on a ROI holding no object."""
     error_cost: Time = 10.0
+    """The lower level's cost, in time units, of a wrong target / not-target answer about one ROI."""
     prior_present: Annotated[Probability, Field(gt=0.0, lt=1.0)] = 0.5
+    """The higher level's prior that the target is in the image."""
     present_threshold: Annotated[Probability, Field(gt=0.0, lt=1.0)] = 0.8
+    """Report present when the belief that the target is in the image reaches this."""
     absent_threshold: Annotated[Probability, Field(gt=0.0, lt=1.0)] = 0.2
+    """Report absent when the belief that the target is in the image falls to this."""
     time_limit: Time = 5.0
-    """Time units the higher level may spend on one view's image."""
+    """Time units the higher level may spend on one view's image; then it reports the likelier answer."""
 
     def check(self, classes: dict[str, str | None], needed: dict[str, tuple[str | int, ...]]) -> None:
         """Cross-references, against the domain's class hierarchy (class -> parent). ``needed``: every
