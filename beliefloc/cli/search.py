@@ -269,6 +269,10 @@ def run(
     With -o the search is also drawn as a picture, and with --record animated step by step (as
     --show draws it in the terminal); one line says what was written.
 
+    A domain with a scene model (scene:) analyses every view with the SP-POMDP: per view, the ROIs
+    processed, the operators applied and the higher level's belief are shown with --show and given
+    in --json; --scenes fixed uses the search: section's detector instead.
+
     Exit code 0 when found, 1 when the robot gives up (not found) or runs out of time.
 
     Examples:
@@ -278,6 +282,7 @@ def run(
       beliefloc search run domains/home.yaml --dynamic-kb --revision discard   # exits 1
       beliefloc search run domains/apartment.yaml --target-cell kitchen:7,9 --show
       beliefloc search run domains/home.yaml --seed 3 -o search.png --record search.gif
+      beliefloc search run domains/home.yaml --seed 3 --scenes fixed   # the fixed detector
     """
     from beliefloc.knowledge import KnowledgeBase, load_domain
     from beliefloc.object_search.domain_space import search_space
@@ -558,12 +563,19 @@ def simulate(
     --scheduler give the same results as one process (a cluster's workers must see the domain's
     .lp files at the same paths). --out writes a line per trial as it ends; --resume continues it.
 
+    With a scene model the table adds the time spent processing images (the rest is travel) and the
+    operator applications per search; the --json trials carry "operators_applied" and
+    "processing_time". --correlation RHO builds correlated worlds instead (every object in its class's
+    home room with probability RHO).
+
     Examples:
 
     \b
       beliefloc search simulate domains/home.yaml -n 200 -m none,expectation,sampling --absent-fraction 0.5
       beliefloc search simulate domains/home.yaml -n 100 --knowledge 0.2 --no-defaults --dynamic-kb
       beliefloc search simulate domains/home.yaml -n 100 --workers 2 --out home.jsonl --no-timings
+      beliefloc search simulate domains/home.yaml -n 200 --scenes planned,all,fixed
+      beliefloc search simulate domains/home.yaml -n 200 --knowledge 1 --no-defaults --correlation 0.97
     """
     from beliefloc.knowledge import load_domain
     from beliefloc.object_search.domain_space import search_space
