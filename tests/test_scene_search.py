@@ -77,6 +77,13 @@ def test_scenes_need_a_scene_model(runner: CliRunner) -> None:
     assert result.exit_code == EXIT_BAD_INPUT and "expected one of: planned, all, fixed" in result.output
 
 
+def test_a_target_class_that_looks_like_nothing(runner: CliRunner) -> None:
+    result = runner.invoke(app, ["search", "run", HOME, "--target", "object"])
+    assert result.exit_code == EXIT_BAD_INPUT
+    assert "--target 'object': class 'object' has no appearance" in result.output.replace("\n", "")
+    assert runner.invoke(app, ["search", "run", HOME, "--target", "object", "--scenes", "fixed"]).exit_code in (0, 1)
+
+
 def test_home_classes_have_the_rooms_of_their_defaults() -> None:
     homes = class_rooms(load_domain(HOME))
     assert homes["printer"] == homes["computer"] == homes["textbook"] == "study"

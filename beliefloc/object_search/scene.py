@@ -57,7 +57,7 @@ from typing import Any
 
 import numpy as np
 
-from beliefloc.errors import DomainError
+from beliefloc.errors import InvalidValueError
 
 SAY_TARGET = -1
 SAY_OTHER = -2
@@ -97,12 +97,14 @@ class SceneModel:
     time_limit: float = 5.0
 
     def look(self, cls: str) -> Appearance:
-        """The appearance of class ``cls``; :class:`DomainError` when it has none."""
+        """The appearance of class ``cls``; :class:`InvalidValueError` when it has none (a class that no
+        object of the domain has may be searched for, and need not look like anything)."""
         found = self.appearance.get(cls)
         if found is None:
-            raise DomainError(
+            raise InvalidValueError(
                 f"class {cls!r} has no appearance in the domain's scene model: give it, or an ancestor, an entry "
-                "under scene.appearance (docs/domain-format.md, 'Scene model')"
+                "under scene.appearance (docs/domain-format.md, 'Scene model'), or analyse views with the fixed "
+                "detector"
             )
         return found
 
