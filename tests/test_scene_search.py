@@ -65,7 +65,7 @@ def test_simulate_reports_processing_beside_travel(runner: CliRunner) -> None:
             assert 0 < outcome["processing_time"] <= outcome["time"]
         assert record["outcomes"][everything]["operators_applied"] == 12 * record["outcomes"][everything]["steps"]
     table = runner.invoke(app, ["search", "simulate", HOME, "-n", "2"]).output
-    assert "scenes" in table and "ops" in table
+    assert "travel" in table and "+scenes" in table
 
 
 def test_scenes_need_a_scene_model(runner: CliRunner) -> None:
