@@ -225,3 +225,21 @@ def test_bad_scene_models_are_refused_at_their_line(name: str, line: int, messag
     assert result.exit_code == EXIT_BAD_INPUT
     assert f"{name}:{line}:" in result.output.replace("\n", "")
     assert "Traceback" not in result.output
+
+
+def test_a_scene_model_too_large_to_solve_exactly_is_refused() -> None:
+    from beliefloc.knowledge.domain import domain_from_data
+
+    values = [f"v{i}" for i in range(10)]
+    table = {v: {w: (1.0 if v == w else 0.0) for w in values} for v in values}
+    operators = {f"op{k}": {"cost": 0.1, "confusion": table} for k in range(6)}
+    look = {f"op{k}": "v0" for k in range(6)}
+    data = {
+        "name": "big",
+        "rooms": ["kitchen"],
+        "classes": {"object": None, "cup": "object"},
+        "objects": {"cup1": {"class": "cup"}},
+        "scene": {"operators": operators, "appearance": {"cup": look}, "background": look},
+    }
+    with pytest.raises(DomainError, match=r"scene\.operators: too many operators and values .* 1,771,561 beliefs"):
+        domain_from_data(data)

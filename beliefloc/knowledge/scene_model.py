@@ -44,6 +44,9 @@ ROW_TOLERANCE = 1e-6
 MAX_ROIS = 32
 MAX_OPERATORS = 8
 MAX_VALUES = 32
+MAX_LL_BELIEFS = 100_000
+"""The most beliefs the lower level's exact solution may visit, ``Π_k (1 + values of operator k)``:
+every subset of operators with every combination of their reports (three operators of four values: 125)."""
 
 
 class _Strict(BaseModel):
@@ -97,6 +100,13 @@ class SceneSection(_Strict):
             raise FieldError(
                 ("scene", "absent_threshold"),
                 f"must be below present_threshold ({self.present_threshold:g}), got {self.absent_threshold:g}",
+            )
+        beliefs = math.prod(1 + len(op.confusion) for op in self.operators.values())
+        if beliefs > MAX_LL_BELIEFS:
+            raise FieldError(
+                ("scene", "operators"),
+                f"too many operators and values to plan over exactly: {beliefs:,} beliefs of one ROI (the product "
+                f"of 1 + each operator's values), at most {MAX_LL_BELIEFS:,}; use fewer operators or values",
             )
         for name, op in self.operators.items():
             values = op.values

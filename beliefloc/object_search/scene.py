@@ -57,13 +57,16 @@ from typing import Any
 
 import numpy as np
 
-from beliefloc.errors import InvalidValueError
+from beliefloc.errors import DomainError, InvalidValueError
 
 SAY_TARGET = -1
 SAY_OTHER = -2
 """The LL's answers, as actions of :attr:`LowLevelPolicy.actions`."""
 _TIME_DIGITS = 9
 """Elapsed times are sums of operator costs; rounded to this many digits to merge equal sums."""
+MAX_HL_STATES = 20_000
+"""The most (ROIs processed, answers, target seen, elapsed time) states the higher level's exact outcome
+may hold at once; many ROIs and operators with unrelated costs could otherwise make it explode."""
 
 Appearance = tuple[int, ...]
 """The value index each operator would see on a ROI (axis: operator)."""
@@ -377,6 +380,9 @@ def _propagate(
     """``(P(report present), E[time], E[operators])`` through the HL, exactly: the distribution of
     (processed, yes, target processed, elapsed) moves forward one ROI at a time."""
     n = model.rois
+    # the elapsed time only matters when the scene's time limit can be reached: else keep it out of the state
+    longest = max(t for rows in (target_rows, distractor_rows) for t, _, _, _ in rows)
+    timed = apply_all is False and n * longest >= model.time_limit - 1e-9
     frontier: dict[tuple[int, int, bool, float], float] = {(0, 0, False, 0.0): 1.0}
     present = time = operators = 0.0
     beliefs = {(m, y): hl_present(model, alpha, beta, m, y) for m in range(n + 1) for y in range(m + 1)}
@@ -394,11 +400,17 @@ def _propagate(
                 for t, k, py, pn in rows:
                     time += p * q * (py + pn) * t
                     operators += p * q * (py + pn) * k
-                    at = round(elapsed + t, _TIME_DIGITS)
+                    at = round(elapsed + t, _TIME_DIGITS) if timed else 0.0
                     for said, pr in ((1, py), (0, pn)):
                         if pr > 0.0:
                             key = (m + 1, y + said, seen or is_target, at)
                             nxt[key] = nxt.get(key, 0.0) + p * q * pr
+        if len(nxt) > MAX_HL_STATES:
+            raise DomainError(
+                f"the scene model is too large to solve exactly: {len(nxt):,} states of the higher level after "
+                f"{next(iter(nxt))[0]} ROIs (at most {MAX_HL_STATES:,}); use fewer ROIs, fewer operators, or "
+                "operator costs that are multiples of one another"
+            )
         frontier = nxt
     return present, time, operators
 
