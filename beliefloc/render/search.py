@@ -316,7 +316,8 @@ def steps_table(space: SearchSpace, record: SearchRecord) -> Table:
 
 
 def verdict_text(space: SearchSpace, record: SearchRecord) -> Text:
-    """``found at study:1,3 after 12 steps, 23.5 time units (true cell study:1,3, accuracy 1.000)``."""
+    """``found at study:1,3 after 12 steps, 23.5 time units (true cell study:1,3, accuracy 1.000)``; with a
+    scene model, the travel and processing parts of the time and the operators applied."""
     text = Text()
     what = {Verdict.FOUND: "found", Verdict.NOT_FOUND: "not found", Verdict.TIME_LIMIT: "time limit"}[record.verdict]
     text.append(what, style=_VERDICT_STYLE[record.verdict])
@@ -325,6 +326,12 @@ def verdict_text(space: SearchSpace, record: SearchRecord) -> Text:
     elif record.verdict is Verdict.NOT_FOUND:
         text.append(" (the target is probably not in the domain)")
     text.append(f" after {len(record.steps)} steps, {record.time:.1f} time units")
+    if record.processing_time is not None:
+        travel = record.time - record.processing_time
+        text.append(
+            f" ({travel:.1f} travelling, {record.processing_time:.1f} processing images with "
+            f"{record.operators_applied} operator applications)"
+        )
     true = "absent" if record.true_cell is None else space.cell_name(record.true_cell)
     text.append(f" (true cell: {true}; accuracy {record.accuracy:.3f})", style="dim")
     return text
