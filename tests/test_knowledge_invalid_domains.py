@@ -110,7 +110,9 @@ CASES = [
 
 
 def test_every_file_has_a_case() -> None:
-    assert sorted(c.file for c in CASES) == sorted(str(p.relative_to(INVALID)) for p in INVALID.rglob("*.yaml"))
+    """Every broken domain has its expected message: here, or (``scene/``) in tests/test_scene_pomdp.py."""
+    files = [str(p.relative_to(INVALID)) for p in INVALID.rglob("*.yaml") if p.parent.name != "scene"]
+    assert sorted(c.file for c in CASES) == sorted(files)
 
 
 @pytest.mark.parametrize("case", CASES, ids=str)

@@ -50,6 +50,7 @@ from beliefloc.object_search.settings import (
     Metareasoning,
     PolicyName,
     Revision,
+    Scenes,
     check_commit_threshold,
     check_time_limit,
     wall_clock,
@@ -83,6 +84,7 @@ METAREASONING_OPTION = "--metareasoning/--strategy"
 METAREASONING_HELP = f"Existence metareasoning (Eq. 10-14): {_names(Metareasoning)}."
 POLICY_HELP = "Action selection: " + "; ".join(f"{p.value} ({p.description})" for p in PolicyName) + "."
 REVISION_HELP = f"How a revised prior meets the observations: {_names(Revision)}."
+SCENES_HELP = "How a view's image is analysed: " + "; ".join(f"{s.value} ({s.description})" for s in Scenes) + "."
 
 DynamicOption = Annotated[
     bool,
@@ -169,6 +171,23 @@ def _check_search_options(
         warn("--revision discard changes nothing without --dynamic-kb: the prior is never revised")
 
 
+def _scene_mode(name: str | None, has_model: bool) -> Scenes:
+    """``--scenes``: the SP-POMDP by default when the domain has a scene model, else the fixed detector."""
+    mode = _choice(name, Scenes.PLANNED, "--scenes") if name is not None else None
+    return _check_scene_modes([mode] if mode is not None else [], has_model)[0]
+
+
+def _check_scene_modes(modes: list[Scenes], has_model: bool) -> list[Scenes]:
+    if not modes:
+        return [Scenes.PLANNED if has_model else Scenes.FIXED]
+    if not has_model and any(mode is not Scenes.FIXED for mode in modes):
+        raise UsageError(
+            "--scenes planned and all need a scene model (a scene: section in the domain file, "
+            "docs/domain-format.md); this domain has none, so only --scenes fixed applies"
+        )
+    return modes
+
+
 def _warn_closed_rooms(space: SearchSpace) -> None:
     if space.closed_rooms:
         warn(
@@ -206,10 +225,15 @@ def run(
     trust_weight: TrustWeightOption = 0.5,
     trust_r: TrustROption = 0.0,
     time_limit: TimeLimitOption = None,
+    scenes: Annotated[
+        str | None, typer.Option("--scenes", metavar="NAME", help=SCENES_HELP, show_default=False)
+    ] = None,
     show: Annotated[
         bool,
         typer.Option(
-            "--show", help="Draw the belief over the rooms' cells after every step (on the map's grid with map:)."
+            "--show",
+            help="Draw the belief over the rooms' cells after every step (on the map's grid with map:); with a "
+            "scene model, the ROIs processed, the operators applied and the higher level's belief.",
         ),
     ] = False,
     output: Annotated[
@@ -245,6 +269,10 @@ def run(
     With -o the search is also drawn as a picture, and with --record animated step by step (as
     --show draws it in the terminal); one line says what was written.
 
+    A domain with a scene model (scene:) analyses every view with the SP-POMDP: per view, the ROIs
+    processed, the operators applied and the higher level's belief are shown with --show and given
+    in --json; --scenes fixed uses the search: section's detector instead.
+
     Exit code 0 when found, 1 when the robot gives up (not found) or runs out of time.
 
     Examples:
@@ -254,6 +282,7 @@ def run(
       beliefloc search run domains/home.yaml --dynamic-kb --revision discard   # exits 1
       beliefloc search run domains/apartment.yaml --target-cell kitchen:7,9 --show
       beliefloc search run domains/home.yaml --seed 3 -o search.png --record search.gif
+      beliefloc search run domains/home.yaml --seed 3 --scenes fixed   # the fixed detector
     """
     from beliefloc.knowledge import KnowledgeBase, load_domain
     from beliefloc.object_search.domain_space import search_space
@@ -261,7 +290,14 @@ def run(
     from beliefloc.object_search.loop import Verdict, seeded_search
     from beliefloc.object_search.policy import POLICIES
     from beliefloc.render.drawing import uses_color
-    from beliefloc.render.search import belief_plane, search_legend, step_line, steps_table, verdict_text
+    from beliefloc.render.search import (
+        belief_plane,
+        scene_lines,
+        search_legend,
+        step_line,
+        steps_table,
+        verdict_text,
+    )
 
     gif, frame_limit = _check_pictures(domain_file, output, recording, record_frames)
     chosen_metareasoning = _choice(metareasoning, Metareasoning.EXPECTATION, METAREASONING_OPTION)
@@ -282,6 +318,16 @@ def run(
         with for_option("--target-cell"):
             cell = space.target_cell(target_cell)
     _warn_closed_rooms(space)
+    mode = _scene_mode(scenes, domain.scene is not None)
+    setup = None
+    if mode is not Scenes.FIXED:
+        from beliefloc.object_search.scene_views import SceneSetup
+        from beliefloc.object_search.world import typical_rooms
+
+        setup = SceneSetup.of(domain, typical_rooms(domain))
+        assert setup is not None  # _scene_mode refused planned/all without a scene model
+        with for_option(target_option(target)):
+            space = setup.space(space, chosen, mode)
     kb = KnowledgeBase(domain, use_defaults=defaults)
     result = kb.prior(chosen)
     if result.message:
@@ -305,6 +351,7 @@ def run(
         revision=chosen_revision,
         trust=trust,
         dynamic=dynamic_factory(domain, space, kb, chosen, threshold=commit_threshold) if dynamic_kb else None,
+        scene=None if setup is None else setup.world(),
     )
     seconds = time.perf_counter() - started
     if json_output:
@@ -332,6 +379,8 @@ def run(
             )
             for step in record.steps:
                 console.print(step_line(space, step))
+                if step.scene is not None and record.scene_model is not None:
+                    console.print(scene_lines(record.scene_model, step.scene))
                 assert step.belief is not None
                 console.print(belief_plane(space, step.belief, robot=step.view, target=record.true_cell, color=color))
         else:
@@ -469,6 +518,27 @@ def simulate(
         ),
     ] = 0.0,
     time_limit: TimeLimitOption = None,
+    scenes: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--scenes",
+            metavar="NAME,...",
+            help="Repeat or list with commas to compare: " + SCENES_HELP[0].lower() + SCENES_HELP[1:],
+            show_default=False,
+        ),
+    ] = None,
+    correlation: Annotated[
+        float | None,
+        typer.Option(
+            "--correlation",
+            parser=number(low=0.0, high=1.0),
+            metavar="RHO",
+            help="A correlated world (the class-to-room ties of the paper's domain): every object is in its "
+            "class's home room with probability RHO, else in another room (default: the domain's placement: "
+            "where the file says, else its default's room with probability 0.8).",
+            show_default=False,
+        ),
+    ] = None,
     commit_threshold: CommitOption = COMMIT_THRESHOLD,
     trust_weight: TrustWeightOption = 0.5,
     trust_r: TrustROption = 0.0,
@@ -493,12 +563,19 @@ def simulate(
     --scheduler give the same results as one process (a cluster's workers must see the domain's
     .lp files at the same paths). --out writes a line per trial as it ends; --resume continues it.
 
+    With a scene model the table adds the time spent processing images (the rest is travel) and the
+    operator applications per search; the --json trials carry "operators_applied" and
+    "processing_time". --correlation RHO builds correlated worlds instead (every object in its class's
+    home room with probability RHO).
+
     Examples:
 
     \b
       beliefloc search simulate domains/home.yaml -n 200 -m none,expectation,sampling --absent-fraction 0.5
       beliefloc search simulate domains/home.yaml -n 100 --knowledge 0.2 --no-defaults --dynamic-kb
       beliefloc search simulate domains/home.yaml -n 100 --workers 2 --out home.jsonl --no-timings
+      beliefloc search simulate domains/home.yaml -n 200 --scenes planned,all,fixed
+      beliefloc search simulate domains/home.yaml -n 200 --knowledge 1 --no-defaults --correlation 0.97
     """
     from beliefloc.files.results_file import header
     from beliefloc.knowledge import load_domain
@@ -517,7 +594,24 @@ def simulate(
         chosen = domain.resolve_target(target, allow_any=True)
     space = search_space(domain)
     _warn_closed_rooms(space)
-    arms = [Arm(p.value, m, r, dynamic_kb) for p in policies for m in metareasonings for r in revisions]
+    modes = _check_scene_modes(
+        [] if scenes is None else _choices(scenes, Scenes.PLANNED, "--scenes"), domain.scene is not None
+    )
+    compared: list[Scenes | None] = list(modes) if len(modes) > 1 else [None]
+    arms = [
+        Arm(p.value, m, r, dynamic_kb, scenes=s)
+        for s in compared
+        for p in policies
+        for m in metareasonings
+        for r in revisions
+    ]
+    if any(mode is not Scenes.FIXED for mode in modes) and chosen is not None:
+        from beliefloc.object_search.scene import scene_model
+
+        model = scene_model(domain)
+        assert model is not None
+        with for_option(target_option(target)):
+            model.look(chosen)
     settings = TrialSettings(
         knowledge=knowledge,
         defaults=defaults,
@@ -526,8 +620,9 @@ def simulate(
         commit_threshold=commit_threshold,
         trust=trust,
         time_limit=time_limit,
+        correlation=correlation,
     )
-    sweep = TrialSweep(domain, tuple(arms), seed, settings, timings=timings)
+    sweep = TrialSweep(domain, tuple(arms), seed, settings, timings=timings, scenes=modes != [Scenes.FIXED])
     head = header(
         "search simulate",
         "trial",

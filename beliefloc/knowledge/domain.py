@@ -35,6 +35,7 @@ from pydantic import (
 
 from beliefloc.errors import DomainError, FieldError, InvalidValueError, KnowledgeBaseError, MapError
 from beliefloc.knowledge.robot import DEFAULT_WEIGHT, ROBOT
+from beliefloc.knowledge.scene_model import SceneSection
 from beliefloc.source import Source, format_path, read_source, refuse_field_name, validate_source
 from beliefloc.source.file_kinds import DOMAIN, kind_of_data, not_a
 
@@ -231,6 +232,10 @@ class Domain(_Strict):
     map_search: MapSearch | None = Field(default=None, alias="search")
     """The ``search:`` section of a domain with ``map:``: the geometry comes from the map."""
 
+    scene: SceneSection | None = None
+    """The scene model of object search: visual operators, what each class looks like, ROIs per view.
+    Without one, the fixed detector of the search section analyses a view."""
+
     _path: Path | None = PrivateAttr(default=None)
     _map: SemanticMap | None = PrivateAttr(default=None)
     _allow_outside: bool = PrivateAttr(default=False)
@@ -343,6 +348,13 @@ class Domain(_Strict):
                         )
         if self.target is not None and self.target not in self.classes:
             raise FieldError(("target",), f"unknown target class {self.target!r}{_hint(self.target, self.classes)}")
+        if self.scene is not None:
+            needed: dict[str, tuple[str | int, ...]] = {}
+            if self.target is not None:
+                needed[self.target] = ("target",)
+            for name, obj in self.objects.items():
+                needed.setdefault(obj.class_, ("objects", name, "class"))
+            self.scene.check(self.classes, needed)
         if self.search is not None:
             self._check_search(self.search)
         if self.map_search is not None:

@@ -7,7 +7,11 @@ One algorithm or role per module:
   values; no numeric imports, so the command line can offer the names without loading numpy;
 * ``space``: the robot's model, the search space (cells, rooms, sparse views) on a plane of rooms;
   ``map_space``: the same on a semantic map; ``domain_space``: ``search_space(domain)``, either one;
-* ``world``: the simulated world (where every object is, the target's and the objects' detectors);
+* ``world``: the simulated world (where every object is, the target's and the objects' detectors,
+  the images of a scene model's views);
+* ``scene``: the SP-POMDP (Sec. III-B, Fig. 3) that analyses a view's image with a scene model: the
+  exact lower- and higher-level policies and their outcome per kind of view;
+  ``scene_views``: the scene model attached to a search space (the rates of every view, cached);
 * ``posterior``: Eq. 6-7, the cell belief, its revision (re-use, discard, trust factors);
 * ``existence``: Eq. 8-14, the Beta metareasoning and its three approximations;
 * ``policy``: which view to analyse next (``pomdp``, ``greedy``, ``pomdp-only``);

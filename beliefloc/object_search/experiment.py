@@ -55,10 +55,12 @@ from beliefloc.object_search.existence import ExistenceBelief
 from beliefloc.object_search.loop import Verdict, run_search
 from beliefloc.object_search.policy import POLICIES
 from beliefloc.object_search.posterior import Detector, TrustFactor
+from beliefloc.object_search.scene_views import SceneSetup
 from beliefloc.object_search.settings import (
     COMMIT_THRESHOLD,
     Metareasoning,
     Revision,
+    Scenes,
     check_commit_threshold,
     check_fraction,
     check_time_limit,
@@ -66,7 +68,7 @@ from beliefloc.object_search.settings import (
 )
 from beliefloc.object_search.space import SearchSpace
 from beliefloc.object_search.trials import Stream, robot_domain, sample_known, trial_rng, unknown_objects
-from beliefloc.object_search.world import P_TYPICAL, SimulatedTarget, World, sample_world, typical_rooms
+from beliefloc.object_search.world import P_TYPICAL, SceneTarget, SimulatedTarget, World, sample_world, typical_rooms
 
 
 @dataclass(frozen=True)
@@ -88,6 +90,8 @@ class Arm:
     beta: float | None = None
     trust: TrustFactor | None = None
     """The trust factors of this arm's ``trust-factor`` revision (None: the settings')."""
+    scenes: Scenes | None = None
+    """How views are analysed (None: the SP-POMDP when the domain has a scene model, else the fixed detector)."""
 
     def __post_init__(self) -> None:
         if self.policy not in POLICIES:
@@ -113,6 +117,8 @@ class Arm:
             name += f"@{key}={value:g}"
         if self.trust is not None:
             name += f"@trust={self.trust.weight:g},{self.trust.r:g}"
+        if self.scenes is not None:
+            name += f"@scenes={self.scenes.value}"
         return name
 
     @property
@@ -152,6 +158,10 @@ class TrialSettings:
     tau_absent: float | None = None
     alpha: float | None = None
     beta: float | None = None
+    correlation: float | None = None
+    """The class-to-room ties of a correlated world (:func:`~beliefloc.object_search.world.place_objects`):
+    every object in its class's home room with this probability; None: the domain's placement with
+    ``p_typical``."""
     world_detector: Detector | None = None
     """The simulated world's detector when it is noisier than the robot's model (``space.detector``,
     the domain's ``sensor:``), for the target and the other objects alike: Sec. IV-A's "some extra
@@ -160,6 +170,8 @@ class TrialSettings:
     def __post_init__(self) -> None:
         for name in ("knowledge", "absent_fraction", "p_typical"):
             check_fraction(name, getattr(self, name))
+        if self.correlation is not None:
+            check_fraction("the correlation", self.correlation)
         check_commit_threshold(self.commit_threshold)
         if self.time_limit is not None:
             check_time_limit(self.time_limit)
@@ -173,6 +185,7 @@ class TrialSettings:
             "absent_fraction": self.absent_fraction,
             "target": self.target,
             "p_typical": self.p_typical,
+            **({} if self.correlation is None else {"correlation": self.correlation}),
             "commit_threshold": self.commit_threshold,
             "trust": {"weight": self.trust.weight, "r": self.trust.r},
             **search_parameters(domain, self),
@@ -196,11 +209,16 @@ class ArmOutcome:
     """``(object, room)`` facts committed to the knowledge base (dynamic arms)."""
     seconds: float
     """Wall-clock time of the search."""
+    operators_applied: int | None = None
+    """Operator applications over every view's image (None: the fixed detector)."""
+    processing_time: float | None = None
+    """Time spent processing images, part of :attr:`time` (the rest is travel); None: the fixed detector."""
 
     def as_json(self, space: SearchSpace, *, timings: bool = True) -> dict[str, Any]:
         """The outcome as JSON (without ``arm``, its key in the trial's ``outcomes``); cells
-        named by ``space``; ``seconds`` None without ``timings``."""
-        return {
+        named by ``space``; ``seconds`` None without ``timings``; ``operators_applied`` and
+        ``processing_time`` only with a scene model."""
+        data = {
             "verdict": self.verdict.value,
             "time": self.time,
             "steps": self.steps,
@@ -210,6 +228,10 @@ class ArmOutcome:
             "commits": [list(fact) for fact in self.commits],
             "seconds": wall_clock(self.seconds, timings),
         }
+        if self.operators_applied is not None:
+            data["operators_applied"] = self.operators_applied
+            data["processing_time"] = self.processing_time
+        return data
 
     @classmethod
     def from_json(cls, arm: str, data: dict[str, Any], space: SearchSpace | None = None) -> ArmOutcome:
@@ -227,6 +249,8 @@ class ArmOutcome:
             accuracy=float(data["accuracy"]),
             commits=tuple((str(obj), str(room)) for obj, room in data["commits"]),
             seconds=math.nan if data["seconds"] is None else float(data["seconds"]),
+            operators_applied=None if data.get("operators_applied") is None else int(data["operators_applied"]),
+            processing_time=None if data.get("processing_time") is None else float(data["processing_time"]),
         )
 
 
@@ -296,15 +320,25 @@ class TrialSweep:
     seed: int
     settings: TrialSettings
     timings: bool = True
+    scenes: bool = True
+    """Analyse views with the domain's scene model, if it has one (False: the fixed detector for every arm)."""
 
     def runner(self) -> Callable[[int], dict[str, Any]]:
         """The search space and typical rooms shared by a worker's trials, and the runner of one trial."""
         space = search_space(self.domain)
         typical = typical_rooms(self.domain)
+        scenes = SceneSetup.of(self.domain, typical) if self.scenes else None
 
         def run(index: int) -> dict[str, Any]:
             record = run_trial(
-                self.domain, space, typical, self.arms, index=index, seed=self.seed, settings=self.settings
+                self.domain,
+                space,
+                typical,
+                self.arms,
+                index=index,
+                seed=self.seed,
+                settings=self.settings,
+                scenes=scenes,
             )
             return record.as_json(space, timings=self.timings)
 
@@ -336,11 +370,15 @@ class ArmSummary:
     mean_commits: float | None
     mean_seconds: float | None
     """Wall-clock seconds per search."""
+    mean_operators: float | None = None
+    """Operator applications per search (None: no scene model)."""
+    mean_processing_time: float | None = None
+    """Time processing images per search, part of ``mean_time`` (None: no scene model)."""
 
     def as_json(self, *, timings: bool = True) -> dict[str, Any]:
         """The statistics as JSON (without ``arm``, their key
-        there); ``mean_seconds`` None without ``timings``."""
-        return {
+        there); ``mean_seconds`` None without ``timings``; the scene's means only with a scene model."""
+        data = {
             "trials": self.trials,
             "found": self.found,
             "not_found": self.not_found,
@@ -356,6 +394,10 @@ class ArmSummary:
             "mean_commits": self.mean_commits,
             "mean_seconds": wall_clock(self.mean_seconds, timings),
         }
+        if self.mean_operators is not None:
+            data["mean_operators"] = self.mean_operators
+            data["mean_processing_time"] = self.mean_processing_time
+        return data
 
 
 def search_parameters(domain: Domain, settings: TrialSettings) -> dict[str, float]:
@@ -380,15 +422,25 @@ def run_trial(
     index: int,
     seed: int,
     settings: TrialSettings,
+    scenes: SceneSetup | None = None,
 ) -> TrialRecord:
-    """Trial ``index`` of a run seeded ``seed``: one world, one knowledge, every arm (see the module docstring)."""
+    """Trial ``index`` of a run seeded ``seed``: one world, one knowledge, every arm (see the module docstring).
+    ``scenes``: the domain's scene model (:class:`~beliefloc.object_search.scene_views.SceneSetup`), which
+    analyses the views of every arm but those whose :attr:`Arm.scenes` is ``fixed``."""
     from beliefloc.knowledge import KnowledgeBase
 
     started = time.perf_counter()
     world_rng = trial_rng(seed, index, Stream.WORLD)
     absent = bool(world_rng.random() < settings.absent_fraction)
     world = sample_world(
-        domain, space, typical, world_rng, target_class=settings.target, absent=absent, p_typical=settings.p_typical
+        domain,
+        space,
+        typical,
+        world_rng,
+        target_class=settings.target,
+        absent=absent,
+        p_typical=settings.p_typical,
+        correlation=settings.correlation,
     )
     known = sample_known(domain, world, settings.knowledge, trial_rng(seed, index, Stream.KNOWLEDGE))
     robot = robot_domain(domain, world, known)
@@ -406,6 +458,16 @@ def run_trial(
     outcomes = []
     for arm in arms:
         arm_started = time.perf_counter()
+        mode = arm.scenes or (Scenes.FIXED if scenes is None else Scenes.PLANNED)
+        if mode is not Scenes.FIXED and scenes is None:
+            raise InvalidValueError(f"arm {arm.name}: domain {domain.name!r} has no scene model (scene:)")
+        arm_space = space if scenes is None else scenes.space(space, world.target_class, mode)
+        target: SimulatedTarget | SceneTarget
+        detections = trial_rng(seed, index, Stream.TARGET_DETECTIONS)
+        if scenes is not None and arm_space.scene is not None:
+            target = scenes.target(arm_space, world.target_cell, world.rooms, detections, instance=world.target)
+        else:
+            target = SimulatedTarget(world.target_cell, world_detector, detections)
         dynamic = None
         if arm.dynamic_kb:
 
@@ -423,9 +485,9 @@ def run_trial(
             )
         own = {**params, **arm.overrides()}
         record = run_search(
-            space,
+            arm_space,
             room_prior,
-            SimulatedTarget(world.target_cell, world_detector, trial_rng(seed, index, Stream.TARGET_DETECTIONS)),
+            target,
             POLICIES[arm.policy],
             ExistenceBelief(
                 own["alpha"],
@@ -451,6 +513,8 @@ def run_trial(
                 accuracy=record.accuracy,
                 commits=record.commits,
                 seconds=time.perf_counter() - arm_started,
+                operators_applied=record.operators_applied,
+                processing_time=record.processing_time,
             )
         )
     return TrialRecord(
@@ -476,9 +540,11 @@ def run_trials(
     settings: TrialSettings | None = None,
     on_trial: Callable[[TrialRecord], None] | None = None,
     first: int = 0,
+    scenes: bool = True,
 ) -> list[TrialRecord]:
     """Trials ``first .. first + trials - 1`` (a trial depends only on ``seed`` and its index, so a run
-    can be split and its parts joined), every arm on each. ``on_trial`` is called after each trial."""
+    can be split and its parts joined), every arm on each. ``on_trial`` is called after each trial.
+    ``scenes`` False: the fixed detector for every arm, whether or not the domain has a scene model."""
     if trials < 1 or not arms:
         raise InvalidValueError("need at least one trial and one arm")
     names = [arm.name for arm in arms]
@@ -487,9 +553,10 @@ def run_trials(
     settings = settings or TrialSettings()
     space = search_space(domain)
     typical = typical_rooms(domain)
+    setup = SceneSetup.of(domain, typical) if scenes else None
     records = []
     for index in range(first, first + trials):
-        record = run_trial(domain, space, typical, arms, index=index, seed=seed, settings=settings)
+        record = run_trial(domain, space, typical, arms, index=index, seed=seed, settings=settings, scenes=setup)
         records.append(record)
         if on_trial is not None:
             on_trial(record)
@@ -523,6 +590,8 @@ def summarize(records: Sequence[TrialRecord]) -> dict[str, ArmSummary]:
             mean_steps=_mean([o.steps for o in mine]),
             mean_commits=_mean([len(o.commits) for o in mine]),
             mean_seconds=_mean([o.seconds for o in mine if not math.isnan(o.seconds)]),
+            mean_operators=_mean([o.operators_applied for o in mine if o.operators_applied is not None]),
+            mean_processing_time=_mean([o.processing_time for o in mine if o.processing_time is not None]),
         )
     return out
 
@@ -571,5 +640,12 @@ def trial_world(
     world_rng = trial_rng(seed, index, Stream.WORLD)
     absent = bool(world_rng.random() < settings.absent_fraction)
     return sample_world(
-        domain, space, typical, world_rng, target_class=settings.target, absent=absent, p_typical=settings.p_typical
+        domain,
+        space,
+        typical,
+        world_rng,
+        target_class=settings.target,
+        absent=absent,
+        p_typical=settings.p_typical,
+        correlation=settings.correlation,
     )

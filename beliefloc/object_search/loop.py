@@ -3,7 +3,9 @@
 Each iteration (line numbers of Algorithm 1)::
 
     4   v_t  = policy(b_{t-1}, robot)                          choose a view
-    5   o_t  = world.detect(view v_t)                          travel + analysis time units
+    5   o_t  = world.detect(view v_t)                          travel + analysis time units (with a
+                                                               scene model: the SP-POMDP's report
+                                                               and its processing time, scene.py)
     11  p(o_t | E), p(o_t | ¬E)   from b_{t-1}                 Eq. 9 (the predictive likelihood)
     6   b_t ∝ b_ob · b_kb, b_ob *= O(·, v_t, o_t)              Eq. 6-7 (CellBelief.observe_view)
     7   the other objects' detections in v_t; an object whose  dynamic KB only (dynamic.py)
@@ -34,6 +36,7 @@ from __future__ import annotations
 
 import enum
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -44,9 +47,10 @@ from beliefloc.object_search.dynamic import DynamicFactory, DynamicKnowledge
 from beliefloc.object_search.existence import ExistenceBelief, detection_likelihoods
 from beliefloc.object_search.policy import Policy
 from beliefloc.object_search.posterior import CellBelief, TrustFactor, spread_room_prior
+from beliefloc.object_search.scene import SceneModel, SceneTrace
 from beliefloc.object_search.settings import Metareasoning, PolicyName, Revision, check_time_limit
 from beliefloc.object_search.space import SearchSpace
-from beliefloc.object_search.world import SimulatedTarget
+from beliefloc.object_search.world import SceneTarget, SimulatedTarget
 
 ACCURACY_SIGMA = 2.0
 """σ of the Gaussian accuracy fall-off, in cells."""
@@ -85,10 +89,12 @@ class Step:
     """The cell belief after the step (only with ``keep_beliefs``)."""
     commits: tuple[tuple[str, str], ...] = ()
     """``(object, room)`` facts committed to the knowledge base at this step (dynamic KB)."""
+    scene: SceneTrace | None = None
+    """The view's image as the SP-POMDP processed it (with a scene model; None: the fixed detector)."""
 
-    def as_json(self, space: SearchSpace) -> dict[str, Any]:
-        """The step as JSON, cells named by ``space``."""
-        return {
+    def as_json(self, space: SearchSpace, model: SceneModel | None = None) -> dict[str, Any]:
+        """The step as JSON, cells named by ``space``; with a scene model, the image processed (``scene``)."""
+        data = {
             "step": self.index,
             "view": space.cell_name(self.view),
             "observation": "present" if self.present else "absent",
@@ -99,6 +105,9 @@ class Step:
             "most_likely": space.cell_name(self.best_cell),
             "commits": [list(fact) for fact in self.commits],
         }
+        if self.scene is not None and model is not None:
+            data["scene"] = self.scene.as_json(model)
+        return data
 
 
 @dataclass(frozen=True)
@@ -126,6 +135,22 @@ class SearchRecord:
     """The knowledge base's room prior the search was given (axis: the space's rooms)."""
     seed: int | None = None
     """The seed of :func:`seeded_search` (None: the generators were handed in)."""
+    scene_model: SceneModel | None = None
+    """The scene model that processed the views (None: the fixed detector)."""
+
+    @property
+    def operators_applied(self) -> int | None:
+        """Operator applications over every view's image (None without a scene model)."""
+        if self.scene_model is None:
+            return None
+        return sum(step.scene.operators for step in self.steps if step.scene is not None)
+
+    @property
+    def processing_time(self) -> float | None:
+        """Time spent processing images (None without a scene model); the rest of :attr:`time` is travel."""
+        if self.scene_model is None:
+            return None
+        return float(sum(step.scene.time for step in self.steps if step.scene is not None))
 
     @property
     def commits(self) -> tuple[tuple[str, str], ...]:
@@ -140,7 +165,7 @@ class SearchRecord:
         def name(cell: int | None) -> str | None:
             return None if cell is None else space.cell_name(cell)
 
-        return {
+        data: dict[str, Any] = {
             "domain": domain,
             "target": target,
             "policy": self.policy.value,
@@ -150,7 +175,7 @@ class SearchRecord:
             "seed": self.seed,
             "room_prior": dict(zip(space.rooms, self.room_prior.tolist(), strict=True)),
             "true_cell": name(self.true_cell),
-            "steps": [step.as_json(space) for step in self.steps],
+            "steps": [step.as_json(space, self.scene_model) for step in self.steps],
             "verdict": self.verdict.value,
             "time": self.time,
             "reported_cell": name(self.reported_cell),
@@ -158,6 +183,10 @@ class SearchRecord:
             "accuracy": self.accuracy,
             "rejected_commits": [list(fact) for fact in self.rejected],
         }
+        if self.scene_model is not None:
+            data["operators_applied"] = self.operators_applied
+            data["processing_time"] = self.processing_time
+        return data
 
 
 def accuracy(space: SearchSpace, reported: int | None, true: int | None, sigma: float = ACCURACY_SIGMA) -> float:
@@ -193,7 +222,7 @@ def initial_prior(space: SearchSpace, room_prior: np.ndarray, policy: Policy) ->
 def run_search(
     space: SearchSpace,
     room_prior: np.ndarray,
-    target: SimulatedTarget,
+    target: SimulatedTarget | SceneTarget,
     policy: Policy,
     existence: ExistenceBelief,
     *,
@@ -226,12 +255,17 @@ def run_search(
     robot, time = space.start, 0.0
     steps: list[Step] = []
     rejected: list[tuple[str, str]] = []
-    detector = space.detector
     while True:
         view = policy.select(space, belief, robot)
-        cost = float(space.travel_cost * space.distances_from(robot)[view] + space.analysis_cost)
+        travel = float(space.travel_cost * space.distances_from(robot)[view])
         view_cells = space.view_cells(view)
-        present = target.detect(view_cells)
+        detector = space.view_detector(view)
+        scene = None
+        if isinstance(target, SceneTarget):
+            scene = target.analyse(view, view_cells)
+            present, cost = scene.present, travel + scene.time
+        else:
+            present, cost = target.detect(view_cells), travel + space.analysis_cost
         like_e, like_not_e = detection_likelihoods(
             belief, view_cells, present, detector.true_positive, detector.false_positive
         )
@@ -266,6 +300,7 @@ def run_search(
                 float(belief[best]),
                 belief if keep_beliefs else None,
                 tuple(commits),
+                scene,
             )
         )
         if 1.0 - p_exists > existence.tau_minus:
@@ -297,7 +332,12 @@ def run_search(
         dynamic_kb=dynamic is not None and uses_kb,
         rejected=tuple(rejected),
         room_prior=np.array(room_prior, dtype=float),
+        scene_model=target.model if isinstance(target, SceneTarget) else None,
     )
+
+
+SceneWorld = Callable[[SearchSpace, "int | None", np.random.Generator], SceneTarget]
+"""Builds the world's side of a search with a scene model: (space with rates, target cell, generator)."""
 
 
 def search_streams(seed: int) -> tuple[np.random.Generator, ...]:
@@ -324,16 +364,22 @@ def seeded_search(
     revision: Revision = Revision.REUSE,
     trust: TrustFactor | None = None,
     dynamic: DynamicFactory | None = None,
+    scene: SceneWorld | None = None,
 ) -> SearchRecord:
     """One search from one seed (:func:`search_streams`), so two policies run on the same seed face
-    the same target and the same noise (paired trials). ``dynamic`` builds the dynamic-KB parts."""
+    the same target and the same noise (paired trials). ``dynamic`` builds the dynamic-KB parts;
+    ``scene`` builds the world's images when ``space`` has a scene model's rates (else the fixed
+    detector answers)."""
     place_rng, detect_rng, beta_rng, objects_rng, objects_detect_rng = search_streams(seed)
+    target: SimulatedTarget | SceneTarget
     if absent:
         target = SimulatedTarget(None, space.detector, detect_rng)
     elif target_cell is not None:
         target = SimulatedTarget(target_cell, space.detector, detect_rng)
     else:
         target = SimulatedTarget.at_random(space, place_rng, detect_rng)
+    if scene is not None and space.scene is not None:
+        target = scene(space, target.cell, detect_rng)
     existence = ExistenceBelief(alpha, beta, metareasoning, tau_minus=tau_absent, rng=beta_rng)
     record = run_search(
         space,

@@ -31,6 +31,11 @@ exists (axis: cell) and ``robot`` the cell the robot stands on. Pure numpy, no r
   first version stood *on* ``m``: a view raises every viewed cell alike, so after a detection ``m``
   and its neighbours rose together, no cell passed τ+ and about 95 % of the trials on ``home.yaml``
   hit the time limit.
+With a scene model (:mod:`beliefloc.object_search.scene`) every view has its own ``p_TP``, ``p_FP`` and
+expected processing time (``SearchSpace.rates``, ``SearchSpace.analysis_time``); the formulas are the
+same, elementwise over views, and a view's analysis time is ``p_in t_in + (1 - p_in) t_out`` with
+``p_in = Σ_{i∈v} b_i``.
+
 * ``pomdp-only`` — the ``pomdp`` selection with a uniform prior instead of the knowledge base's
   (the "POMDP only" baseline): the loop reads :attr:`Policy.kb_prior`.
 """
@@ -68,16 +73,22 @@ def expected_entropy(space: SearchSpace, belief: np.ndarray) -> np.ndarray:
 
 
 def _expected_entropy(space: SearchSpace, belief: np.ndarray, xlogx: np.ndarray) -> np.ndarray:
+    return _entropy_and_mass(space, belief, xlogx)[0]
+
+
+def _entropy_and_mass(space: SearchSpace, belief: np.ndarray, xlogx: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The expected entropy after each view, and each view's belief mass ``Σ_{i∈v} b_i`` (axis: view).
+    The detector's rates are numbers, or arrays over views with a scene model (elementwise alike)."""
     p_in = space.views @ belief
     s_in = space.views @ xlogx
     s_all = float(xlogx.sum())
-    tp, fp = space.detector.true_positive, space.detector.false_positive
+    tp, fp = space.rates()
     total = np.zeros(len(p_in))
     for l_in, l_out in ((tp, fp), (1.0 - tp, 1.0 - fp)):
         p_obs = l_in * p_in + l_out * (1.0 - p_in)
         weighted = l_in * s_in + _xlogx(l_in) * p_in + l_out * (s_all - s_in) + _xlogx(l_out) * (1.0 - p_in)
         total += _xlogx(p_obs) - weighted
-    return total
+    return total, p_in
 
 
 def entropy(belief: np.ndarray) -> float:
@@ -94,9 +105,10 @@ def select_pomdp(space: SearchSpace, belief: np.ndarray, robot: int) -> int:
     """Expected entropy reduction per time unit, one step ahead (see the module docstring); only
     view points in rooms the robot can enter."""
     xlogx = _xlogx(belief)
-    gain = -float(xlogx.sum()) - _expected_entropy(space, belief, xlogx)
+    after, p_in = _entropy_and_mass(space, belief, xlogx)
+    gain = -float(xlogx.sum()) - after
     distances = space.distances_from(robot)
-    scores = gain / (space.travel_cost * distances + space.analysis_cost)
+    scores = gain / (space.travel_cost * distances + space.analysis_time(p_in))
     return _best(np.where(space.reachable, scores, -np.inf), distances)
 
 
@@ -109,7 +121,7 @@ def select_greedy(space: SearchSpace, belief: np.ndarray, robot: int) -> int:
     candidate = np.where(seen, belief, -1.0)
     top = np.flatnonzero(candidate >= candidate.max() - 1e-12)
     cell = int(top[np.argmin(distances[top])])
-    tp, fp = space.detector.true_positive, space.detector.false_positive
+    tp, fp = space.rates()
     covers = space.views[:, [cell]].toarray().ravel() > 0
     like_present = np.where(covers, tp, fp)  # p(present | target on m, v)
     p_present = fp + (tp - fp) * (space.views @ belief)  # p(present | v, b)

@@ -47,6 +47,29 @@ class Revision(str, enum.Enum):
     """Pool the KB's belief and the observations' belief with trust factors (r-norm), ref. [32]."""
 
 
+class Scenes(str, enum.Enum):
+    """How a view's image is analysed (:mod:`beliefloc.object_search.scene`)."""
+
+    PLANNED = "planned"
+    """The SP-POMDP: the LL and HL policies choose operators and ROIs (the default with a scene model)."""
+    ALL = "all"
+    """Every operator on every ROI, the likelier answer at the end (the baseline of planning to see)."""
+    FIXED = "fixed"
+    """The ``search:`` section's fixed detector and analysis cost (the only choice without a scene model)."""
+
+    @property
+    def description(self) -> str:
+        """One line for help texts."""
+        return _SCENE_DESCRIPTIONS[self]
+
+
+_SCENE_DESCRIPTIONS = {
+    Scenes.PLANNED: "the SP-POMDP plans the operators and ROIs; the default with a scene model",
+    Scenes.ALL: "every operator on every ROI",
+    Scenes.FIXED: "the search: section's fixed detector; the only choice without a scene model",
+}
+
+
 class PolicyName(str, enum.Enum):
     """Which view to analyse next (:mod:`beliefloc.object_search.policy`)."""
 

@@ -27,6 +27,7 @@ from __future__ import annotations
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
+from typing import TYPE_CHECKING
 
 import numpy as np
 import scipy.sparse as sp
@@ -34,6 +35,9 @@ import scipy.sparse as sp
 from beliefloc.errors import DomainError, InvalidValueError
 from beliefloc.knowledge.domain import Domain, PlaneSearch
 from beliefloc.object_search.posterior import Detector
+
+if TYPE_CHECKING:
+    from beliefloc.object_search.scene import SceneRates
 
 
 @dataclass(frozen=True, eq=False)
@@ -59,9 +63,34 @@ class SearchSpace:
     accessible: np.ndarray = field(default_factory=lambda: np.ones(0, dtype=bool))
     """``accessible[k]``: the robot can enter room k (bool, shape (rooms,)); empty means all."""
 
+    scene: SceneRates | None = None
+    """The SP-POMDP's outcome per view (:mod:`beliefloc.object_search.scene`) when the domain has a scene
+    model: it replaces :attr:`detector` and :attr:`analysis_cost` (see :meth:`rates`, :meth:`analysis_time`).
+    None: the fixed detector analyses every view in ``analysis_cost``."""
+
     def __post_init__(self) -> None:
         if len(self.accessible) == 0:
             object.__setattr__(self, "accessible", np.ones(len(self.rooms), dtype=bool))
+
+    def rates(self) -> tuple[np.ndarray | float, np.ndarray | float]:
+        """``(P(present | target in view), P(present | not))``: numbers for the fixed detector, arrays
+        over views (axis: view) with a scene model."""
+        if self.scene is None:
+            return self.detector.true_positive, self.detector.false_positive
+        return self.scene.true_positive, self.scene.false_positive
+
+    def view_detector(self, view: int) -> Detector:
+        """The detector of one view: the fixed one, or the scene model's rates for that view."""
+        if self.scene is None:
+            return self.detector
+        return Detector(float(self.scene.true_positive[view]), float(self.scene.false_positive[view]))
+
+    def analysis_time(self, p_in: np.ndarray) -> np.ndarray | float:
+        """The expected time to analyse each view, when view v holds the target with probability
+        ``p_in[v]``: ``analysis_cost``, or the scene model's expected processing time."""
+        if self.scene is None:
+            return self.analysis_cost
+        return self.scene.expected_time(p_in)
 
     @property
     def n_cells(self) -> int:

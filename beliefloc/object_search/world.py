@@ -36,6 +36,14 @@ import numpy as np
 from beliefloc.errors import DomainError, InvalidValueError
 from beliefloc.knowledge.domain import Domain
 from beliefloc.object_search.posterior import Detector
+from beliefloc.object_search.scene import (
+    Appearance,
+    SceneModel,
+    SceneRates,
+    SceneTrace,
+    sample_image,
+    simulate_scene,
+)
 from beliefloc.object_search.settings import check_fraction
 from beliefloc.object_search.space import SearchSpace
 
@@ -64,6 +72,34 @@ class SimulatedTarget:
         seen = self.cell is not None and _covers(cells, self.cell)
         rate = self.detector.true_positive if seen else self.detector.false_positive
         return bool(self.rng.random() < rate)
+
+
+@dataclass
+class SceneTarget:
+    """The world's side with a scene model: where the target is (``None``: absent), and, per view, an
+    image of the view's ROIs -- the target's when it is in view, among distractors drawn from the
+    *world's* objects in the view point's room (``room_looks``, axis: the space's rooms) -- processed
+    by the robot's two policies for that room (``rates.outcomes``), each operator's report drawn from
+    its confusion row (:func:`~beliefloc.object_search.scene.simulate_scene`)."""
+
+    cell: int | None
+    model: SceneModel
+    rates: SceneRates
+    room_of_view: np.ndarray
+    room_looks: tuple[tuple[Appearance, ...], ...]
+    rng: np.random.Generator
+    look: Appearance | None = None
+    """What the target truly looks like: its instance's class (a search for ``bedding`` finds a pillow);
+    None: the appearance of the class searched for."""
+
+    def analyse(self, view: int, cells: np.ndarray) -> SceneTrace:
+        """Process the image of view ``view`` (covering ``cells``)."""
+        seen = self.cell is not None and _covers(cells, self.cell)
+        room = int(self.room_of_view[view])
+        look = self.look if self.look is not None else self.model.look(self.rates.target_class)
+        target = look if seen else None
+        looks, where = sample_image(self.model, target, self.room_looks[room], self.rng)
+        return simulate_scene(self.model, self.rates.outcomes[room], looks, where, self.rng)
 
 
 def _covers(cells: np.ndarray, cell: int) -> bool:
@@ -143,6 +179,40 @@ class World:
         return self.rooms.get(self.target) if self.present else None
 
 
+def class_rooms(domain: Domain) -> dict[str, str]:
+    """Every class's *home room*, the room a correlated world (:func:`place_objects` with
+    ``correlation``) ties it to: the room of the nearest default up the class hierarchy that does not
+    except the class (weak, possible or strong); for a class no default covers, the room where the
+    domain file places most instances of the class (ties: the room listed first), or, when it places
+    none, of its parent, and so on up; else the first room the robot can enter."""
+    enterable = [room for room in domain.rooms if domain.rooms[room].accessible] or list(domain.rooms)
+    homes: dict[str, str] = {}
+    for cls in domain.classes:
+        chain = ancestors(domain, cls)
+        home = None
+        for level in chain:
+            for default in domain.defaults.values():
+                excepted = {*default.weak_exceptions, *default.possible_exceptions, *default.strong_exceptions}
+                if default.class_ == level and not excepted & set(chain):
+                    home = default.room
+                    break
+            if home is not None:
+                break
+        if home is None:
+            for level in chain:
+                counts = {room: 0 for room in domain.rooms}
+                for name in instances_of(domain, level):
+                    placed = domain.objects[name].room
+                    if placed is not None:
+                        counts[placed] += 1
+                top = max(counts.values())
+                if top > 0:
+                    home = next(room for room in domain.rooms if counts[room] == top)
+                    break
+        homes[cls] = home if home is not None and home in enterable else enterable[0]
+    return homes
+
+
 def place_objects(
     domain: Domain,
     space: SearchSpace,
@@ -150,14 +220,30 @@ def place_objects(
     rng: np.random.Generator,
     *,
     p_typical: float = P_TYPICAL,
+    correlation: float | None = None,
 ) -> tuple[dict[str, str], dict[str, int]]:
-    """Every object's room and cell (see the module docstring); ``typical``: object -> typical room."""
+    """Every object's room and cell (see the module docstring); ``typical``: object -> typical room.
+
+    ``correlation`` ρ (None: the placement above): a *correlated world*, the class-to-room ties of the
+    paper's simulated domain (Sec. IV-A: rooms hold objects of related classes). Every object -- those
+    the domain file places too: the file's rooms are then the robot's knowledge in a single search, not
+    a trial's world -- is in its class's home room (:func:`class_rooms`) with probability ρ, else in
+    one of the other rooms the robot can enter, drawn uniformly."""
     check_fraction("p_typical", p_typical)
     enterable = [room for room in domain.rooms if domain.rooms[room].accessible]
     forbidden = forbidden_rooms(domain)
     rooms: dict[str, str] = {}
+    if correlation is not None:
+        check_fraction("the correlation", correlation)
+        homes = class_rooms(domain)
     for name, obj in domain.objects.items():
-        if obj.room is not None:
+        if correlation is not None:
+            if obj.on is None:
+                home = homes[obj.class_]
+                others = [room for room in enterable if room != home]
+                tied = not others or rng.random() < correlation
+                rooms[name] = home if tied else others[int(rng.integers(len(others)))]
+        elif obj.room is not None:
             rooms[name] = obj.room
         elif obj.on is None:
             rooms[name] = _draw_room(name, typical, enterable, forbidden, rng, p_typical)
@@ -201,6 +287,7 @@ def sample_world(
     target_class: str | None = None,
     absent: bool = False,
     p_typical: float = P_TYPICAL,
+    correlation: float | None = None,
 ) -> World:
     """One ground truth (see the module docstring). ``target_class`` None: any object may be the target.
 
@@ -211,7 +298,7 @@ def sample_world(
             f"unknown target class {target_class!r}; expected one of: {', '.join(sorted(domain.classes))}"
         )
     enterable = {room for room in domain.rooms if domain.rooms[room].accessible}
-    rooms, cells = place_objects(domain, space, typical, rng, p_typical=p_typical)
+    rooms, cells = place_objects(domain, space, typical, rng, p_typical=p_typical, correlation=correlation)
     pool = list(domain.objects) if target_class is None else instances_of(domain, target_class)
     candidates = [name for name in pool if rooms[name] in enterable]
     if not candidates:

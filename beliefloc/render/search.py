@@ -30,6 +30,7 @@ from rich.text import Text
 
 from beliefloc.object_search.loop import SearchRecord, Step, Verdict
 from beliefloc.object_search.map_space import MapSearchSpace
+from beliefloc.object_search.scene import SceneModel, SceneTrace
 from beliefloc.object_search.space import SearchSpace
 from beliefloc.render.drawing import BLOCKED, HIGHLIGHT, LEVELS, PALETTE, PLAIN_SHADES
 
@@ -48,6 +49,34 @@ def step_line(space: SearchSpace, step: Step) -> Text:
     text.append(f"  p(E) {step.p_exists:.3f}  max b {step.best_belief:.3f} at {space.cell_name(step.best_cell)}")
     if step.commits:
         text.append("  KB += " + ", ".join(f"{obj} in {room}" for obj, room in step.commits), style="cyan")
+    return text
+
+
+def scene_lines(model: SceneModel, trace: SceneTrace) -> Text:
+    """The image of one view as the SP-POMDP processed it: per ROI the operators applied (with what each
+    reported), the lower level's answer and the higher level's belief that the target is in the image::
+
+        ROI 1: colour grey, shape box → target  P(present) 0.79  HL 0.59 0.07 0.07 0.07 | none 0.21
+        ROI 2 (target): shape box → not target  P(present) 0.66  HL ...
+        report present after 2 of 4 ROIs, 5 operators, 1.0 time units
+    """
+    text = Text()
+    for roi in trace.rois:
+        text.append(f"    ROI {roi.roi + 1}")
+        if roi.holds_target:
+            text.append(" (target)", style="bold")
+        applied = ", ".join(f"{model.operators[k].name} {model.operators[k].values[o]}" for k, o in roi.applied)
+        text.append(f": {applied or 'no operator'} → ")
+        text.append("target" if roi.said_target else "not target", style="green" if roi.said_target else "dim")
+        text.append(f"  P(present) {roi.present_belief:.2f}")
+        if roi.belief:
+            *rois, none = roi.belief
+            text.append("  HL " + " ".join(f"{b:.2f}" for b in rois) + f" | none {none:.2f}", style="dim")
+        text.append("\n")
+    text.append(
+        f"    report {'present' if trace.present else 'absent'} after {len(trace.rois)} of {model.rois} ROIs, "
+        f"{trace.operators} operators, {trace.time:.1f} time units"
+    )
     return text
 
 
@@ -287,7 +316,8 @@ def steps_table(space: SearchSpace, record: SearchRecord) -> Table:
 
 
 def verdict_text(space: SearchSpace, record: SearchRecord) -> Text:
-    """``found at study:1,3 after 12 steps, 23.5 time units (true cell study:1,3, accuracy 1.000)``."""
+    """``found at study:1,3 after 12 steps, 23.5 time units (true cell study:1,3, accuracy 1.000)``; with a
+    scene model, the travel and processing parts of the time and the operators applied."""
     text = Text()
     what = {Verdict.FOUND: "found", Verdict.NOT_FOUND: "not found", Verdict.TIME_LIMIT: "time limit"}[record.verdict]
     text.append(what, style=_VERDICT_STYLE[record.verdict])
@@ -296,6 +326,12 @@ def verdict_text(space: SearchSpace, record: SearchRecord) -> Text:
     elif record.verdict is Verdict.NOT_FOUND:
         text.append(" (the target is probably not in the domain)")
     text.append(f" after {len(record.steps)} steps, {record.time:.1f} time units")
+    if record.processing_time is not None:
+        travel = record.time - record.processing_time
+        text.append(
+            f" ({travel:.1f} travelling, {record.processing_time:.1f} processing images with "
+            f"{record.operators_applied} operator applications)"
+        )
     true = "absent" if record.true_cell is None else space.cell_name(record.true_cell)
     text.append(f" (true cell: {true}; accuracy {record.accuracy:.3f})", style="dim")
     return text
@@ -315,7 +351,10 @@ def trials_table(summary: Mapping[str, ArmSummary], title: str) -> Table:
     if shared:
         title += "; every arm: " + ", ".join(shared)
     dynamic = any(p[2] == "dynamic" for p in parts)
+    scenes = any(s.mean_operators is not None for s in summary.values())
     headers = ["n", "verdicts", "time", "accuracy", "≤ 4", "steps"]
+    if scenes:  # one column, so that four arms still fit 80 columns
+        headers.append("travel\n+scenes")
     if dynamic:
         headers.append("KB+")
     rows = []
@@ -329,6 +368,11 @@ def trials_table(summary: Mapping[str, ArmSummary], title: str) -> Table:
             str(s.within_4_cells),
             "-" if s.mean_steps is None else f"{s.mean_steps:.1f}",
         ]
+        if scenes:
+            if s.mean_processing_time is None or s.mean_time is None:
+                row.append("-")
+            else:
+                row.append(f"{s.mean_time - s.mean_processing_time:.1f}+{s.mean_processing_time:.1f}")
         if dynamic:
             row.append("-" if part[2] == "static" or s.mean_commits is None else f"{s.mean_commits:.1f}")
         rows.append(row)
@@ -341,6 +385,11 @@ def trials_table(summary: Mapping[str, ArmSummary], title: str) -> Table:
     table.caption = (
         "n: trials; verdicts: found / not found / time limit; time: simulation units, mean±sd; accuracy: a Gaussian of "
         "the error, σ = 2 cells; ≤ 4: searches that reported a cell within 4 cells of the target"
+        + (
+            "; travel+scenes: the mean time travelling + processing images (operators applied: --json)"
+            if scenes
+            else ""
+        )
         + ("; KB+: facts committed to the knowledge base per search" if dynamic else "")
     )
     table.caption_justify = "left"

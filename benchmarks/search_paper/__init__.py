@@ -29,6 +29,14 @@ and the world's noise differ between parts). The parts:
    three strategies with τ- = 0.7; Fig. 8: the strategies with τ- = 0.85 and Beta priors (3, 1),
    (6, 2), (30, 10) -- one mean, 0.75, three variances.
 
+4. **scene models** (``--trials-scenes``, 1,000; issue 31): H1 in a correlated world (the class-to-room
+   ties of the paper's domain, ``--correlation``), from the knowledge base's priors alone, beside the
+   old setting; then 40 % knowledge with defaults, target present, with the domain's scene model: the
+   SP-POMDP's searches (ASP+POMDP and POMDP only), every operator on every ROI, and the fixed detector;
+   the solve time of every kind of view and ``search simulate -n 200`` with and without the scene
+   model. ``--only-scenes`` runs only this part and splices its sections into the existing report.
+   Every other part keeps the fixed detector (``Part.scenes`` False), as before the scene model.
+
 Significance: Wilcoxon signed-rank tests on paired values (``scipy.stats.wilcoxon``, pairs with a
 zero difference dropped). The table is printed and written to ``benchmarks/results/search-paper.md``
 (``--quick``: ``search-paper-quick.md``), with PNG figures beside it when matplotlib is installed

@@ -13,10 +13,12 @@ from pathlib import Path
 import numpy as np
 
 from beliefloc.knowledge import load_domain
+from beliefloc.knowledge.domain import Domain
 from beliefloc.object_search.domain_space import search_space
 from beliefloc.object_search.experiment import TrialRecord, trial_world
+from beliefloc.object_search.space import SearchSpace
 from beliefloc.object_search.world import typical_rooms
-from beliefloc.simulation.sweep import backend
+from beliefloc.simulation.sweep import Backend, backend
 from benchmarks import search_paper
 from benchmarks.machine import cpu_name
 
@@ -27,6 +29,7 @@ from .running import run_part, say
 from .sections_kb import fig6_section
 from .sections_knowledge import h1_section, h2_knowledge_section, table1_section
 from .sections_meta import fig7_section, fig8_section
+from .sections_scene import BEGIN, END, h1_correlated_section, scene_part, scene_section, splice
 from .settings import (
     DOMAIN,
     KNOWLEDGE,
@@ -72,7 +75,31 @@ def build_parser() -> argparse.ArgumentParser:
         help="worker processes (default: the cores; --jobs is the old name)",
     )
     parser.add_argument("--output", type=Path, default=None)
+    parser.add_argument(
+        "--trials-scenes",
+        type=int,
+        default=None,
+        help="H1 in a correlated world, the scene models (default 1000, quick 100)",
+    )
+    parser.add_argument(
+        "--only-scenes",
+        action="store_true",
+        help="Run only the scene models' parts (issue 31) and splice their sections into the existing report",
+    )
     return parser
+
+
+def _scene_sections(
+    domain: Domain, space: SearchSpace, trials: int, seed: int, pool: Backend
+) -> str:
+    """The sections of issue 31 as markdown: H1 in a correlated world, the searches with the scene model."""
+    say(f"scene models: {trials} trials")
+    typical = typical_rooms(domain)
+    records, _ = run_part(scene_part(trials), seed, pool)
+    report = Report()
+    h1_correlated_section(report, domain, space, typical, trials, seed)
+    scene_section(report, domain, space, typical, records)
+    return "\n".join(report.lines)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -83,6 +110,7 @@ def main(argv: list[str] | None = None) -> int:
     n_meta = args.trials_meta or (100 if args.quick else 1000)
     if min(n_knowledge, n_kb, n_meta) < 2 or args.jobs < 1:
         parser.error("need at least 2 trials per part and 1 job")
+    n_scenes = args.trials_scenes or (100 if args.quick else 1000)
     output: Path = args.output or (RESULTS.with_name("search-paper-quick.md") if args.quick else RESULTS)
     output.parent.mkdir(parents=True, exist_ok=True)
     began = time.perf_counter()
@@ -90,6 +118,16 @@ def main(argv: list[str] | None = None) -> int:
     space = search_space(domain)
     timings: dict[str, float] = {}
     pool = backend(args.jobs)
+    if args.only_scenes:
+        try:
+            scenes_text = _scene_sections(domain, space, n_scenes, args.seed, pool)
+        finally:
+            pool.close()
+        old = output.read_text() if output.exists() else ""
+        output.write_text(splice(old, scenes_text))
+        print(scenes_text)
+        say(f"spliced into {output}")
+        return 0
     try:
         say(f"knowledge: {len(KNOWLEDGE) * 2} parts x {n_knowledge} trials")
         knowledge: dict[tuple[float, bool], list[TrialRecord]] = {}
@@ -106,6 +144,9 @@ def main(argv: list[str] | None = None) -> int:
         timings["Fig. 6"] = s1 + s2
         say(f"meta: {n_meta} trials")
         meta, timings["Figs. 7-8"] = run_part(meta_part(n_meta), args.seed, pool)
+        started = time.perf_counter()
+        scenes_text = _scene_sections(domain, space, n_scenes, args.seed, pool)
+        timings["scene models"] = time.perf_counter() - started
     finally:
         pool.close()
 
@@ -167,6 +208,7 @@ def main(argv: list[str] | None = None) -> int:
     fig6_section(report, noisy, matched, worlds)
     fig7_section(report, meta)
     fig8_section(report, meta)
+    report.add(BEGIN, "", scenes_text.rstrip(), "", END, "")
     written = write_plots(report, output)
     if written is None:
         report.add("## Figures", "", "Plots skipped: matplotlib is not installed (`pip install -e '.[plots]'`).", "")

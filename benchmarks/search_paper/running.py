@@ -31,7 +31,7 @@ def run_part(part: Part, seed: int, backend: Backend) -> tuple[list[TrialRecord]
     domain = _DOMAINS.get(str(DOMAIN))
     if domain is None:
         domain = _DOMAINS[str(DOMAIN)] = load_domain(DOMAIN)
-    sweep = TrialSweep(domain, part.arms, seed, part.settings)
+    sweep = TrialSweep(domain, part.arms, seed, part.settings, scenes=part.scenes)
     indices = range(part.trials)
     space = search_space(domain)
     records: list[TrialRecord] = []

@@ -43,6 +43,9 @@ class Part:
     settings: TrialSettings
     arms: tuple[Arm, ...]
     trials: int
+    scenes: bool = False
+    """Analyse views with the domain's scene model (issue 31); False: the fixed detector of ``search:``,
+    which every part but the scene models' uses (the sections above predate the scene model)."""
 
 
 # the arms
