@@ -102,13 +102,13 @@ def track_recording(
         while first > 0 and updates[first - 1].localized:
             first -= 1
         localized_at = updates[first].stamp
-    reason = None
+    reason: str | None = None
     if not localized:
         if last.max_probability < config.threshold:
-            where = len(last.modes)
+            count = len(last.modes)
             reason = (
                 f"no place holds {config.threshold:g} of the belief: the best holds {last.max_probability:.3f}, "
-                f"{where} mode{'s' if where != 1 else ''} remain"
+                f"{count} mode{'s' if count != 1 else ''} remain"
             )
         elif grid.fit.why_not() is not None:
             reason = grid.fit.why_not()
