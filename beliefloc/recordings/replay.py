@@ -20,6 +20,7 @@ import numpy as np
 
 from beliefloc.continuous.grid_filter import FilterConfig, GridFilter, Mode, Update
 from beliefloc.continuous.likelihood_field import Scan, select_beams
+from beliefloc.model import GridLayout
 from beliefloc.occupancy import OccupancyMap
 from beliefloc.recordings.reader import Recording
 
@@ -129,3 +130,33 @@ def track_recording(
         reason=reason,
         scans=len(recording.scans),
     )
+
+
+def belief_on_layout(grid: GridFilter, layout: GridLayout) -> np.ndarray:
+    """The filter's belief moved onto another grid's states (a beliefloc map's, for ``pose``): each
+    filter state's mass goes to the layout cell holding its cell's centre and the layout heading
+    nearest its yaw; mass on a cell that is not a state of the layout is dropped and the rest
+    renormalised (uniform if nothing is left). A vector over ``layout``'s states (free cells in
+    row-major order times headings)."""
+    b = grid.belief
+    k, r, c = np.nonzero(b)
+    mass = b[k, r, c]
+    rows, cols = layout.cell_at(grid.cell_x[r, c], grid.cell_y[r, c])
+    if layout.headings > 1:
+        step = 2 * math.pi / layout.headings
+        # layout heading h has map yaw frame.yaw + pi/2 - h step; invert and round
+        h = np.rint((layout.frame.yaw + math.pi / 2 - grid.map_yaws[k]) / step).astype(np.int64) % layout.headings
+    else:
+        h = np.zeros_like(k)
+    inside = (rows >= 0) & (rows < layout.rows) & (cols >= 0) & (cols < layout.cols)
+    rows, cols, h, mass = rows[inside], cols[inside], h[inside], mass[inside]
+    free = layout.free[rows, cols]
+    rows, cols, h, mass = rows[free], cols[free], h[free], mass[free]
+    cell = np.searchsorted(layout.free_cells, rows * layout.cols + cols)
+    n_states = len(layout.free_cells) * layout.headings
+    out = np.bincount(cell * layout.headings + h, weights=mass, minlength=n_states)
+    total = float(out.sum())
+    if not total > 0:
+        return np.full(n_states, 1.0 / n_states)
+    projected: np.ndarray = out / total
+    return projected
