@@ -59,6 +59,18 @@ def write_track_picture(path: Path, grid: GridFilter, result: TrackResult, title
             sure = [u for u in result.updates if u.localized]
             if sure:
                 ax.scatter([u.x for u in sure], [u.y for u in sure], s=6, color="#1f9f3f", zorder=4, label="localized")
+        rivals = [m for m in result.modes[1:] if m.probability > 0]
+        if rivals and not result.localized:
+            ax.scatter(
+                [m.x for m in rivals],
+                [m.y for m in rivals],
+                s=120,
+                facecolors="none",
+                edgecolors="#d07010",
+                linewidths=1.5,
+                zorder=5,
+                label="other places left",
+            )
         x, y, yaw = result.pose
         length = max(0.3, 0.04 * max(width_m, height_m))
         colour = "#1f9f3f" if result.localized else "#d07010"
@@ -70,6 +82,9 @@ def write_track_picture(path: Path, grid: GridFilter, result: TrackResult, title
             zorder=5,
         )
         ax.scatter([x], [y], s=30, color=colour, zorder=5, label="final pose" if result.localized else "best guess")
+        cx, cy = frame.to_map(np.array([0.0, width_m, width_m, 0.0]), np.array([0.0, 0.0, height_m, height_m]))
+        ax.set_xlim(float(cx.min()), float(cx.max()))
+        ax.set_ylim(float(cy.min()), float(cy.max()))
         ax.set_aspect("equal")
         ax.set_xlabel("x (m, map frame)")
         ax.set_ylabel("y (m)")
