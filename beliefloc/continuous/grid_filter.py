@@ -40,7 +40,7 @@ import numpy as np
 from beliefloc.continuous.fit import FitConfig, FitTracker, inlier_fraction, surprise
 from beliefloc.continuous.image import OccupancyImage
 from beliefloc.continuous.likelihood_field import Beams, CellWindow, LaserModel, LikelihoodField
-from beliefloc.continuous.motion import OdometryNoise, grid_yaws, predict_grid, relative
+from beliefloc.continuous.motion import OdometryNoise, grid_yaws, odometry_parts, predict_grid, relative
 from beliefloc.model import wrap_angle
 from beliefloc.occupancy import OccupancyMap
 from beliefloc.semantic_map.occupancy_grid import free_cells
@@ -87,6 +87,10 @@ class FilterConfig:
     """Unambiguous updates in a row that localized needs."""
     recovery_alpha: float = 0.02
     """The uniform mass mixed in after an update whose scans do not fit a confident belief."""
+    negligible: float = 1e-12
+    """States whose probability is below this fraction of the most probable state's are set to 0
+    after an update (27 nats of evidence would be needed to bring one back), so that prediction
+    and scoring run only over the box of states that still matter."""
     beam_weight: float = 1.0
     """Exponent on each beam's likelihood (1: beams independent, Table 6.3). Below 1 tempers the
     update for beams that are not independent."""
@@ -107,6 +111,7 @@ class FilterConfig:
             "distinct_updates": self.distinct_updates >= 1,
             "recovery_alpha": 0 <= self.recovery_alpha < 1,
             "beam_weight": 0 < self.beam_weight <= 1,
+            "negligible": 0 <= self.negligible < 1,
         }
         for name, ok in checks.items():
             value = getattr(self, name)
@@ -238,24 +243,23 @@ class GridFilter:
         predicted = self.belief
         if self.last_odometry is not None:
             d = relative(self.last_odometry, odom)
-            predicted = predict_grid(
-                self.belief, self.yaws, c.cell_size, (float(d[0]), float(d[1]), float(d[2])), c.odometry, self.free
-            )
+            predicted = self._predict((float(d[0]), float(d[1]), float(d[2])))
             if not predicted.sum() > 0:  # everything moved into walls: start over
                 predicted = self.uniform()
         self.last_odometry = odom
-        ll = self.field.scan_log_likelihood(beams, self.yaws).astype(np.float64)
-        if c.beam_weight != 1.0:
-            ll *= c.beam_weight
-        ll[:, ~self.free] = -np.inf
+        ll = self._log_likelihood(beams, predicted)
         surprise_per_beam = surprise(predicted, ll, beams.count)
         top = float(ll.max())
         posterior = predicted * np.exp(ll - top)
         total = float(posterior.sum())
         if not total > 0:  # the readings ruled out every predicted state: keep the readings' verdict
+            ll = self._log_likelihood(beams, self.uniform())
+            top = float(ll.max())
             posterior = self.uniform() * np.exp(ll - top)
             total = float(posterior.sum())
         posterior /= total
+        if c.negligible > 0:
+            posterior[posterior < c.negligible * float(posterior.max())] = 0.0
         self.belief = posterior
         self.updates += 1
         modes = self.modes()
@@ -292,6 +296,48 @@ class GridFilter:
             recovered=recovered,
             rival_gap=gap,
         )
+
+    def _box(self, belief: np.ndarray, margin: int) -> tuple[int, int, int, int]:
+        """``(r0, r1, c0, c1)``: the window's rows and columns holding mass, grown by ``margin``."""
+        cells = belief.any(axis=0)
+        rows = np.flatnonzero(cells.any(axis=1))
+        cols = np.flatnonzero(cells.any(axis=0))
+        if rows.size == 0:
+            return 0, self.free.shape[0], 0, self.free.shape[1]
+        return (
+            max(0, int(rows[0]) - margin),
+            min(self.free.shape[0], int(rows[-1]) + margin + 1),
+            max(0, int(cols[0]) - margin),
+            min(self.free.shape[1], int(cols[-1]) + margin + 1),
+        )
+
+    def _predict(self, delta: tuple[float, float, float]) -> np.ndarray:
+        """:func:`predict_grid` over the box of states holding mass, grown by the motion's reach."""
+        c = self.config
+        parts = odometry_parts(delta, c.odometry)
+        reach = parts.trans + 5.0 * (parts.sd_trans + parts.trans * parts.sd_rot1)
+        margin = math.ceil(reach / c.cell_size) + 3
+        r0, r1, c0, c1 = self._box(self.belief, margin)
+        out = np.zeros_like(self.belief)
+        out[:, r0:r1, c0:c1] = predict_grid(
+            self.belief[:, r0:r1, c0:c1], self.yaws, c.cell_size, delta, c.odometry, self.free[r0:r1, c0:c1]
+        )
+        return out
+
+    def _log_likelihood(self, beams: Beams, predicted: np.ndarray) -> np.ndarray:
+        """The scan's log-likelihood (times ``beam_weight``) over the states the predicted belief
+        holds mass on (the box of them, the headings with mass); ``-inf`` elsewhere and off the states."""
+        c = self.config
+        r0, r1, c0, c1 = self._box(predicted, 0)
+        active = predicted.reshape(predicted.shape[0], -1).any(axis=1)
+        ll = np.full(predicted.shape, -np.inf)
+        part = self.field.scan_log_likelihood(beams, self.yaws, active=active, region=(r0, r1, c0, c1))
+        ll[:, r0:r1, c0:c1] = part
+        if c.beam_weight != 1.0:
+            ll *= c.beam_weight
+        ll[~active] = -np.inf
+        ll[:, ~self.free] = -np.inf
+        return ll
 
     # --- reading the belief ----------------------------------------------------------------------
 

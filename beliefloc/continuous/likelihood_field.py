@@ -302,13 +302,21 @@ class LikelihoodField:
 
     # --- scoring --------------------------------------------------------------------------------
 
-    def scan_log_likelihood(self, beams: Beams, yaws: np.ndarray, active: np.ndarray | None = None) -> np.ndarray:
+    def scan_log_likelihood(
+        self,
+        beams: Beams,
+        yaws: np.ndarray,
+        active: np.ndarray | None = None,
+        region: tuple[int, int, int, int] | None = None,
+    ) -> np.ndarray:
         """``L[k, r, c] = sum_b log p(z_b | heading k, window cell (r, c))``: the scan's log-likelihood
         over every state of the window (float32, shape ``(len(yaws), rows, cols)``).
 
         ``yaws[k]``: heading ``k``'s yaw in the grid frame; ``active[k]`` (optional): score only
-        these headings (others are left 0). Beams whose end point lies beyond :attr:`reach` are
-        skipped. Loops run over headings, sub-poses and beams; each adds one contiguous slice.
+        these headings (others are left 0); ``region = (r0, r1, c0, c1)`` (optional): score only the
+        window's rows ``r0:r1`` and columns ``c0:c1`` (the result then has that shape). Beams whose
+        end point lies beyond :attr:`reach` are skipped. Loops run over headings, sub-poses and
+        beams; each adds one contiguous slice.
 
         With :attr:`sub_poses`, a state's score is the best of four poses at ``(±cell/4, ±cell/4)``
         from its centre: a state is its whole cell, and scoring it at the centre alone favours
@@ -316,8 +324,10 @@ class LikelihoodField:
         TurtleBot3 sandbox, the truth's 180° twin won at p = 1.000 with centres only, and lost
         with 5 cm cells or these sub-poses (4x the additions of the centres only)."""
         w = self.window
+        r0, r1, c0, c1 = region if region is not None else (0, w.rows, 0, w.cols)
+        rows, cols = r1 - r0, c1 - c0
         yaws = np.asarray(yaws, dtype=np.float64)
-        out = np.zeros((yaws.size, w.rows, w.cols), dtype=np.float32)
+        out = np.zeros((yaws.size, rows, cols), dtype=np.float32)
         if beams.count == 0:
             return out
         step_yaw = float(yaws[1] - yaws[0]) if yaws.size > 1 else 2 * math.pi
@@ -328,7 +338,7 @@ class LikelihoodField:
         m, pad = self.m, self.pad
         quarter = m // 4
         subs = [(a, b) for a in (-quarter, quarter) for b in (-quarter, quarter)] if self.sub_poses else [(0, 0)]
-        acc = np.empty((w.rows, w.cols), dtype=np.float32)
+        acc = np.empty((rows, cols), dtype=np.float32)
         for k, yaw in enumerate(yaws):
             if active is not None and not active[k]:
                 continue
@@ -343,8 +353,8 @@ class LikelihoodField:
                     target.fill(0.0)
                 for p, q, sigma in zip((dp + sp).tolist(), (dq + sq).tolist(), bs.tolist(), strict=True):
                     phases = bands[sigma]
-                    i0, j0 = p // m, q // m
-                    target += phases[p % m, q % m, i0 : i0 + w.rows, j0 : j0 + w.cols]
+                    i0, j0 = p // m + r0, q // m + c0
+                    target += phases[p % m, q % m, i0 : i0 + rows, j0 : j0 + cols]
                 if n:
                     np.maximum(layer, acc, out=layer)
         return out
