@@ -109,7 +109,8 @@ def _zero_increment(db: Path) -> None:
     row_id, data = rows[1]
     msg = store.deserialize_cdr(data, "sensor_msgs/msg/LaserScan")
     msg.angle_increment = 0.0
-    con.execute("UPDATE messages SET data = ? WHERE id = ?", (bytes(store.serialize_cdr(msg, "sensor_msgs/msg/LaserScan")), row_id))
+    data = bytes(store.serialize_cdr(msg, "sensor_msgs/msg/LaserScan"))
+    con.execute("UPDATE messages SET data = ? WHERE id = ?", (data, row_id))
     con.commit()
     con.close()
     _ = struct

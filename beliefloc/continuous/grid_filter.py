@@ -299,7 +299,7 @@ class GridFilter:
 
     def _box(self, belief: np.ndarray, margin: int) -> tuple[int, int, int, int]:
         """``(r0, r1, c0, c1)``: the window's rows and columns holding mass, grown by ``margin``."""
-        cells = belief.any(axis=0)
+        cells: np.ndarray = np.any(belief, axis=0)
         rows = np.flatnonzero(cells.any(axis=1))
         cols = np.flatnonzero(cells.any(axis=0))
         if rows.size == 0:
@@ -329,7 +329,7 @@ class GridFilter:
         holds mass on (the box of them, the headings with mass); ``-inf`` elsewhere and off the states."""
         c = self.config
         r0, r1, c0, c1 = self._box(predicted, 0)
-        active = predicted.reshape(predicted.shape[0], -1).any(axis=1)
+        active: np.ndarray = np.any(predicted.reshape(predicted.shape[0], -1), axis=1)
         ll = np.full(predicted.shape, -np.inf)
         part = self.field.scan_log_likelihood(beams, self.yaws, active=active, region=(r0, r1, c0, c1))
         ll[:, r0:r1, c0:c1] = part
