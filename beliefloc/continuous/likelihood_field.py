@@ -239,6 +239,7 @@ class LikelihoodField:
         :meth:`scan_log_likelihood`); else at its centre only."""
         self.distance = distance_field(occupied, model.likelihood_max_dist)
         """Metres to the nearest occupied pixel, per map pixel (capped)."""
+        self._padded = np.pad(self.distance, 2, constant_values=model.likelihood_max_dist)
         res = occupied.resolution
         self.m = 4 * max(1, round(window.cell_size / (4 * res)))
         """Lattice points per cell along each axis: a multiple of 4 near ``cell / res`` (so that the
@@ -270,10 +271,17 @@ class LikelihoodField:
         chunk = max(1, 4_000_000 // width)
         for start in range(0, height, chunk):  # rows in chunks: bounded memory for the coordinates
             ii, jj = np.meshgrid(i[start : start + chunk], j, indexing="ij")
-            out[start : start + chunk] = ndimage.map_coordinates(
-                self.distance, [ii, jj], order=1, mode="constant", cval=self.model.likelihood_max_dist
-            )
+            out[start : start + chunk] = self.distance_at(ii, jj)
         return out
+
+    def distance_at(self, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        """The distance field at continuous pixel indices ``(i, j)`` (pixel ``(i, j)``'s centre at
+        integer values), bilinear; beyond the image the cap (the image is padded by two pixels of it,
+        so that the edge is the same on every path)."""
+        d: np.ndarray = ndimage.map_coordinates(
+            self._padded, [np.asarray(i) + 2.0, np.asarray(j) + 2.0], order=1, mode="nearest"
+        )
+        return d
 
     def _phases(self, sigma: float, range_max: float) -> np.ndarray:
         """The band's field on the lattice split in phases: ``P[a, b, i, j] = F[a + i m, b + j m]``."""
@@ -365,9 +373,7 @@ class LikelihoodField:
         u, v = self.image.to_pixel(x, y)
         i = self.image.height - 0.5 - v
         j = u - 0.5
-        d = ndimage.map_coordinates(
-            self.distance, [np.ravel(i), np.ravel(j)], order=1, mode="constant", cval=self.model.likelihood_max_dist
-        ).reshape(np.shape(u))
+        d = self.distance_at(np.ravel(i), np.ravel(j)).reshape(np.shape(u))
         return log_hit_mixture(d, sigma, self.model, range_max)
 
     def pose_log_likelihood(self, poses: np.ndarray, beams: Beams, sigma: float | None = None) -> np.ndarray:
@@ -388,11 +394,4 @@ class LikelihoodField:
         ex = p[0] + c * beams.x - s * beams.y
         ey = p[1] + s * beams.x + c * beams.y
         u, v = self.image.to_pixel(ex, ey)
-        d: np.ndarray = ndimage.map_coordinates(
-            self.distance,
-            [self.image.height - 0.5 - v, u - 0.5],
-            order=1,
-            mode="constant",
-            cval=self.model.likelihood_max_dist,
-        )
-        return d
+        return self.distance_at(self.image.height - 0.5 - v, u - 0.5)
