@@ -89,10 +89,12 @@ def write_run(
     tf_odometry: bool = True,
     scan_topic: str = "/scan",
     scan_angle_sign: int = 1,
+    scan_frame: str | None = None,
 ) -> None:
     """Write ``run`` to ``path`` (a folder for rosbag2, a ``.bag`` file for ROS 1; must not exist).
 
-    ``storage``: one of :data:`STORAGES`. ``scan_angle_sign = -1`` writes each scan reversed with a
+    ``storage``: one of :data:`STORAGES`. ``scan_frame`` names the scans' frame instead of the
+    laser's (a frame /tf_static does not connect, for the bad-input tests). ``scan_angle_sign = -1`` writes each scan reversed with a
     negative ``angle_increment`` (a clockwise sweep, the same beams). The run's laser mount must be
     ``frames.mount``."""
     from rosbags.rosbag1 import Writer as Writer1
@@ -144,7 +146,7 @@ def write_run(
     for stamp, ranges in zip(run.scan_stamps.tolist(), run.ranges, strict=True):
         values = ranges[::-1] if scan_angle_sign < 0 else ranges
         msg = types["sensor_msgs/msg/LaserScan"](
-            header=_header(typestore, stamp, frames.laser, ros1),
+            header=_header(typestore, stamp, scan_frame or frames.laser, ros1),
             angle_min=angle_min,
             angle_max=angle_min + increment * (laser.beams - 1),
             angle_increment=increment,
