@@ -95,8 +95,8 @@ def write_run(
 
     ``storage``: one of :data:`STORAGES`. ``scan_frame`` names the scans' frame instead of the
     laser's (a frame /tf_static does not connect, for the bad-input tests). ``scan_angle_sign = -1``
-    writes each scan reversed with a negative ``angle_increment`` (a clockwise sweep, the same beams). The run's laser mount must be
-    ``frames.mount``."""
+    writes each scan reversed with a negative ``angle_increment`` (a clockwise sweep, the same
+    beams). The run's laser mount must be ``frames.mount``."""
     from rosbags.rosbag1 import Writer as Writer1
     from rosbags.rosbag2 import StoragePlugin
     from rosbags.rosbag2 import Writer as Writer2
