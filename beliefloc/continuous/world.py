@@ -388,7 +388,7 @@ def simulate_run(
     *,
     start_ns: int = 1_700_000_000_000_000_000,
     odom_rate: float = 20.0,
-    scan_rate: float = 7.75,
+    scan_rate: float = 7.77,
     dt: float = 0.005,
 ) -> Run:
     """Drive the robot from ``start`` (map frame) through ``plan`` and record it.

@@ -45,11 +45,14 @@ class Scenario:
     plan: tuple[Segment, ...]
     world: WorldConfig = field(default_factory=lambda: TURTLEBOT4_WORLD)
     seed: int = 0
+    start: tuple[float, float, float] | None = None
+    """The start pose (map frame); None draws one the plan fits."""
 
 
-def issue_plan(drive: float = 8.0) -> tuple[Segment, ...]:
-    """The issue's run: standing still 10 s, a half turn, then ``drive`` metres ahead."""
-    return (Segment("stand", 10.0), Segment("turn", math.pi, 0.6), Segment("drive", drive, 0.3))
+def issue_plan(drive: float = 8.0, speed: float = 0.26) -> tuple[Segment, ...]:
+    """The issue's run: standing still 10 s, a half turn, then ``drive`` metres ahead (46 s in all
+    at the default speed)."""
+    return (Segment("stand", 10.0), Segment("turn", math.pi, 0.6), Segment("drive", drive, speed))
 
 
 def short_plan() -> tuple[Segment, ...]:
@@ -83,6 +86,11 @@ def simulate_scenario(occupancy: OccupancyMap, scenario: Scenario, tries: int = 
     """Draw a start the plan fits, place the clutter, drive and record."""
     rng = np.random.default_rng(scenario.seed)
     world = ContinuousWorld(occupancy, scenario.world, rng)
+    if scenario.start is not None:
+        start = np.array(scenario.start, dtype=np.float64)
+        if not (world.can_stand(start[0], start[1]) and _plan_fits(world, start, scenario.plan)):
+            raise ValueError(f"scenario {scenario.name}: the plan cannot be driven from {scenario.start}")
+        return simulate_run(world, start, scenario.plan)
     for _ in range(tries):
         start = world.random_poses(1)[0]
         if _plan_fits(world, start, scenario.plan):
@@ -108,3 +116,51 @@ def write_scenario(run: Run, folder: Path, name: str, storages: tuple[str, ...])
 
 def with_seed(scenario: Scenario, seed: int) -> Scenario:
     return replace(scenario, seed=seed)
+
+
+def corridor_map(folder: Path, *, resolution: float = 0.03, seed: int = 0) -> Path:
+    """Write an office floor like the issue's hidden one and return its map YAML: a map_server
+    trinary PGM of 903 x 1706 pixels at 3 cm (free 254, occupied 0, unknown 205, ``free_thresh``
+    0.25), mostly unknown, around ~270 m² of free space: a 45 m corridor 2.4 m wide with identical
+    door niches every 4 m on both sides (self-similar), rooms of different sizes off it, tables and
+    pillars in them."""
+    rng = np.random.default_rng(seed)
+    height, width = 1706, 903
+    image = np.full((height, width), 205, dtype=np.uint8)
+
+    def px(metres: float) -> int:
+        return round(metres / resolution)
+
+    def rect(x0: float, y0: float, x1: float, y1: float, value: int) -> None:
+        """Fill [x0, x1] x [y0, y1], metres from the image's lower-left corner (the map frame
+        less the origin (-1.5, -3.0))."""
+        r0, r1 = height - px(y1), height - px(y0)
+        image[max(0, r0) : min(height, r1), max(0, px(x0)) : min(width, px(x1))] = value
+
+    free_areas = [(12.0, 3.0, 14.4, 48.0)]  # the corridor
+    for y in np.arange(5.0, 46.0, 4.0):  # door niches, both sides, all alike
+        free_areas += [(11.4, y, 12.0, y + 1.0), (14.4, y, 15.0, y + 1.0)]
+    rooms = [(5.0, 4.0, 11.4, 9.5), (15.0, 14.0, 20.5, 18.5), (6.5, 27.0, 11.4, 33.5), (15.0, 38.0, 21.0, 42.0)]
+    doors = [(11.4, 6.0, 12.0, 7.0), (14.4, 15.0, 15.0, 16.0), (11.4, 29.0, 12.0, 30.0), (14.4, 39.0, 15.0, 40.0)]
+    lobby = [(10.0, 48.0, 16.5, 51.0)]
+    wall = 0.09
+    for x0, y0, x1, y1 in free_areas + rooms + lobby:
+        rect(x0 - wall, y0 - wall, x1 + wall, y1 + wall, 0)
+    for x0, y0, x1, y1 in free_areas + rooms + doors + lobby:
+        rect(x0, y0, x1, y1, 254)
+    for x0, y0, x1, y1 in rooms:  # tables and pillars, placed differently in each room
+        for _ in range(3):
+            w, h = rng.uniform(0.4, 1.2), rng.uniform(0.4, 0.8)
+            cx, cy = rng.uniform(x0 + 1.0, x1 - 1.0 - w), rng.uniform(y0 + 1.0, y1 - 1.0 - h)
+            rect(cx, cy, cx + w, cy + h, 0)
+    folder.mkdir(parents=True, exist_ok=True)
+    pgm = folder / "corridor.pgm"
+    header = f"P5\n{width} {height}\n255\n".encode()
+    pgm.write_bytes(header + image.tobytes())
+    yaml_path = folder / "corridor.yaml"
+    yaml_path.write_text(
+        "image: corridor.pgm\nmode: trinary\nresolution: 0.03\norigin: [-1.5, -3.0, 0.0]\nnegate: 0\n"
+        "occupied_thresh: 0.65\nfree_thresh: 0.25\n",
+        encoding="utf-8",
+    )
+    return yaml_path
