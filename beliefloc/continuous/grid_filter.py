@@ -40,7 +40,7 @@ import numpy as np
 from beliefloc.continuous.fit import FitConfig, FitTracker, inlier_fraction, surprise
 from beliefloc.continuous.image import OccupancyImage
 from beliefloc.continuous.likelihood_field import Beams, CellWindow, LaserModel, LikelihoodField
-from beliefloc.continuous.motion import OdometryNoise, grid_yaws, odometry_parts, predict_grid, relative
+from beliefloc.continuous.motion import OdometryNoise, compose, grid_yaws, odometry_parts, predict_grid, relative
 from beliefloc.model import wrap_angle
 from beliefloc.occupancy import OccupancyMap
 from beliefloc.semantic_map.occupancy_grid import free_cells
@@ -77,12 +77,22 @@ class FilterConfig:
     max_modes: int = 5
     """Modes listed at most."""
     rival_margin: float = 0.05
-    """Nats per beam: a rival place (another mode holding any mass, more than ``mode_radius`` from
-    the best) whose refined pose explains the scan within this of the best's refined pose makes the
-    scan ambiguous; localized needs :attr:`distinct_updates` unambiguous updates in a row. The belief
-    alone is not trusted here: on a near-symmetric map the grid's cell alignment can push a wrong
-    twin to p = 0.98 (measured on the TurtleBot3 sandbox), while the refined poses' likelihoods still
-    tell that the twins explain the scans alike."""
+    """Nats per beam: a rival place whose refined pose explains the scan within this of the best's
+    refined pose makes the scan ambiguous; localized needs :attr:`distinct_updates` unambiguous
+    updates in a row. *Rivals* are the places the belief once held (a mode of at least
+    :attr:`rival_min` beyond ``mode_radius`` of the best, or a former best), carried along by the
+    odometry even after their mass is gone, until the scans rule them out (:attr:`rival_drop`). The
+    belief alone is not trusted here: its states are scored at points, and a place that happens to
+    lie between them loses about 2 nats per scan against its twin (measured on the near-symmetric
+    TurtleBot3 sandbox, where the wrong twin went to p = 1 in 30 updates while the refined poses
+    explained the scans alike)."""
+    rival_min: float = 1e-3
+    """The mass a mode must hold once to become a rival."""
+    rival_drop: float = 0.3
+    """Nats per beam: a rival explained worse than the best by this much, :attr:`distinct_updates`
+    updates in a row, is ruled out by the scans and forgotten."""
+    max_rivals: int = 8
+    """Rivals carried at most (the closest to the best's likelihood kept)."""
     distinct_updates: int = 3
     """Unambiguous updates in a row that localized needs."""
     recovery_alpha: float = 0.02
@@ -108,6 +118,9 @@ class FilterConfig:
             "mode_yaw": self.mode_yaw > 0,
             "max_modes": self.max_modes >= 1,
             "rival_margin": self.rival_margin >= 0,
+            "rival_min": 0 < self.rival_min < 1,
+            "rival_drop": self.rival_drop >= self.rival_margin,
+            "max_rivals": self.max_rivals >= 0,
             "distinct_updates": self.distinct_updates >= 1,
             "recovery_alpha": 0 <= self.recovery_alpha < 1,
             "beam_weight": 0 < self.beam_weight <= 1,
@@ -210,6 +223,10 @@ class GridFilter:
         self.updates = 0
         self.distinct_streak = 0
         """Updates in a row in which no rival place explained the scan about as well as the best."""
+        self.rivals: list[list[float]] = []
+        """Rival places: ``[x, y, yaw, strikes]`` (map frame), carried by the odometry; ``strikes``
+        counts the updates in a row in which the scans ruled the place out."""
+        self._last_best: tuple[float, float, float] | None = None
 
     @property
     def n_states(self) -> int:
@@ -244,6 +261,12 @@ class GridFilter:
         if self.last_odometry is not None:
             d = relative(self.last_odometry, odom)
             predicted = self._predict((float(d[0]), float(d[1]), float(d[2])))
+            if self.rivals:
+                moved = compose(np.array([r[:3] for r in self.rivals]), d)
+                for rival, pose in zip(self.rivals, moved, strict=True):
+                    rival[:3] = [float(v) for v in pose]
+            if self._last_best is not None:
+                self._last_best = tuple(float(v) for v in compose(np.array([self._last_best]), d)[0])  # type: ignore[assignment]
             if not predicted.sum() > 0:  # everything moved into walls: start over
                 predicted = self.uniform()
         self.last_odometry = odom
@@ -266,7 +289,8 @@ class GridFilter:
         x, y, yaw = self.refine((modes[0].x, modes[0].y, modes[0].yaw), beams)
         best = Mode(x, y, yaw, modes[0].probability)
         modes = (best, *modes[1:])
-        gap = self.rival_gap(best, modes[1:], beams)
+        self._remember_rivals(best, modes[1:])
+        gap = self.rival_gap(best, beams)
         if beams.count and gap >= c.rival_margin * beams.count:
             self.distinct_streak += 1
         else:
@@ -373,24 +397,45 @@ class GridFilter:
                 break
         return tuple(found)
 
-    def rival_gap(self, best: Mode, rivals: tuple[Mode, ...], beams: Beams) -> float:
-        """``min`` over the rival modes farther than ``mode_radius`` from ``best`` of (the scan's
-        log-likelihood at ``best``'s pose less at the rival's refined pose); inf with no rival."""
+    def _remember_rivals(self, best: Mode, others: tuple[Mode, ...]) -> None:
+        """Add as rivals the modes holding at least ``rival_min`` and the former best, when they lie
+        beyond ``mode_radius`` of the best and of every rival already carried."""
+        c = self.config
+        candidates = [(m.x, m.y, m.yaw) for m in others if m.probability >= c.rival_min]
+        if self._last_best is not None:
+            candidates.append(self._last_best)
+        self._last_best = (best.x, best.y, best.yaw)
+        for x, y, yaw in candidates:
+            if math.hypot(x - best.x, y - best.y) <= c.mode_radius:
+                continue
+            if any(math.hypot(x - r[0], y - r[1]) <= c.mode_radius for r in self.rivals):
+                continue
+            self.rivals.append([x, y, yaw, 0.0])
+
+    def rival_gap(self, best: Mode, beams: Beams) -> float:
+        """``min`` over the rivals farther than ``mode_radius`` from ``best`` of (the scan's
+        log-likelihood at ``best``'s pose less at the rival's refined pose); inf with no rival.
+        Refines every rival's pose in place, forgets rivals the scans have ruled out
+        (:attr:`FilterConfig.rival_drop`) and keeps the :attr:`FilterConfig.max_rivals` closest."""
         if beams.count == 0:
             return math.inf
         c = self.config
         mine = float(self.field.pose_log_likelihood(np.array([[best.x, best.y, best.yaw]]), beams)[0])
+        kept: list[tuple[float, list[float]]] = []
         gap = math.inf
-        for rival in rivals:
-            if rival.probability <= 0.0:
-                continue
-            if math.hypot(rival.x - best.x, rival.y - best.y) <= c.mode_radius:
-                continue
-            pose = self.refine((rival.x, rival.y, rival.yaw), beams)
+        for rival in self.rivals:
+            pose = self.refine((rival[0], rival[1], rival[2]), beams)
             if math.hypot(pose[0] - best.x, pose[1] - best.y) <= c.mode_radius:
-                continue
+                continue  # the same place as the best: not a rival
             theirs = float(self.field.pose_log_likelihood(np.array([pose]), beams)[0])
-            gap = min(gap, mine - theirs)
+            difference = mine - theirs
+            strikes = rival[3] + 1 if difference > c.rival_drop * beams.count else 0.0
+            if strikes >= c.distinct_updates:
+                continue  # ruled out by the scans
+            gap = min(gap, difference)
+            kept.append((difference, [pose[0], pose[1], pose[2], strikes]))
+        kept.sort(key=lambda item: item[0])
+        self.rivals = [r for _, r in kept[: c.max_rivals]]
         return gap
 
     def state_pose(self, k: int, r: int, c: int) -> tuple[float, float, float]:

@@ -20,6 +20,7 @@ import numpy as np
 
 from beliefloc.continuous.grid_filter import FilterConfig, GridFilter, Mode, Update
 from beliefloc.continuous.likelihood_field import Scan, select_beams
+from beliefloc.continuous.motion import compose, relative
 from beliefloc.model import GridLayout
 from beliefloc.occupancy import OccupancyMap
 from beliefloc.recordings.reader import Recording
@@ -35,7 +36,8 @@ class TrackResult:
     localized_at: int | None
     """The stamp (ns) of the first update of the final localized streak, or None."""
     pose: tuple[float, float, float]
-    """Map-frame ``(x, y, yaw)`` of the final belief's best state, refined."""
+    """Map-frame ``(x, y, yaw)`` at the last scan: the last update's refined pose moved by the
+    odometry since that update (scans the gate let pass still move the robot)."""
     covariance: np.ndarray
     """6x6, ROS's ``PoseWithCovariance`` layout."""
     modes: tuple[Mode, ...]
@@ -114,17 +116,20 @@ def track_recording(
         elif grid.fit.why_not() is not None:
             reason = grid.fit.why_not()
         else:
-            rival = next((m for m in last.modes[1:] if m.probability > 0), None)
-            where = f" (near x {rival.x:.2f}, y {rival.y:.2f}, yaw {rival.yaw:.2f})" if rival else ""
+            rival = grid.rivals[0] if grid.rivals else None
+            where = f" (near x {rival[0]:.2f}, y {rival[1]:.2f}, yaw {rival[2]:.2f})" if rival else ""
             reason = (
                 f"another place{where} explains the last scans about as well as the best pose (by "
                 f"{last.rival_gap:.1f} nats, {config.rival_margin:g} per beam needed): the run did not tell them apart"
             )
+    # the pose at the end of the bag: the last update's, moved by the odometry since
+    since = relative(grid.last_odometry, odometry[-1]) if grid.last_odometry is not None else np.zeros(3)
+    end = compose(np.array([[last.x, last.y, last.yaw]]), since)[0]
     return TrackResult(
         updates=tuple(updates),
         localized=localized,
         localized_at=localized_at,
-        pose=(last.x, last.y, last.yaw),
+        pose=(float(end[0]), float(end[1]), float(end[2])),
         covariance=grid.covariance((last.x, last.y, last.yaw)),
         modes=last.modes,
         reason=reason,
