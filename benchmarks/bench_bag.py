@@ -3,8 +3,8 @@
     python benchmarks/bench_bag.py              # everything (~3 min), to benchmarks/results/bag.md
     python benchmarks/bench_bag.py --quick      # fewer seeds (~1 min)
 
-1. **Laser update speed**: one :meth:`LikelihoodField.scan_log_likelihood` (60 beams, four sub-poses
-   per state) over every state of an open warehouse floor at 0.1 m x 36 headings (~10^6 states) and
+1. **Laser update speed**: one :meth:`LikelihoodField.scan_log_likelihood` (60 beams, the filter's
+   sub-pose setting) over every state of an open warehouse floor at 0.1 m x 36 headings (~10^6 states) and
    of a small store room (~10^5), median of 7 after a warm-up.
 2. **The issue's run**: an office floor like the hidden recording's (903 x 1706 px at 0.03 m, ~250 m²
    free, a self-similar 45 m corridor: ``scenarios.corridor_map``), 46 s -- standing 10 s, a half
@@ -63,6 +63,7 @@ from beliefloc.recordings.scenarios import (  # noqa: E402
 MAPS = ROOT / "maps" / "occupancy"
 RESULTS = ROOT / "benchmarks" / "results"
 WRONG_M, WRONG_RAD = 1.0, math.radians(30)
+CONFIG = FilterConfig()
 
 
 def laser_update_speed(cells: int) -> tuple[int, float]:
@@ -79,7 +80,7 @@ def laser_update_speed(cells: int) -> tuple[int, float]:
         blocked[r : r + 24, c : c + 6] = True
     image = OccupancyImage(blocked, res, MapFrame())
     window = CellWindow(0.1, rows, 0, 0, rows, cols)
-    field = LikelihoodField(image, window, LaserModel(), reach=12.2, headings=36)
+    field = LikelihoodField(image, window, LaserModel(), reach=12.2, headings=36, sub_poses=CONFIG.sub_poses)
     ranges = rng.uniform(0.5, 11.5, 720)
     ranges[rng.random(720) < 0.25] = np.inf
     scan = Scan(-3.124, (3.1416 + 3.124) / 719, ranges, 0.15, 12.0)
@@ -140,7 +141,10 @@ def honesty_runs(folder: Path, seeds: int) -> list[dict[str, object]]:
     """Generated runs, tracked in-process from their sqlite3 copies."""
     rows: list[dict[str, object]] = []
     plans = {
-        "depot": (MAPS / "depot.yaml", (Segment("stand", 2.0), Segment("turn", math.pi, 0.6), Segment("drive", 3.0, 0.3))),
+        "depot": (
+            MAPS / "depot.yaml",
+            (Segment("stand", 2.0), Segment("turn", math.pi, 0.6), Segment("drive", 3.0, 0.3)),
+        ),
         "sandbox": (
             MAPS / "tb3_sandbox.yaml",
             (Segment("stand", 1.0), Segment("turn", 2.5, 0.6), Segment("drive", 0.8, 0.25)),
@@ -153,7 +157,7 @@ def honesty_runs(folder: Path, seeds: int) -> list[dict[str, object]]:
             paths = write_scenario(run, folder, f"{name}{seed}", ("sqlite3",))
             truth = np.load(folder / f"{name}{seed}_truth.npz")
             start = time.perf_counter()
-            result = track_recording(occupancy, read_recording(paths["sqlite3"]), FilterConfig())
+            result = track_recording(occupancy, read_recording(paths["sqlite3"]), CONFIG)
             seconds = time.perf_counter() - start
             data = result.as_json()
             updates, wrong = judge(data["timeline"], truth)  # type: ignore[arg-type]
@@ -183,7 +187,7 @@ def main() -> None:
     big_states, big_t = laser_update_speed(28_000)
     small_states, small_t = laser_update_speed(2_800)
     lines += [
-        "## One laser update (60 beams, 4 sub-poses per state, every state of the window)",
+        f"## One laser update (60 beams, sub-poses {CONFIG.sub_poses}, every state of the window)",
         "",
         "| states | seconds | target |",
         "|---:|---:|---:|",
@@ -218,8 +222,8 @@ def main() -> None:
             updates, wrong = judge(data["timeline"], truth)
             err, yerr = final_error(finals[-1], truth)
             lines.append(
-                f"| {storage} | {measured['seconds']:.2f} | {measured['rss_mib']:.0f} | {updates} | {data['localized']} "
-                f"| {err:.3f} | {yerr:.2f} | {wrong} |"
+                f"| {storage} | {measured['seconds']:.2f} | {measured['rss_mib']:.0f} | {updates} "
+                f"| {data['localized']} | {err:.3f} | {yerr:.2f} | {wrong} |"
             )
             print(lines[-1], flush=True)
         same = all(np.allclose(f, finals[0], atol=1e-9) for f in finals)

@@ -97,6 +97,12 @@ class FilterConfig:
     """Unambiguous updates in a row that localized needs."""
     recovery_alpha: float = 0.02
     """The uniform mass mixed in after an update whose scans do not fit a confident belief."""
+    sub_poses: bool = False
+    """Score each state as the best of four sub-poses a quarter cell from its centre
+    (:meth:`LikelihoodField.scan_log_likelihood`): less bias towards places that happen to align
+    with the cells, at 4x the laser update's cost. Off by default: with the rivals guarding the
+    verdict, 10 generated depot and sandbox runs ended the same with and without (0 confidently
+    wrong updates, depot within 4 cm), and one update over 10^6 states takes 0.036 s instead of 0.14 s."""
     negligible: float = 1e-12
     """States whose probability is below this fraction of the most probable state's are set to 0
     after an update (27 nats of evidence would be needed to bring one back), so that prediction
@@ -211,7 +217,9 @@ class GridFilter:
         """``free[r, c]`` over the window: the cell is a state."""
         self.yaws = grid_yaws(config.headings)
         """Heading ``k``'s yaw in the grid frame (the map frame's yaw less the map origin's)."""
-        self.field = LikelihoodField(OccupancyImage.occupied_of(occupancy), w, config.laser, reach, config.headings)
+        self.field = LikelihoodField(
+            OccupancyImage.occupied_of(occupancy), w, config.laser, reach, config.headings, sub_poses=config.sub_poses
+        )
         gx, gy = w.centres_grid()
         self.cell_x, self.cell_y = occupancy.frame.to_map(gx, gy)
         """Map-frame centres of the window's cells, ``(rows, cols)``."""

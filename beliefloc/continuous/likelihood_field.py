@@ -228,7 +228,7 @@ class LikelihoodField:
         reach: float,
         headings: int,
         *,
-        sub_poses: bool = True,
+        sub_poses: bool = False,
     ) -> None:
         self.image = occupied
         self.window = window
@@ -330,7 +330,9 @@ class LikelihoodField:
         from its centre: a state is its whole cell, and scoring it at the centre alone favours
         whichever place the grid happens to align with -- measured on the near-symmetric
         TurtleBot3 sandbox, the truth's 180° twin won at p = 1.000 with centres only, and lost
-        with 5 cm cells or these sub-poses (4x the additions of the centres only)."""
+        with 5 cm cells or these sub-poses (4x the additions of the centres only). The grid filter
+        guards its verdict against that bias with rival places instead, and leaves this off by
+        default (:attr:`~beliefloc.continuous.grid_filter.FilterConfig.sub_poses`)."""
         w = self.window
         r0, r1, c0, c1 = region if region is not None else (0, w.rows, 0, w.cols)
         rows, cols = r1 - r0, c1 - c0
