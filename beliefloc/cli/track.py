@@ -134,7 +134,8 @@ def track(
     map: the grid filter of the real world (AMCL's odometry and likelihood-field models over every
     pose at once) runs from the uniform belief; it prints when the robot was localized and its final
     pose (--json: {"localized", "pose": {x, y, yaw, covariance}, "timeline": [...]}), or "not
-    localized" with the places that remain (exit 1).
+    localized" with the places that remain (exit 1). For example, with map_saver's my_map.yaml and
+    a rosbag2 folder my_run/: beliefloc track my_map.yaml --bag my_run/ --json > track.json
 
     Examples:
 
@@ -143,7 +144,6 @@ def track(
       printf 'look=nothing   # a step per line, # comments\\nforward\\n' > run.log
       beliefloc track maps/kitchen.yaml --steps run.log
       cat run.log | beliefloc track maps/kitchen.yaml --steps - --json
-      beliefloc track my_map.yaml --bag my_run/ --json > track.json
     """
     if bag is not None:
         _track_bag(
