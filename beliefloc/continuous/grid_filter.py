@@ -33,6 +33,7 @@ Pure numpy/scipy, no I/O.
 from __future__ import annotations
 
 import math
+from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -93,10 +94,21 @@ class FilterConfig:
     updates in a row, is ruled out by the scans and forgotten."""
     max_rivals: int = 8
     """Rivals carried at most (the closest to the best's likelihood kept)."""
+    history: int = 20
+    """Updates remembered (odometry and beams) for the global rival search: before a place is
+    called, every state of the map is scored against the current scan (not only those the belief
+    still holds), the best other places are refined, and each is scored over these updates -- its
+    pose carried back along the odometry -- against the best's. One that the remembered scans do
+    not rule out (within ``rival_drop`` per beam) becomes a rival. Measured: without it, a coarse
+    filter (0.2 m cells) on a short depot run pruned the true place in its first updates and
+    declared a look-alike aisle 15 m away."""
+    global_check_every: int = 5
+    """While a place holds the threshold, the global rival search runs again every this many updates."""
     distinct_updates: int = 3
     """Unambiguous updates in a row that localized needs."""
     recovery_alpha: float = 0.02
-    """The uniform mass mixed in after an update whose scans do not fit a confident belief."""
+    """The uniform mass mixed in after an update whose scans do not fit a confident belief, or that a
+    rival explains far better (by ``rival_drop`` per beam) than the belief's best place."""
     sub_poses: bool = False
     """Score each state as the best of four sub-poses a quarter cell from its centre
     (:meth:`LikelihoodField.scan_log_likelihood`): less bias towards places that happen to align
@@ -127,6 +139,8 @@ class FilterConfig:
             "rival_min": 0 < self.rival_min < 1,
             "rival_drop": self.rival_drop >= self.rival_margin,
             "max_rivals": self.max_rivals >= 0,
+            "history": self.history >= 1,
+            "global_check_every": self.global_check_every >= 1,
             "distinct_updates": self.distinct_updates >= 1,
             "recovery_alpha": 0 <= self.recovery_alpha < 1,
             "beam_weight": 0 < self.beam_weight <= 1,
@@ -235,6 +249,8 @@ class GridFilter:
         """Rival places: ``[x, y, yaw, strikes]`` (map frame), carried by the odometry; ``strikes``
         counts the updates in a row in which the scans ruled the place out."""
         self._last_best: tuple[float, float, float] | None = None
+        self._history: deque[tuple[np.ndarray, Beams]] = deque(maxlen=config.history)
+        self._since_global = math.inf
 
     @property
     def n_states(self) -> int:
@@ -298,6 +314,13 @@ class GridFilter:
         best = Mode(x, y, yaw, modes[0].probability)
         modes = (best, *modes[1:])
         self._remember_rivals(best, modes[1:])
+        self._history.append((odom, beams))
+        self._since_global += 1
+        if best.probability >= c.threshold and self._since_global >= c.global_check_every:
+            self._search_rivals(best, beams)
+            self._since_global = 0
+        elif best.probability < c.threshold:
+            self._since_global = math.inf
         gap = self.rival_gap(best, beams)
         if beams.count and gap >= c.rival_margin * beams.count:
             self.distinct_streak += 1
@@ -311,7 +334,8 @@ class GridFilter:
         localized = best.probability >= c.threshold and fits and distinct
         recovered = False
         unfit = best.probability >= c.threshold and not fits and len(self.fit.fractions) >= c.fit.window
-        if unfit and c.recovery_alpha > 0:
+        outdone = beams.count > 0 and gap < -c.rival_drop * beams.count  # a rival explains the scan far better
+        if (unfit or outdone) and c.recovery_alpha > 0:
             self.belief = (1 - c.recovery_alpha) * self.belief + c.recovery_alpha * self.uniform()
             recovered = True
         return Update(
@@ -419,6 +443,54 @@ class GridFilter:
             if any(math.hypot(x - r[0], y - r[1]) <= c.mode_radius for r in self.rivals):
                 continue
             self.rivals.append([x, y, yaw, 0.0])
+
+    def _search_rivals(self, best: Mode, beams: Beams) -> None:
+        """The global rival search (:attr:`FilterConfig.history`): score every state against the
+        scan, take the best places beyond ``mode_radius`` of ``best`` (by suppression, as
+        :meth:`modes`), refine them, and add as rivals those the remembered scans do not rule out."""
+        c = self.config
+        if beams.count == 0:
+            return
+        ll = self.field.scan_log_likelihood(beams, self.yaws)
+        ll[:, ~self.free] = -np.inf
+        far = np.hypot(self.cell_x - best.x, self.cell_y - best.y) > c.mode_radius
+        ll[:, ~far] = -np.inf
+        reach = math.ceil(c.mode_radius / c.cell_size)
+        rows, cols = self.free.shape
+        candidates = []
+        for _ in range(c.max_modes):
+            k, r, col = (int(v) for v in np.unravel_index(int(np.argmax(ll)), ll.shape))
+            if not np.isfinite(ll[k, r, col]):
+                break
+            candidates.append(self.state_pose(k, r, col))
+            ll[
+                :, max(0, r - reach) : min(rows, r + reach + 1), max(0, col - reach) : min(cols, col + reach + 1)
+            ] = -np.inf
+        if not candidates:
+            return
+        mine = self._history_score((best.x, best.y, best.yaw))
+        total_beams = sum(b.count for _, b in self._history)
+        for pose in candidates:
+            refined = self.refine(pose, beams)
+            if math.hypot(refined[0] - best.x, refined[1] - best.y) <= c.mode_radius:
+                continue
+            if mine - self._history_score(refined) > c.rival_drop * total_beams:
+                continue  # the remembered scans rule it out
+            if any(math.hypot(refined[0] - r[0], refined[1] - r[1]) <= c.mode_radius for r in self.rivals):
+                continue
+            self.rivals.append([refined[0], refined[1], refined[2], 0.0])
+
+    def _history_score(self, pose: tuple[float, float, float]) -> float:
+        """The remembered scans' log-likelihood (sum) for the robot at ``pose`` now, carried back
+        along the odometry to each remembered update."""
+        if not self._history:
+            return 0.0
+        now = self._history[-1][0]
+        total = 0.0
+        for odom, beams in self._history:
+            back = compose(np.array([pose]), relative(now, odom))[0]
+            total += float(self.field.pose_log_likelihood(back[None, :], beams)[0])
+        return total
 
     def rival_gap(self, best: Mode, beams: Beams) -> float:
         """``min`` over the rivals farther than ``mode_radius`` from ``best`` of (the scan's
