@@ -155,3 +155,15 @@ def test_model_parameters_are_checked() -> None:
         LaserModel(z_rand=0.0)
     with pytest.raises(ValueError, match="sigma_hit"):
         LaserModel(sigma_hit=-1.0)
+
+
+def test_one_scan_from_plain_values_scores_poses() -> None:
+    from beliefloc.continuous.likelihood_field import score_scan
+
+    image = _room()
+    field = LikelihoodField(image, _window(image, 0.1), LaserModel(), reach=4.0, headings=8)
+    truth = (2.13, -1.32, 0.7)
+    ranges = cast_rays(image, truth[0], truth[1], truth[2] + np.linspace(-math.pi, math.pi, 90, endpoint=False), 4.0)
+    values = [None if math.isinf(r) else float(r) for r in ranges]
+    scores = score_scan(field, np.array([truth, (2.4, -1.0, 0.7)]), -math.pi, 2 * math.pi / 90, values, 0.1, 4.0)
+    assert scores.shape == (2,) and scores[0] > scores[1]

@@ -197,3 +197,14 @@ def test_picture(runner: CliRunner, tmp_path: Path) -> None:
     result = runner.invoke(app, [*args, "--headings", "16"])
     assert result.exit_code in (0, 1), result.output
     assert picture.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_a_coarse_filter_is_not_confidently_wrong_on_the_short_run() -> None:
+    """0.2 m cells prune the true place in the first updates; the global rival search must still
+    find it before a look-alike aisle 15 m away is called."""
+    occupancy = load_occupancy(DEPOT_YAML)
+    result = track_recording(occupancy, read_recording(COPIES["mcap"]), FAST)
+    truth = np.load(BAGS / "depot_short_truth.npz")
+    for u in result.updates:
+        t = truth["scan_truth"][int(np.argmin(np.abs(truth["scan_stamps"] - u.stamp)))]
+        assert not (u.localized and math.hypot(u.x - t[0], u.y - t[1]) > 1.0)

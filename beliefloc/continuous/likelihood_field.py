@@ -397,3 +397,22 @@ class LikelihoodField:
         ey = p[1] + s * beams.x + c * beams.y
         u, v = self.image.to_pixel(ex, ey)
         return self.distance_at(self.image.height - 0.5 - v, u - 0.5)
+
+
+def score_scan(
+    field: LikelihoodField,
+    poses: np.ndarray,
+    angle_min: float,
+    angle_increment: float,
+    ranges: list[float | None] | np.ndarray,
+    range_min: float,
+    range_max: float,
+    mount: tuple[float, float, float] = (0.0, 0.0, 0.0),
+) -> np.ndarray:
+    """``log p(scan | pose)`` for map-frame robot poses ``(N, 3)``, the scan given as plain values
+    (``None`` in ``ranges``: no return) and the laser at ``mount`` on the base: one whole scan
+    scored with the field's laser model -- what a ``localize`` reply carrying a scan needs. For
+    every state of a grid at once use :meth:`LikelihoodField.scan_log_likelihood` with
+    :func:`select_beams`."""
+    scan = Scan.from_values(angle_min, angle_increment, ranges, range_min, range_max)
+    return field.pose_log_likelihood(np.asarray(poses, dtype=np.float64), select_beams(scan, field.model, mount))
