@@ -294,15 +294,21 @@ class GridFilter:
             if not predicted.sum() > 0:  # everything moved into walls: start over
                 predicted = self.uniform()
         self.last_odometry = odom
-        ll = self._log_likelihood(beams, predicted)
-        surprise_per_beam = surprise(predicted, ll, beams.count)
+        box, ll = self._log_likelihood(beams, predicted)
+        r0, r1, c0, c1 = box
+        inside = predicted[:, r0:r1, c0:c1]
+        surprise_per_beam = surprise(inside, ll, beams.count)  # no mass outside the box
         top = float(ll.max())
-        posterior = predicted * np.exp(ll - top)
+        posterior = np.zeros_like(predicted)
+        posterior[:, r0:r1, c0:c1] = inside * np.exp(ll - top)
         total = float(posterior.sum())
         if not total > 0:  # the readings ruled out every predicted state: keep the readings' verdict
-            ll = self._log_likelihood(beams, self.uniform())
+            uniform = self.uniform()
+            box, ll = self._log_likelihood(beams, uniform)
+            r0, r1, c0, c1 = box
             top = float(ll.max())
-            posterior = self.uniform() * np.exp(ll - top)
+            posterior = np.zeros_like(predicted)
+            posterior[:, r0:r1, c0:c1] = uniform[:, r0:r1, c0:c1] * np.exp(ll - top)
             total = float(posterior.sum())
         posterior /= total
         if c.negligible > 0:
@@ -380,20 +386,19 @@ class GridFilter:
         )
         return out
 
-    def _log_likelihood(self, beams: Beams, predicted: np.ndarray) -> np.ndarray:
-        """The scan's log-likelihood (times ``beam_weight``) over the states the predicted belief
-        holds mass on (the box of them, the headings with mass); ``-inf`` elsewhere and off the states."""
+    def _log_likelihood(self, beams: Beams, predicted: np.ndarray) -> tuple[tuple[int, int, int, int], np.ndarray]:
+        """``(box, ll)``: the box ``(r0, r1, c0, c1)`` of the window's cells where the predicted belief
+        holds mass, and the scan's log-likelihood (times ``beam_weight``) over its states, ``-inf``
+        on headings without mass and on cells that are not states. Shape ``(headings, r1-r0, c1-c0)``."""
         c = self.config
         r0, r1, c0, c1 = self._box(predicted, 0)
         active: np.ndarray = np.any(predicted.reshape(predicted.shape[0], -1), axis=1)
-        ll = np.full(predicted.shape, -np.inf)
-        part = self.field.scan_log_likelihood(beams, self.yaws, active=active, region=(r0, r1, c0, c1))
-        ll[:, r0:r1, c0:c1] = part
+        ll = self.field.scan_log_likelihood(beams, self.yaws, active=active, region=(r0, r1, c0, c1)).astype(np.float64)
         if c.beam_weight != 1.0:
             ll *= c.beam_weight
         ll[~active] = -np.inf
-        ll[:, ~self.free] = -np.inf
-        return ll
+        ll[:, ~self.free[r0:r1, c0:c1]] = -np.inf
+        return (r0, r1, c0, c1), ll
 
     # --- reading the belief ----------------------------------------------------------------------
 
@@ -522,25 +527,26 @@ class GridFilter:
         """Map-frame pose of window state ``(k, r, c)``: its cell's centre and heading's yaw."""
         return float(self.cell_x[r, c]), float(self.cell_y[r, c]), float(self.map_yaws[k])
 
-    def refine(self, start: tuple[float, float, float], beams: Beams, rounds: int = 3) -> tuple[float, float, float]:
+    def refine(self, start: tuple[float, float, float], beams: Beams, rounds: int = 4) -> tuple[float, float, float]:
         """A pose finer than a cell: from ``start`` (a state's pose), a local search over continuous
-        ``(x, y, yaw)`` -- a 7 x 7 x 9 lattice spanning a cell and a heading sector, then twice again
-        at a third of the span around the best -- maximising the scan's log-likelihood with
-        ``sigma_hit`` (:meth:`LikelihoodField.pose_log_likelihood`)."""
+        ``(x, y, yaw)`` -- a 5 x 5 x 7 lattice spanning a cell and a heading sector either side,
+        then three times again at 0.4 of the span around the best (a final step of 3 mm and 0.2°)
+        -- maximising the scan's log-likelihood with ``sigma_hit``
+        (:meth:`LikelihoodField.pose_log_likelihood`)."""
         if beams.count == 0:
             return start
         c = self.config
         best = np.array(start, dtype=np.float64)
         span_xy, span_yaw = c.cell_size, 2 * math.pi / c.headings
         for _ in range(rounds):
-            ox = np.linspace(-span_xy, span_xy, 7)
-            oyaw = np.linspace(-span_yaw, span_yaw, 9)
+            ox = np.linspace(-span_xy, span_xy, 5)
+            oyaw = np.linspace(-span_yaw, span_yaw, 7)
             gx, gy, gyaw = np.meshgrid(ox, ox, oyaw, indexing="ij")
             poses = np.stack([best[0] + gx.ravel(), best[1] + gy.ravel(), best[2] + gyaw.ravel()], axis=1)
             scores = self.field.pose_log_likelihood(poses, beams)
             best = poses[int(np.argmax(scores))]
-            span_xy /= 3.0
-            span_yaw /= 3.0
+            span_xy *= 0.4
+            span_yaw *= 0.4
         return float(best[0]), float(best[1]), float(wrap_angle(best[2]))
 
     def covariance(self, pose: tuple[float, float, float] | None = None) -> np.ndarray:
