@@ -17,9 +17,12 @@ from beliefloc.cli.common import check_output, print_json, warn
 from beliefloc.errors import MapError, UsageError
 
 if TYPE_CHECKING:
-    from beliefloc.continuous.grid_filter import FilterConfig
+    from rich.console import Console
+
+    from beliefloc.continuous.grid_filter import FilterConfig, GridFilter
     from beliefloc.model import GridLayout
     from beliefloc.occupancy import OccupancyMap
+    from beliefloc.recordings.reader import Recording
     from beliefloc.recordings.replay import TrackResult
 
 BELIEF_OUT_SUFFIXES = (".json",)
@@ -41,9 +44,10 @@ def parse_laser_pose(text: str) -> tuple[float, float, float]:
     return values[0], values[1], values[2]
 
 
-def read_map(path: Path) -> tuple[OccupancyMap, GridLayout | None, float | None]:
+def read_map(path: Path, *, layout: bool = False) -> tuple[OccupancyMap, GridLayout | None, float | None, bool]:
     """The occupancy map of MAP -- a plain map_server YAML or a beliefloc map with ``occupancy:`` --,
-    the beliefloc map's grid layout (None for a plain YAML) and its robot radius (None if unset)."""
+    the beliefloc map's grid layout (compiled only when ``layout`` is asked; else None), its robot
+    radius (None if unset) and whether MAP is a beliefloc map."""
     import yaml
 
     from beliefloc import file_kinds
@@ -60,7 +64,7 @@ def read_map(path: Path) -> tuple[OccupancyMap, GridLayout | None, float | None]
         occupancy = load_occupancy(path)
         for note in occupancy.warnings:
             warn(note)
-        return occupancy, None, None
+        return occupancy, None, None, False
     smap = load_map(path, on_warning=warn)
     occupancy_map = smap.occupancy_map
     if occupancy_map is None:
@@ -68,8 +72,8 @@ def read_map(path: Path) -> tuple[OccupancyMap, GridLayout | None, float | None]
             f"{path}: has no occupancy: a recording is localized on an occupancy map; give the map_server YAML "
             "or a beliefloc map with occupancy:"
         )
-    model = compile_model(smap)
-    return occupancy_map, model.grid, smap.grid.robot_radius
+    grid = compile_model(smap).grid if layout else None
+    return occupancy_map, grid, smap.grid.robot_radius, True
 
 
 def track_bag(
@@ -102,8 +106,8 @@ def track_bag(
         pyplot()  # matplotlib missing: say so before any work
     if belief_out is not None:
         check_output("--belief-out", belief_out, BELIEF_OUT_SUFFIXES, inputs=(map_path, bag), kind=file_kinds.BELIEF)
-    occupancy, layout, map_radius = read_map(map_path)
-    if belief_out is not None and layout is None:
+    occupancy, layout, map_radius, is_beliefloc_map = read_map(map_path, layout=belief_out is not None)
+    if belief_out is not None and not is_beliefloc_map:
         raise UsageError(
             f"--belief-out {belief_out}: {map_path} is a plain map_server YAML, whose states 'beliefloc pose' cannot "
             "name; write a beliefloc map with 'occupancy: " + map_path.name + "' and give that as MAP"
@@ -151,7 +155,15 @@ def track_bag(
         raise typer.Exit(1)
 
 
-def _print_summary(console, map_path, bag, recording, grid, result: TrackResult, start: int) -> None:  # type: ignore[no-untyped-def]
+def _print_summary(
+    console: Console,
+    map_path: Path,
+    bag: Path,
+    recording: Recording,
+    grid: GridFilter,
+    result: TrackResult,
+    start: int,
+) -> None:
     from rich.markup import escape
 
     mx, my, myaw = recording.mount
