@@ -208,3 +208,14 @@ def test_a_coarse_filter_is_not_confidently_wrong_on_the_short_run() -> None:
     for u in result.updates:
         t = truth["scan_truth"][int(np.argmin(np.abs(truth["scan_stamps"] - u.stamp)))]
         assert not (u.localized and math.hypot(u.x - t[0], u.y - t[1]) > 1.0)
+
+
+def test_track_bag_text(runner: CliRunner) -> None:
+    args = ["track", str(DEPOT_YAML), "--bag", str(COPIES["ros1"]), "--cell-size", "0.2", "--headings", "16"]
+    result = runner.invoke(app, args)
+    assert result.exit_code in (0, 1), result.output
+    assert "scans on /scan, odometry from /odom (nav_msgs/msg/Odometry), laser rplidar_link" in result.stdout
+    if result.exit_code == 0:
+        assert "localized at" in result.stdout and "final pose: x" in result.stdout
+    else:
+        assert "not localized:" in result.stdout and "mode 1: p" in result.stdout
