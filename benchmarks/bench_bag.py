@@ -11,8 +11,9 @@
    turn, 8 m down the corridor --, 357 scans x 720 beams, laser at +90° through an intermediate
    frame, drifting 20 Hz odometry, clutter; written as rosbag2 sqlite3, MCAP and a ROS 1 bag; each
    tracked by ``beliefloc track --bag --json`` in a fresh process: wall time, peak RSS, final pose.
-3. **Honesty**: generated runs on Nav2's depot (informative) and the TurtleBot3 sandbox (nearly
-   symmetric), with clutter and drift; per run the final verdict and error and the number of
+3. **Honesty**: generated runs on Nav2's depot (informative), the TurtleBot3 sandbox (nearly
+   symmetric) and the office floor of run 2 (the issue's 46 s plan from random starts: the
+   self-similar corridor), with clutter and drift; per run the final verdict and error and the number of
    *confidently wrong* updates (declared localized more than 1 m or 30° from the truth).
 
 Targets (issue 27): run 2 in <= 15 s and <= 2 GiB, the same final pose from the three copies; one
@@ -149,6 +150,7 @@ def honesty_runs(folder: Path, seeds: int) -> list[dict[str, object]]:
             MAPS / "tb3_sandbox.yaml",
             (Segment("stand", 1.0), Segment("turn", 2.5, 0.6), Segment("drive", 0.8, 0.25)),
         ),
+        "corridor": (corridor_map(folder / "map"), issue_plan()),
     }
     for name, (yaml_path, plan) in plans.items():
         occupancy = load_occupancy(yaml_path)
