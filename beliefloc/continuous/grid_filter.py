@@ -102,6 +102,12 @@ class FilterConfig:
     not rule out (within ``rival_drop`` per beam) becomes a rival. Measured: without it, a coarse
     filter (0.2 m cells) on a short depot run pruned the true place in its first updates and
     declared a look-alike aisle 15 m away."""
+    history_margin: float = 1.0
+    """Nats per remembered update: a place is also told apart from every rival when, over the
+    remembered updates (each rival carried back along the odometry), it explains the scans better
+    by this much per update (20 nats over 20 updates) and no rival explains the current scan
+    better by ``rival_margin`` per beam -- the earlier scans (a room passed, a corner turned) decide
+    what the current one in a self-similar corridor cannot."""
     global_check_every: int = 5
     """While a place holds the threshold, the global rival search runs again every this many updates."""
     distinct_updates: int = 3
@@ -141,6 +147,7 @@ class FilterConfig:
             "max_rivals": self.max_rivals >= 0,
             "history": self.history >= 1,
             "global_check_every": self.global_check_every >= 1,
+            "history_margin": self.history_margin > 0,
             "distinct_updates": self.distinct_updates >= 1,
             "recovery_alpha": 0 <= self.recovery_alpha < 1,
             "beam_weight": 0 < self.beam_weight <= 1,
@@ -327,16 +334,21 @@ class GridFilter:
             self._since_global = 0
         elif best.probability < c.threshold:
             self._since_global = math.inf
-        gap = self.rival_gap(best, beams)
+        gap, remembered_gap = self.rival_gap(best, beams)
         if beams.count and gap >= c.rival_margin * beams.count:
             self.distinct_streak += 1
         else:
             self.distinct_streak = 0
+        told_apart = (
+            len(self._history) >= c.distinct_updates
+            and remembered_gap >= c.history_margin * len(self._history)
+            and gap > -c.rival_margin * beams.count
+        )
         distances = self.field.end_point_distances(np.array([best.x, best.y, best.yaw]), beams)
         fraction = inlier_fraction(distances, c.fit.inlier_distance)
         self.fit.add(fraction, surprise_per_beam)
         fits = self.fit.fits()
-        distinct = self.distinct_streak >= c.distinct_updates
+        distinct = self.distinct_streak >= c.distinct_updates or told_apart
         localized = best.probability >= c.threshold and fits and distinct
         recovered = False
         unfit = best.probability >= c.threshold and not fits and len(self.fit.fractions) >= c.fit.window
@@ -497,17 +509,19 @@ class GridFilter:
             total += float(self.field.pose_log_likelihood(back[None, :], beams)[0])
         return total
 
-    def rival_gap(self, best: Mode, beams: Beams) -> float:
-        """``min`` over the rivals farther than ``mode_radius`` from ``best`` of (the scan's
-        log-likelihood at ``best``'s pose less at the rival's refined pose); inf with no rival.
+    def rival_gap(self, best: Mode, beams: Beams) -> tuple[float, float]:
+        """``(now, remembered)``: ``min`` over the rivals farther than ``mode_radius`` from ``best``
+        of the scan's log-likelihood at ``best``'s pose less at the rival's refined pose, and of the
+        same summed over the remembered updates (:meth:`_history_score`); inf with no rival.
         Refines every rival's pose in place, forgets rivals the scans have ruled out
         (:attr:`FilterConfig.rival_drop`) and keeps the :attr:`FilterConfig.max_rivals` closest."""
         if beams.count == 0:
-            return math.inf
+            return math.inf, math.inf
         c = self.config
         mine = float(self.field.pose_log_likelihood(np.array([[best.x, best.y, best.yaw]]), beams)[0])
+        mine_remembered = self._history_score((best.x, best.y, best.yaw)) if self.rivals else 0.0
         kept: list[tuple[float, list[float]]] = []
-        gap = math.inf
+        gap = remembered = math.inf
         for rival in self.rivals:
             pose = self.refine((rival[0], rival[1], rival[2]), beams)
             if math.hypot(pose[0] - best.x, pose[1] - best.y) <= c.mode_radius:
@@ -518,10 +532,11 @@ class GridFilter:
             if strikes >= c.distinct_updates:
                 continue  # ruled out by the scans
             gap = min(gap, difference)
+            remembered = min(remembered, mine_remembered - self._history_score(pose))
             kept.append((difference, [pose[0], pose[1], pose[2], strikes]))
         kept.sort(key=lambda item: item[0])
         self.rivals = [r for _, r in kept[: c.max_rivals]]
-        return gap
+        return gap, remembered
 
     def state_pose(self, k: int, r: int, c: int) -> tuple[float, float, float]:
         """Map-frame pose of window state ``(k, r, c)``: its cell's centre and heading's yaw."""
