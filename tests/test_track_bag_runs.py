@@ -88,3 +88,13 @@ def test_clockwise_scans_and_tf_odometry_give_the_same_pose(tmp_path: Path) -> N
     for other in results[1:]:
         assert other.localized == results[0].localized
         assert other.pose == pytest.approx(results[0].pose, abs=0.03)
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="known limitation: ten unmapped discs in the 4 m sandbox make the mirror twin explain the scans "
+    "better by 5-10 nats per scan, as much as real evidence does in the self-similar corridor",
+)
+def test_known_failure_clutter_favours_the_sandbox_twin(tmp_path: Path) -> None:
+    result, truth, _ = _run(tmp_path, SANDBOX, Scenario("sandbox", SANDBOX_PLAN, seed=302))
+    assert _confidently_wrong(result, truth) == 0

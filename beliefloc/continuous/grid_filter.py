@@ -196,6 +196,8 @@ class Update:
     rival_gap: float = math.inf
     """Nats: how much better the best pose explains the scan than the best rival place's (refined);
     inf with no rival."""
+    remembered_gap: float = math.inf
+    """Nats: the same over the remembered updates (each rival carried back along the odometry)."""
 
     def as_json(self) -> dict[str, object]:
         """A timeline entry of ``track --bag --json``."""
@@ -239,7 +241,7 @@ class GridFilter:
         self.yaws = grid_yaws(config.headings)
         """Heading ``k``'s yaw in the grid frame (the map frame's yaw less the map origin's)."""
         self.field = LikelihoodField(
-            OccupancyImage.occupied_of(occupancy), w, config.laser, reach, config.headings, sub_poses=config.sub_poses
+            OccupancyImage.walls_of(occupancy), w, config.laser, reach, config.headings, sub_poses=config.sub_poses
         )
         gx, gy = w.centres_grid()
         self.cell_x, self.cell_y = occupancy.frame.to_map(gx, gy)
@@ -369,6 +371,7 @@ class GridFilter:
             beams=beams.count,
             recovered=recovered,
             rival_gap=gap,
+            remembered_gap=remembered_gap,
         )
 
     def _box(self, belief: np.ndarray, margin: int) -> tuple[int, int, int, int]:
