@@ -190,9 +190,7 @@ def log_hit_mixture(d: np.ndarray, sigma: float, model: LaserModel, range_max: f
     """``log(z_hit exp(-d²/(2 sigma²)) + z_rand / range_max)`` elementwise (float32)."""
     d32 = np.asarray(d, dtype=np.float32)
     scale = np.float32(-0.5 / sigma**2)
-    out: np.ndarray = np.log(
-        np.float32(model.z_hit) * np.exp(scale * d32 * d32) + np.float32(model.z_rand / range_max)
-    )
+    out: np.ndarray = np.log(np.float32(model.z_hit) * np.exp(scale * d32 * d32) + np.float32(model.z_rand / range_max))
     return out
 
 
