@@ -104,3 +104,8 @@ class FieldError(Exception):
         """For a character grid written as a block (``layout: |``): the row (0-based, blank lines
         skipped) and column of the culprit, so the message points at that very character."""
         self.column = column
+
+
+class RecordingError(InputFileError):
+    """A ROS recording (a rosbag2 folder or file, a ROS 1 ``.bag``) cannot be localized from: the
+    message names the bag, the topic and what is wrong with it."""

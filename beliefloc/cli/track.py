@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import typer
@@ -50,11 +51,91 @@ def track(
     ] = False,
     top: TopOption = 5,
     json_output: JsonOption = False,
+    bag: Annotated[
+        Path | None,
+        typer.Option(
+            "--bag",
+            metavar="RUN",
+            help="Localize over a ROS recording instead of STEP...: a rosbag2 folder (sqlite3 or MCAP) or a ROS 1 "
+            ".bag, on MAP's occupancy map (a map_server YAML, or a beliefloc map with occupancy:), from the uniform "
+            "belief. Exit 1 when the run does not say where the robot is.",
+            show_default=False,
+        ),
+    ] = None,
+    scan_topic: Annotated[
+        str | None,
+        typer.Option(
+            "--scan-topic",
+            metavar="TOPIC",
+            help="--bag: the LaserScan topic (default: the only one).",
+            show_default=False,
+        ),
+    ] = None,
+    odom_topic: Annotated[
+        str | None,
+        typer.Option(
+            "--odom-topic",
+            metavar="TOPIC",
+            help="--bag: the Odometry topic, or /tf (default: the only Odometry topic, else odom -> base on /tf).",
+            show_default=False,
+        ),
+    ] = None,
+    laser_pose: Annotated[
+        str | None,
+        typer.Option(
+            "--laser-pose",
+            metavar="X,Y,YAW",
+            help="--bag: the laser's pose on the base (metres, radians) instead of /tf_static's.",
+            show_default=False,
+        ),
+    ] = None,
+    belief_out: Annotated[
+        Path | None,
+        typer.Option(
+            "--belief-out",
+            metavar="FILE.json",
+            help="--bag: write the final belief over MAP's states (a beliefloc map) for "
+            "'beliefloc pose MAP --belief FILE'.",
+            show_default=False,
+        ),
+    ] = None,
+    output: Annotated[
+        Path | None,
+        typer.Option(
+            "-o",
+            "--output",
+            metavar="FILE.png|FILE.svg",
+            help="--bag: a picture of the final belief and the path "
+            "(needs matplotlib: pip install 'beliefloc[plots]').",
+            show_default=False,
+        ),
+    ] = None,
+    cell_size: Annotated[
+        float, typer.Option("--cell-size", metavar="M", help="--bag: the filter's cell side in metres.")
+    ] = 0.1,
+    headings: Annotated[int, typer.Option("--headings", metavar="N", help="--bag: the filter's heading sectors.")] = 36,
+    robot_radius: Annotated[
+        float | None,
+        typer.Option(
+            "--robot-radius",
+            metavar="M",
+            help="--bag: a cell is a state when a disc of this radius on its centre is free "
+            "[default: the map's robot_radius, else 0.15].",
+            show_default=False,
+        ),
+    ] = None,
 ) -> None:
     """Localize over a log: apply each action and observation to the belief (Bayes filter).
 
     Prints the belief after every step, with p(o | a, b), the probability of what was observed;
     --json also gives the final belief's most likely state as a map-frame pose with a covariance.
+
+    With --bag RUN, the log is a ROS recording (LaserScan, odometry, /tf_static) and MAP an occupancy
+    map: the grid filter of the real world (AMCL's odometry and likelihood-field models over every
+    pose at once) runs from the uniform belief; it prints when the robot was localized and its final
+    pose (--json: {"localized", "pose": {x, y, yaw, covariance}, "timeline": [...]}), or "not
+    localized" with the places that remain (exit 1). For example, with map_saver's my_map.yaml and
+    a rosbag2 folder my_run/: beliefloc track my_map.yaml --bag my_run/ --json > track.json
 
     Examples:
 
@@ -64,6 +145,32 @@ def track(
       beliefloc track maps/kitchen.yaml --steps run.log
       cat run.log | beliefloc track maps/kitchen.yaml --steps - --json
     """
+    if bag is not None:
+        _track_bag(
+            source,
+            bag,
+            steps,
+            steps_file,
+            scan_topic,
+            odom_topic,
+            laser_pose,
+            belief_out,
+            output,
+            json_output,
+            cell_size,
+            headings,
+            robot_radius,
+        )
+        return
+    for name, value in (
+        ("--scan-topic", scan_topic),
+        ("--odom-topic", odom_topic),
+        ("--laser-pose", laser_pose),
+        ("--belief-out", belief_out),
+        ("-o", output),
+    ):
+        if value is not None:
+            raise UsageError(f"{name} goes with --bag RUN (a ROS recording)")
     from beliefloc.belief import by_state_name
     from beliefloc.pose import pose_json
     from beliefloc.render.belief_grid import belief_view
@@ -104,6 +211,46 @@ def track(
         else:
             view = belief_view(model, t.belief, compact=compact, width=width, color=color, top=0, legend=False)
             console.print(view, crop=False)
+
+
+def _track_bag(
+    source: Path,
+    bag: Path,
+    steps: list[str] | None,
+    steps_file: str | None,
+    scan_topic: str | None,
+    odom_topic: str | None,
+    laser_pose: str | None,
+    belief_out: Path | None,
+    output: Path | None,
+    json_output: bool,
+    cell_size: float,
+    headings: int,
+    robot_radius: float | None,
+) -> None:
+    from beliefloc.cli.track_bag import track_bag
+    from beliefloc.continuous.grid_filter import FilterConfig
+
+    if steps or steps_file is not None:
+        raise UsageError("--bag RUN replaces STEP... and --steps: give one or the other")
+    try:
+        config = FilterConfig(
+            cell_size=cell_size, headings=headings, robot_radius=0.15 if robot_radius is None else robot_radius
+        )
+    except ValueError as exc:
+        raise UsageError(f"--cell-size / --headings / --robot-radius: {exc}") from None
+    track_bag(
+        source,
+        bag,
+        scan_topic=scan_topic,
+        odom_topic=odom_topic,
+        laser_pose_text=laser_pose,
+        belief_out=belief_out,
+        output=output,
+        json_output=json_output,
+        config=config,
+        robot_radius_given=robot_radius is not None,
+    )
 
 
 def _steps(arguments: list[str] | None, steps_file: str | None) -> list[str] | list[StepLine]:

@@ -48,6 +48,20 @@ class OccupancyImage:
         return cls(np.asarray(occupancy.pixels == Occupancy.OCCUPIED), occupancy.resolution, occupancy.frame)
 
     @classmethod
+    def walls_of(cls, occupancy: OccupancyMap) -> OccupancyImage:
+        """The occupied pixels and the unknown pixels that touch free space (8-neighbourhood): what
+        a laser in the map's free space hits. Unknown space is never a place the robot can be, so
+        its edge counts as a wall -- a SLAM map's outline has gaps where its wall was seen poorly,
+        and a real laser still hits the wall there."""
+        from scipy import ndimage
+
+        pixels = np.asarray(occupancy.pixels)
+        free = pixels == Occupancy.FREE
+        near_free = ndimage.binary_dilation(free, structure=np.ones((3, 3), dtype=bool))
+        walls = (pixels == Occupancy.OCCUPIED) | ((pixels == Occupancy.UNKNOWN) & near_free)
+        return cls(walls, occupancy.resolution, occupancy.frame)
+
+    @classmethod
     def blocked_of(cls, occupancy: OccupancyMap) -> OccupancyImage:
         """The occupied and the unknown pixels of a map (:meth:`OccupancyMap.blocked`)."""
         return cls(np.array(occupancy.blocked()), occupancy.resolution, occupancy.frame)

@@ -164,12 +164,14 @@ class WorldConfig:
 class ContinuousWorld:
     """The map, the clutter placed on it, and where the robot may be.
 
-    ``obstacles`` (what rays hit) = the map's occupied pixels + clutter discs; unknown pixels do not
-    stop a ray (what is there is not known) but the robot never stands on them."""
+    What rays hit: the map's occupied *and unknown* pixels (a SLAM map's unknown space lies behind
+    walls, and its outline has gaps where a wall was seen poorly; a real laser hits the wall
+    there) plus the clutter discs. The robot stands only on free pixels. Given an
+    :class:`OccupancyImage` instead of a map, its ``blocked`` pixels are both."""
 
     def __init__(self, occupancy: OccupancyMap | OccupancyImage, config: WorldConfig, rng: np.random.Generator):
         if isinstance(occupancy, OccupancyMap):
-            occupied = OccupancyImage.occupied_of(occupancy)
+            occupied = OccupancyImage.blocked_of(occupancy)
             standing = np.asarray(occupancy.pixels == Occupancy.FREE)
         else:
             occupied = occupancy
@@ -388,7 +390,7 @@ def simulate_run(
     *,
     start_ns: int = 1_700_000_000_000_000_000,
     odom_rate: float = 20.0,
-    scan_rate: float = 7.75,
+    scan_rate: float = 7.77,
     dt: float = 0.005,
 ) -> Run:
     """Drive the robot from ``start`` (map frame) through ``plan`` and record it.

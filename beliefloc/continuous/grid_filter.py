@@ -1,0 +1,594 @@
+"""The grid filter of the real world: Fox, Burgard & Thrun's grid-based Markov localization with
+AMCL's model family, over every pose at once.
+
+The belief ``bel[k, r, c]`` is over headings ``k`` (beliefloc's: heading 0 up the map image, then
+clockwise, :func:`~beliefloc.continuous.motion.grid_yaws`) × the cells ``(r, c)`` of a window of
+the grid laid over the occupancy image (:mod:`beliefloc.semantic_map.occupancy_grid`; the window is
+the bounding box of the cells that are states). Each update is Bayes' rule with the odometry
+motion model and the laser's likelihood field::
+
+    bel'(s')  = sum_s p(s' | s, u) bel(s)                 (predict_grid: u the odometry delta)
+    bel''(s') = eta p(z | s') bel'(s')                    (LikelihoodField.scan_log_likelihood)
+
+**When to update** (AMCL's ``update_min_d`` / ``update_min_a``): the first scan, then a scan when
+the odometry has moved at least ``update_min_d`` metres or turned ``update_min_a`` radians since
+the last update -- and every scan while the base turns faster than ``turning_rate`` (a turn sweeps
+the scan over new walls quickly; its sweeps are de-skewed by the caller).
+
+**Verdicts.** After each update the belief's *modes* are found (the best state, the mass within
+``mode_radius`` and ``mode_yaw`` of it, then the best state outside that, ...). The robot is
+*localized* only when the first mode holds at least ``threshold`` of the mass AND the recent scans
+fit its pose (:mod:`beliefloc.continuous.fit`). When the scans stop fitting a confident belief, a
+little uniform mass is mixed back in (AMCL's recovery; Fox et al.'s re-spreading), so that a
+kidnapped robot can be found again.
+
+**The pose** is the best state's refined against the field: a local search over continuous
+``(x, y, yaw)`` around the state's cell centre and heading, scored beam by beam with ``sigma_hit``.
+Its covariance is the belief's (the law of total covariance, as :func:`beliefloc.pose.belief_pose`:
+between states plus the cell's and sector's own spread).
+
+Pure numpy/scipy, no I/O.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from beliefloc.continuous.fit import FitConfig, FitTracker, inlier_fraction, surprise
+from beliefloc.continuous.image import OccupancyImage
+from beliefloc.continuous.likelihood_field import Beams, CellWindow, LaserModel, LikelihoodField
+from beliefloc.continuous.motion import OdometryNoise, compose, grid_yaws, odometry_parts, predict_grid, relative
+from beliefloc.model import wrap_angle
+from beliefloc.occupancy import OccupancyMap
+from beliefloc.semantic_map.occupancy_grid import free_cells
+
+
+@dataclass(frozen=True)
+class FilterConfig:
+    """The grid filter's parameters; the defaults suit a TurtleBot-sized robot with a 2-D lidar."""
+
+    cell_size: float = 0.1
+    """Metres: the side of a cell (a state's position region)."""
+    headings: int = 36
+    """Heading sectors (36: 10° each)."""
+    robot_radius: float = 0.15
+    """Metres: a cell is a state when a disc of this radius on its centre touches no occupied or
+    unknown pixel (:func:`~beliefloc.semantic_map.occupancy_grid.free_cells`)."""
+    odometry: OdometryNoise = field(default_factory=OdometryNoise)
+    """AMCL's ``alpha1..alpha4`` (0.2 each)."""
+    laser: LaserModel = field(default_factory=LaserModel)
+    """AMCL's likelihood field parameters."""
+    fit: FitConfig = field(default_factory=FitConfig)
+    update_min_d: float = 0.25
+    """Metres of odometry translation between updates (AMCL ``update_min_d``, Nav2's 0.25)."""
+    update_min_a: float = 0.2
+    """Radians of odometry rotation between updates (AMCL ``update_min_a``, Nav2's 0.2)."""
+    turning_rate: float = 0.1
+    """Rad/s: while the base turns faster than this, every scan updates."""
+    threshold: float = 0.95
+    """The mass the first mode must hold to call the robot localized."""
+    mode_radius: float = 0.5
+    """Metres: states this close to a mode's best state (and within :attr:`mode_yaw`) are the mode."""
+    mode_yaw: float = math.radians(30.0)
+    """Radians: the heading half-width of a mode."""
+    max_modes: int = 5
+    """Modes listed at most."""
+    rival_margin: float = 0.05
+    """Nats per beam: a rival place whose refined pose explains the scan within this of the best's
+    refined pose makes the scan ambiguous; localized needs :attr:`distinct_updates` unambiguous
+    updates in a row. *Rivals* are the places the belief once held (a mode of at least
+    :attr:`rival_min` beyond ``mode_radius`` of the best, or a former best), carried along by the
+    odometry even after their mass is gone, until the scans rule them out (:attr:`rival_drop`). The
+    belief alone is not trusted here: its states are scored at points, and a place that happens to
+    lie between them loses about 2 nats per scan against its twin (measured on the near-symmetric
+    TurtleBot3 sandbox, where the wrong twin went to p = 1 in 30 updates while the refined poses
+    explained the scans alike)."""
+    rival_min: float = 1e-3
+    """The mass a mode must hold once to become a rival."""
+    rival_drop: float = 0.3
+    """Nats per beam: a rival explained worse than the best by this much, :attr:`distinct_updates`
+    updates in a row, is ruled out by the scans and forgotten."""
+    max_rivals: int = 8
+    """Rivals carried at most (the closest to the best's likelihood kept)."""
+    history: int = 20
+    """Updates remembered (odometry and beams) for the global rival search: before a place is
+    called, every state of the map is scored against the current scan (not only those the belief
+    still holds), the best other places are refined, and each is scored over these updates -- its
+    pose carried back along the odometry -- against the best's. One that the remembered scans do
+    not rule out (within ``rival_drop`` per beam) becomes a rival. Measured: without it, a coarse
+    filter (0.2 m cells) on a short depot run pruned the true place in its first updates and
+    declared a look-alike aisle 15 m away."""
+    history_margin: float = 1.0
+    """Nats per remembered update: a place is also told apart from every rival when, over the
+    remembered updates (each rival carried back along the odometry), it explains the scans better
+    by this much per update (20 nats over 20 updates) and no rival explains the current scan
+    better by ``rival_margin`` per beam -- the earlier scans (a room passed, a corner turned) decide
+    what the current one in a self-similar corridor cannot."""
+    global_check_every: int = 5
+    """While a place holds the threshold, the global rival search runs again every this many updates."""
+    distinct_updates: int = 3
+    """Unambiguous updates in a row that localized needs."""
+    recovery_alpha: float = 0.02
+    """The uniform mass mixed in after an update whose scans do not fit a confident belief, or that a
+    rival explains far better (by ``rival_drop`` per beam) than the belief's best place."""
+    sub_poses: bool = False
+    """Score each state as the best of four sub-poses a quarter cell from its centre
+    (:meth:`LikelihoodField.scan_log_likelihood`): less bias towards places that happen to align
+    with the cells, at 4x the laser update's cost. Off by default: with the rivals guarding the
+    verdict, 10 generated depot and sandbox runs ended the same with and without (0 confidently
+    wrong updates, depot within 4 cm), and one update over 10^6 states takes 0.036 s instead of 0.14 s."""
+    negligible: float = 1e-12
+    """States whose probability is below this fraction of the most probable state's are set to 0
+    after an update (27 nats of evidence would be needed to bring one back), so that prediction
+    and scoring run only over the box of states that still matter."""
+    beam_weight: float = 1.0
+    """Exponent on each beam's likelihood (1: beams independent, Table 6.3). Below 1 tempers the
+    update for beams that are not independent."""
+
+    def __post_init__(self) -> None:
+        checks = {
+            "cell_size": self.cell_size > 0,
+            "headings": self.headings >= 1,
+            "robot_radius": self.robot_radius >= 0,
+            "update_min_d": self.update_min_d >= 0,
+            "update_min_a": self.update_min_a >= 0,
+            "turning_rate": self.turning_rate > 0,
+            "threshold": 0 < self.threshold <= 1,
+            "mode_radius": self.mode_radius > 0,
+            "mode_yaw": self.mode_yaw > 0,
+            "max_modes": self.max_modes >= 1,
+            "rival_margin": self.rival_margin >= 0,
+            "rival_min": 0 < self.rival_min < 1,
+            "rival_drop": self.rival_drop >= self.rival_margin,
+            "max_rivals": self.max_rivals >= 0,
+            "history": self.history >= 1,
+            "global_check_every": self.global_check_every >= 1,
+            "history_margin": self.history_margin > 0,
+            "distinct_updates": self.distinct_updates >= 1,
+            "recovery_alpha": 0 <= self.recovery_alpha < 1,
+            "beam_weight": 0 < self.beam_weight <= 1,
+            "negligible": 0 <= self.negligible < 1,
+        }
+        for name, ok in checks.items():
+            value = getattr(self, name)
+            if not ok or not math.isfinite(value):
+                raise ValueError(f"FilterConfig.{name}: {value} is out of range")
+
+
+@dataclass(frozen=True)
+class Mode:
+    """One place the belief holds: its best state's (refined, for the first) pose and its mass."""
+
+    x: float
+    y: float
+    yaw: float
+    probability: float
+
+    def as_json(self) -> dict[str, float]:
+        return {"x": self.x, "y": self.y, "yaw": self.yaw, "probability": self.probability}
+
+
+@dataclass(frozen=True)
+class Update:
+    """What one filter update found."""
+
+    stamp: int
+    """The scan's header stamp, integer nanoseconds."""
+    x: float
+    y: float
+    yaw: float
+    """The refined pose of the belief's best state (map frame)."""
+    max_probability: float
+    """The mass of the first mode (see :attr:`FilterConfig.mode_radius`)."""
+    localized: bool
+    fraction: float
+    """The inlier fraction of this update's beams at the pose."""
+    surprise: float
+    """Nats per beam (see :func:`beliefloc.continuous.fit.surprise`)."""
+    modes: tuple[Mode, ...]
+    beams: int
+    recovered: bool = False
+    """Uniform mass was mixed back in after this update (the scans did not fit a confident belief)."""
+    rival_gap: float = math.inf
+    """Nats: how much better the best pose explains the scan than the best rival place's (refined);
+    inf with no rival."""
+    remembered_gap: float = math.inf
+    """Nats: the same over the remembered updates (each rival carried back along the odometry)."""
+
+    def as_json(self) -> dict[str, object]:
+        """A timeline entry of ``track --bag --json``."""
+        return {
+            "stamp": self.stamp,
+            "x": self.x,
+            "y": self.y,
+            "yaw": self.yaw,
+            "max_probability": self.max_probability,
+            "localized": self.localized,
+        }
+
+
+class GridFilter:
+    """The belief over a map's free cells × headings and its updates."""
+
+    def __init__(self, occupancy: OccupancyMap, config: FilterConfig, *, reach: float) -> None:
+        """``reach`` (metres): the farthest beam end point from the base that is scored (the laser's
+        maximum range plus its mount offset)."""
+        self.config = config
+        self.occupancy = occupancy
+        free = free_cells(occupancy.blocked(), occupancy.resolution, config.cell_size, config.robot_radius)
+        if not free.any():
+            raise ValueError(
+                f"no cell of {config.cell_size:g} m is a state: the robot's radius {config.robot_radius:g} m fits "
+                "nowhere in the map's free space"
+            )
+        rows = np.flatnonzero(free.any(axis=1))
+        cols = np.flatnonzero(free.any(axis=0))
+        self.window = CellWindow(
+            config.cell_size,
+            free.shape[0],
+            int(rows[0]),
+            int(cols[0]),
+            int(rows[-1] - rows[0] + 1),
+            int(cols[-1] - cols[0] + 1),
+        )
+        w = self.window
+        self.free = np.ascontiguousarray(free[w.row0 : w.row0 + w.rows, w.col0 : w.col0 + w.cols])
+        """``free[r, c]`` over the window: the cell is a state."""
+        self.yaws = grid_yaws(config.headings)
+        """Heading ``k``'s yaw in the grid frame (the map frame's yaw less the map origin's)."""
+        self.field = LikelihoodField(
+            OccupancyImage.walls_of(occupancy), w, config.laser, reach, config.headings, sub_poses=config.sub_poses
+        )
+        gx, gy = w.centres_grid()
+        self.cell_x, self.cell_y = occupancy.frame.to_map(gx, gy)
+        """Map-frame centres of the window's cells, ``(rows, cols)``."""
+        self.map_yaws = wrap_angle(self.yaws + occupancy.frame.yaw)
+        """Heading ``k``'s yaw in the map frame."""
+        self.belief = self.uniform()
+        self.fit = FitTracker(config.fit)
+        self.last_odometry: np.ndarray | None = None
+        self.updates = 0
+        self.distinct_streak = 0
+        """Updates in a row in which no rival place explained the scan about as well as the best."""
+        self.rivals: list[list[float]] = []
+        """Rival places: ``[x, y, yaw, strikes]`` (map frame), carried by the odometry; ``strikes``
+        counts the updates in a row in which the scans ruled the place out."""
+        self._last_best: tuple[float, float, float] | None = None
+        self._history: deque[tuple[np.ndarray, Beams]] = deque(maxlen=config.history)
+        self._since_global = math.inf
+
+    @property
+    def n_states(self) -> int:
+        return int(self.free.sum()) * self.config.headings
+
+    def uniform(self) -> np.ndarray:
+        """The uniform belief over the states (``(headings, rows, cols)``)."""
+        b = np.broadcast_to(self.free, (self.config.headings, *self.free.shape)).astype(np.float64)
+        uniform: np.ndarray = b / b.sum()
+        return uniform
+
+    # --- the update ---------------------------------------------------------------------------
+
+    def wants_update(self, odometry: np.ndarray, angular_speed: float) -> bool:
+        """Whether a scan at odometry pose ``odometry`` (odom frame) should update the belief."""
+        if self.last_odometry is None:
+            return True
+        c = self.config
+        delta = relative(self.last_odometry, np.asarray(odometry, dtype=np.float64))
+        return bool(
+            math.hypot(delta[0], delta[1]) >= c.update_min_d
+            or abs(delta[2]) >= c.update_min_a
+            or abs(angular_speed) >= c.turning_rate
+        )
+
+    def update(self, stamp: int, odometry: np.ndarray, beams: Beams) -> Update:
+        """Predict by the odometry since the last update (none for the first) and correct by the
+        scan's ``beams``; returns what the updated belief says."""
+        c = self.config
+        odom = np.asarray(odometry, dtype=np.float64).reshape(3)
+        predicted = self.belief
+        if self.last_odometry is not None:
+            d = relative(self.last_odometry, odom)
+            predicted = self._predict((float(d[0]), float(d[1]), float(d[2])))
+            if self.rivals:
+                moved = compose(np.array([r[:3] for r in self.rivals]), d)
+                for rival, pose in zip(self.rivals, moved, strict=True):
+                    rival[:3] = [float(v) for v in pose]
+            if self._last_best is not None:
+                self._last_best = tuple(float(v) for v in compose(np.array([self._last_best]), d)[0])  # type: ignore[assignment]
+            if not predicted.sum() > 0:  # everything moved into walls: start over
+                predicted = self.uniform()
+        self.last_odometry = odom
+        box, ll = self._log_likelihood(beams, predicted)
+        r0, r1, c0, c1 = box
+        inside = predicted[:, r0:r1, c0:c1]
+        surprise_per_beam = surprise(inside, ll, beams.count)  # no mass outside the box
+        top = float(ll.max())
+        posterior = np.zeros_like(predicted)
+        posterior[:, r0:r1, c0:c1] = inside * np.exp(ll - top)
+        total = float(posterior.sum())
+        if not total > 0:  # the readings ruled out every predicted state: keep the readings' verdict
+            uniform = self.uniform()
+            box, ll = self._log_likelihood(beams, uniform)
+            r0, r1, c0, c1 = box
+            top = float(ll.max())
+            posterior = np.zeros_like(predicted)
+            posterior[:, r0:r1, c0:c1] = uniform[:, r0:r1, c0:c1] * np.exp(ll - top)
+            total = float(posterior.sum())
+        posterior /= total
+        if c.negligible > 0:
+            posterior[posterior < c.negligible * float(posterior.max())] = 0.0
+        self.belief = posterior
+        self.updates += 1
+        modes = self.modes()
+        x, y, yaw = self.refine((modes[0].x, modes[0].y, modes[0].yaw), beams)
+        best = Mode(x, y, yaw, modes[0].probability)
+        modes = (best, *modes[1:])
+        self._remember_rivals(best, modes[1:])
+        self._history.append((odom, beams))
+        self._since_global += 1
+        if best.probability >= c.threshold and self._since_global >= c.global_check_every:
+            self._search_rivals(best, beams)
+            self._since_global = 0
+        elif best.probability < c.threshold:
+            self._since_global = math.inf
+        gap, remembered_gap = self.rival_gap(best, beams)
+        if beams.count and gap >= c.rival_margin * beams.count:
+            self.distinct_streak += 1
+        else:
+            self.distinct_streak = 0
+        told_apart = (
+            len(self._history) >= c.distinct_updates
+            and remembered_gap >= c.history_margin * len(self._history)
+            and gap > -c.rival_margin * beams.count
+        )
+        distances = self.field.end_point_distances(np.array([best.x, best.y, best.yaw]), beams)
+        fraction = inlier_fraction(distances, c.fit.inlier_distance)
+        self.fit.add(fraction, surprise_per_beam)
+        fits = self.fit.fits()
+        distinct = self.distinct_streak >= c.distinct_updates or told_apart
+        localized = best.probability >= c.threshold and fits and distinct
+        recovered = False
+        unfit = best.probability >= c.threshold and not fits and len(self.fit.fractions) >= c.fit.window
+        outdone = beams.count > 0 and gap < -c.rival_drop * beams.count  # a rival explains the scan far better
+        if (unfit or outdone) and c.recovery_alpha > 0:
+            self.belief = (1 - c.recovery_alpha) * self.belief + c.recovery_alpha * self.uniform()
+            recovered = True
+        return Update(
+            stamp=int(stamp),
+            x=best.x,
+            y=best.y,
+            yaw=best.yaw,
+            max_probability=best.probability,
+            localized=localized,
+            fraction=fraction,
+            surprise=surprise_per_beam,
+            modes=modes,
+            beams=beams.count,
+            recovered=recovered,
+            rival_gap=gap,
+            remembered_gap=remembered_gap,
+        )
+
+    def _box(self, belief: np.ndarray, margin: int) -> tuple[int, int, int, int]:
+        """``(r0, r1, c0, c1)``: the window's rows and columns holding mass, grown by ``margin``."""
+        cells: np.ndarray = np.any(belief, axis=0)
+        rows = np.flatnonzero(cells.any(axis=1))
+        cols = np.flatnonzero(cells.any(axis=0))
+        if rows.size == 0:
+            return 0, self.free.shape[0], 0, self.free.shape[1]
+        return (
+            max(0, int(rows[0]) - margin),
+            min(self.free.shape[0], int(rows[-1]) + margin + 1),
+            max(0, int(cols[0]) - margin),
+            min(self.free.shape[1], int(cols[-1]) + margin + 1),
+        )
+
+    def _predict(self, delta: tuple[float, float, float]) -> np.ndarray:
+        """:func:`predict_grid` over the box of states holding mass, grown by the motion's reach."""
+        c = self.config
+        parts = odometry_parts(delta, c.odometry)
+        reach = parts.trans + 5.0 * (parts.sd_trans + parts.trans * parts.sd_rot1)
+        margin = math.ceil(reach / c.cell_size) + 3
+        r0, r1, c0, c1 = self._box(self.belief, margin)
+        out = np.zeros_like(self.belief)
+        out[:, r0:r1, c0:c1] = predict_grid(
+            self.belief[:, r0:r1, c0:c1], self.yaws, c.cell_size, delta, c.odometry, self.free[r0:r1, c0:c1]
+        )
+        return out
+
+    def _log_likelihood(self, beams: Beams, predicted: np.ndarray) -> tuple[tuple[int, int, int, int], np.ndarray]:
+        """``(box, ll)``: the box ``(r0, r1, c0, c1)`` of the window's cells where the predicted belief
+        holds mass, and the scan's log-likelihood (times ``beam_weight``) over its states, ``-inf``
+        on headings without mass and on cells that are not states. Shape ``(headings, r1-r0, c1-c0)``."""
+        c = self.config
+        r0, r1, c0, c1 = self._box(predicted, 0)
+        active: np.ndarray = np.any(predicted.reshape(predicted.shape[0], -1), axis=1)
+        ll = self.field.scan_log_likelihood(beams, self.yaws, active=active, region=(r0, r1, c0, c1)).astype(np.float64)
+        if c.beam_weight != 1.0:
+            ll *= c.beam_weight
+        ll[~active] = -np.inf
+        ll[:, ~self.free[r0:r1, c0:c1]] = -np.inf
+        return (r0, r1, c0, c1), ll
+
+    # --- reading the belief ----------------------------------------------------------------------
+
+    def modes(self) -> tuple[Mode, ...]:
+        """The belief's modes, most probable first: each the best state left (its cell centre and
+        heading yaw), and the mass within :attr:`FilterConfig.mode_radius` and
+        :attr:`FilterConfig.mode_yaw` of it (then removed); until a mode holds less than 1 %."""
+        c = self.config
+        rest = self.belief.copy()
+        headings = c.headings
+        reach = math.ceil(c.mode_radius / c.cell_size)
+        dr, dc = np.mgrid[-reach : reach + 1, -reach : reach + 1]
+        disk = np.hypot(dr, dc) * c.cell_size <= c.mode_radius
+        sector = 2 * math.pi / headings
+        yaw_reach = min(headings // 2, math.floor(c.mode_yaw / sector + 1e-9))
+        found: list[Mode] = []
+        rows, cols = self.free.shape
+        for _ in range(c.max_modes):
+            k, r, col = (int(v) for v in np.unravel_index(int(np.argmax(rest)), rest.shape))
+            if rest[k, r, col] <= 0:
+                break
+            ks = np.arange(k - yaw_reach, k + yaw_reach + 1) % headings
+            ks = np.unique(ks)
+            r0, r1 = max(0, r - reach), min(rows, r + reach + 1)
+            c0, c1 = max(0, col - reach), min(cols, col + reach + 1)
+            mask = disk[r0 - r + reach : r1 - r + reach, c0 - col + reach : c1 - col + reach]
+            patch = rest[ks, r0:r1, c0:c1]
+            mass = float((patch * mask).sum())
+            rest[ks, r0:r1, c0:c1] = patch * ~mask
+            pose = self.state_pose(int(k), int(r), int(col))
+            found.append(Mode(pose[0], pose[1], pose[2], mass))
+            if mass < 0.01 and found:
+                break
+        return tuple(found)
+
+    def _remember_rivals(self, best: Mode, others: tuple[Mode, ...]) -> None:
+        """Add as rivals the modes holding at least ``rival_min`` and the former best, when they lie
+        beyond ``mode_radius`` of the best and of every rival already carried."""
+        c = self.config
+        candidates = [(m.x, m.y, m.yaw) for m in others if m.probability >= c.rival_min]
+        if self._last_best is not None:
+            candidates.append(self._last_best)
+        self._last_best = (best.x, best.y, best.yaw)
+        for x, y, yaw in candidates:
+            if math.hypot(x - best.x, y - best.y) <= c.mode_radius:
+                continue
+            if any(math.hypot(x - r[0], y - r[1]) <= c.mode_radius for r in self.rivals):
+                continue
+            self.rivals.append([x, y, yaw, 0.0])
+
+    def _search_rivals(self, best: Mode, beams: Beams) -> None:
+        """The global rival search (:attr:`FilterConfig.history`): score every state against the
+        scan, take the best places beyond ``mode_radius`` of ``best`` (by suppression, as
+        :meth:`modes`), refine them, and add as rivals those the remembered scans do not rule out."""
+        c = self.config
+        if beams.count == 0:
+            return
+        ll = self.field.scan_log_likelihood(beams, self.yaws)
+        ll[:, ~self.free] = -np.inf
+        far = np.hypot(self.cell_x - best.x, self.cell_y - best.y) > c.mode_radius
+        ll[:, ~far] = -np.inf
+        reach = math.ceil(c.mode_radius / c.cell_size)
+        rows, cols = self.free.shape
+        candidates = []
+        for _ in range(c.max_modes):
+            k, r, col = (int(v) for v in np.unravel_index(int(np.argmax(ll)), ll.shape))
+            if not np.isfinite(ll[k, r, col]):
+                break
+            candidates.append(self.state_pose(k, r, col))
+            ll[
+                :, max(0, r - reach) : min(rows, r + reach + 1), max(0, col - reach) : min(cols, col + reach + 1)
+            ] = -np.inf
+        if not candidates:
+            return
+        mine = self._history_score((best.x, best.y, best.yaw))
+        total_beams = sum(b.count for _, b in self._history)
+        for pose in candidates:
+            refined = self.refine(pose, beams)
+            if math.hypot(refined[0] - best.x, refined[1] - best.y) <= c.mode_radius:
+                continue
+            if mine - self._history_score(refined) > c.rival_drop * total_beams:
+                continue  # the remembered scans rule it out
+            if any(math.hypot(refined[0] - r[0], refined[1] - r[1]) <= c.mode_radius for r in self.rivals):
+                continue
+            self.rivals.append([refined[0], refined[1], refined[2], 0.0])
+
+    def _history_score(self, pose: tuple[float, float, float]) -> float:
+        """The remembered scans' log-likelihood (sum) for the robot at ``pose`` now, carried back
+        along the odometry to each remembered update."""
+        if not self._history:
+            return 0.0
+        now = self._history[-1][0]
+        total = 0.0
+        for odom, beams in self._history:
+            back = compose(np.array([pose]), relative(now, odom))[0]
+            total += float(self.field.pose_log_likelihood(back[None, :], beams)[0])
+        return total
+
+    def rival_gap(self, best: Mode, beams: Beams) -> tuple[float, float]:
+        """``(now, remembered)``: ``min`` over the rivals farther than ``mode_radius`` from ``best``
+        of the scan's log-likelihood at ``best``'s pose less at the rival's refined pose, and of the
+        same summed over the remembered updates (:meth:`_history_score`); inf with no rival.
+        Refines every rival's pose in place, forgets rivals the scans have ruled out
+        (:attr:`FilterConfig.rival_drop`) and keeps the :attr:`FilterConfig.max_rivals` closest."""
+        if beams.count == 0:
+            return math.inf, math.inf
+        c = self.config
+        mine = float(self.field.pose_log_likelihood(np.array([[best.x, best.y, best.yaw]]), beams)[0])
+        mine_remembered = self._history_score((best.x, best.y, best.yaw)) if self.rivals else 0.0
+        kept: list[tuple[float, list[float]]] = []
+        gap = remembered = math.inf
+        for rival in self.rivals:
+            pose = self.refine((rival[0], rival[1], rival[2]), beams)
+            if math.hypot(pose[0] - best.x, pose[1] - best.y) <= c.mode_radius:
+                continue  # the same place as the best: not a rival
+            theirs = float(self.field.pose_log_likelihood(np.array([pose]), beams)[0])
+            difference = mine - theirs
+            strikes = rival[3] + 1 if difference > c.rival_drop * beams.count else 0.0
+            if strikes >= c.distinct_updates:
+                continue  # ruled out by the scans
+            gap = min(gap, difference)
+            remembered = min(remembered, mine_remembered - self._history_score(pose))
+            kept.append((difference, [pose[0], pose[1], pose[2], strikes]))
+        kept.sort(key=lambda item: item[0])
+        self.rivals = [r for _, r in kept[: c.max_rivals]]
+        return gap, remembered
+
+    def state_pose(self, k: int, r: int, c: int) -> tuple[float, float, float]:
+        """Map-frame pose of window state ``(k, r, c)``: its cell's centre and heading's yaw."""
+        return float(self.cell_x[r, c]), float(self.cell_y[r, c]), float(self.map_yaws[k])
+
+    def refine(self, start: tuple[float, float, float], beams: Beams, rounds: int = 4) -> tuple[float, float, float]:
+        """A pose finer than a cell: from ``start`` (a state's pose), a local search over continuous
+        ``(x, y, yaw)`` -- a 5 x 5 x 7 lattice spanning a cell and a heading sector either side,
+        then three times again at 0.4 of the span around the best (a final step of 3 mm and 0.2°)
+        -- maximising the scan's log-likelihood with ``sigma_hit``
+        (:meth:`LikelihoodField.pose_log_likelihood`)."""
+        if beams.count == 0:
+            return start
+        c = self.config
+        best = np.array(start, dtype=np.float64)
+        span_xy, span_yaw = c.cell_size, 2 * math.pi / c.headings
+        for _ in range(rounds):
+            ox = np.linspace(-span_xy, span_xy, 5)
+            oyaw = np.linspace(-span_yaw, span_yaw, 7)
+            gx, gy, gyaw = np.meshgrid(ox, ox, oyaw, indexing="ij")
+            poses = np.stack([best[0] + gx.ravel(), best[1] + gy.ravel(), best[2] + gyaw.ravel()], axis=1)
+            scores = self.field.pose_log_likelihood(poses, beams)
+            best = poses[int(np.argmax(scores))]
+            span_xy *= 0.4
+            span_yaw *= 0.4
+        return float(best[0]), float(best[1]), float(wrap_angle(best[2]))
+
+    def covariance(self, pose: tuple[float, float, float] | None = None) -> np.ndarray:
+        """The belief's 6x6 ROS covariance over ``(x, y, z, rot_x, rot_y, rot_z)``: between the states
+        (about the belief's mean; the yaw circular) plus within one (``cell²/12`` per axis,
+        ``sector²/12`` for the yaw), as :func:`beliefloc.pose.belief_pose` computes it."""
+        c = self.config
+        b = self.belief
+        cell_mass = b.sum(axis=0)
+        heading_mass = b.sum(axis=(1, 2))
+        x, y = self.cell_x, self.cell_y
+        mx, my = float((cell_mass * x).sum()), float((cell_mass * y).sum())
+        dx, dy = x - mx, y - my
+        cov = np.zeros((6, 6))
+        cell_var = c.cell_size**2 / 12.0
+        cov[0, 0] = float((cell_mass * dx * dx).sum()) + cell_var
+        cov[1, 1] = float((cell_mass * dy * dy).sum()) + cell_var
+        cov[0, 1] = cov[1, 0] = float((cell_mass * dx * dy).sum())
+        s, co = float(heading_mass @ np.sin(self.map_yaws)), float(heading_mass @ np.cos(self.map_yaws))
+        centre = math.atan2(s, co) if math.hypot(s, co) > 1e-9 else (pose[2] if pose else 0.0)
+        dyaw = wrap_angle(self.map_yaws - centre)
+        cov[5, 5] = float(heading_mass @ (dyaw * dyaw)) + (2 * math.pi / c.headings) ** 2 / 12.0
+        per_heading_x = (b * dx[None]).sum(axis=(1, 2))
+        per_heading_y = (b * dy[None]).sum(axis=(1, 2))
+        cov[0, 5] = cov[5, 0] = float(per_heading_x @ dyaw)
+        cov[1, 5] = cov[5, 1] = float(per_heading_y @ dyaw)
+        return cov

@@ -1,0 +1,150 @@
+"""The grid filter and the surprise check: gating, localizing a robot in a room, refinement,
+covariance, a kidnapped robot and a symmetric room."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from beliefloc.continuous.fit import FitConfig, FitTracker, inlier_fraction, surprise
+from beliefloc.continuous.grid_filter import FilterConfig, GridFilter
+from beliefloc.continuous.likelihood_field import LaserModel, Scan, select_beams
+from beliefloc.continuous.raycast import cast_rays
+from beliefloc.model import MapFrame
+from beliefloc.occupancy import Occupancy, OccupancyMap
+
+MOUNT = (0.0, 0.0, math.pi / 2)
+ANGLES = np.linspace(-math.pi, math.pi, 360, endpoint=False)
+
+
+def _map(pixels: np.ndarray) -> OccupancyMap:
+    from pathlib import Path
+
+    return OccupancyMap(Path("room.yaml"), Path("room.pgm"), 0.05, MapFrame(-1.0, -0.5, 0.0), pixels, "test")
+
+
+def _room(symmetric: bool = False) -> OccupancyMap:
+    """A 4 m x 3 m room; unless symmetric, a box in one corner and a pillar break its symmetry."""
+    pixels = np.full((60, 80), Occupancy.FREE, dtype=np.uint8)
+    pixels[0, :] = pixels[-1, :] = pixels[:, 0] = pixels[:, -1] = Occupancy.OCCUPIED
+    if not symmetric:
+        pixels[5:15, 8:22] = Occupancy.OCCUPIED
+        pixels[40:44, 55:59] = Occupancy.OCCUPIED
+    return _map(pixels)
+
+
+def _beams(occupancy: OccupancyMap, pose: tuple[float, float, float], model: LaserModel):  # type: ignore[no-untyped-def]
+    from beliefloc.continuous.image import OccupancyImage
+
+    image = OccupancyImage.occupied_of(occupancy)
+    laser = (pose[0], pose[1], pose[2] + MOUNT[2])
+    ranges = cast_rays(image, laser[0], laser[1], laser[2] + ANGLES, 8.0)
+    scan = Scan(float(ANGLES[0]), float(ANGLES[1] - ANGLES[0]), ranges, 0.1, 8.0)
+    return select_beams(scan, model, MOUNT)
+
+
+def _drive(grid: GridFilter, occupancy: OccupancyMap, poses: list[tuple[float, float, float]]) -> list:  # type: ignore[type-arg]
+    """Feed the filter a scan at each pose with exact odometry (odom frame = map frame here)."""
+    updates = []
+    for n, pose in enumerate(poses):
+        odom = np.array(pose)
+        if grid.wants_update(odom, 0.0):
+            updates.append(grid.update(n, odom, _beams(occupancy, pose, grid.config.laser)))
+    return updates
+
+
+def _path() -> list[tuple[float, float, float]]:
+    start = (-0.2, 0.7, 0.1)
+    return [(start[0] + 0.25 * step * math.cos(0.1), start[1] + 0.25 * step * math.sin(0.1), 0.1) for step in range(10)]
+
+
+def test_localizes_in_an_asymmetric_room() -> None:
+    occupancy = _room()
+    grid = GridFilter(occupancy, FilterConfig(), reach=8.5)
+    updates = _drive(grid, occupancy, _path())
+    last = updates[-1]
+    truth = _path()[-1]
+    assert last.localized
+    assert math.hypot(last.x - truth[0], last.y - truth[1]) < 0.05
+    assert abs(math.remainder(last.yaw - truth[2], 2 * math.pi)) < math.radians(3)
+    cov = grid.covariance((last.x, last.y, last.yaw))
+    assert cov.shape == (6, 6)
+    assert np.allclose(cov, cov.T)
+    assert np.all(np.linalg.eigvalsh(cov[np.ix_([0, 1, 5], [0, 1, 5])]) > 0)
+    assert math.sqrt(cov[0, 0]) < 0.1
+
+
+def test_updates_are_gated_by_motion() -> None:
+    occupancy = _room()
+    grid = GridFilter(occupancy, FilterConfig(update_min_d=0.25, update_min_a=0.2), reach=8.5)
+    assert grid.wants_update(np.zeros(3), 0.0)  # the first scan
+    grid.update(0, np.zeros(3), _beams(occupancy, (0.5, 0.6, 0.0), grid.config.laser))
+    assert not grid.wants_update(np.array([0.1, 0.0, 0.05]), 0.0)
+    assert grid.wants_update(np.array([0.26, 0.0, 0.0]), 0.0)
+    assert grid.wants_update(np.array([0.0, 0.0, 0.21]), 0.0)
+    assert grid.wants_update(np.array([0.0, 0.0, 0.05]), 0.3)  # turning: every scan
+
+
+def test_refinement_finds_the_pose_between_cells() -> None:
+    occupancy = _room()
+    grid = GridFilter(occupancy, FilterConfig(), reach=8.5)
+    truth = (1.237, 0.873, 0.41)
+    beams = _beams(occupancy, truth, grid.config.laser)
+    refined = grid.refine((1.2, 0.85, 0.35), beams)
+    assert math.hypot(refined[0] - truth[0], refined[1] - truth[1]) < 0.02
+    assert abs(refined[2] - truth[2]) < math.radians(1)
+
+
+def test_a_symmetric_room_is_never_declared_localized() -> None:
+    """A plain rectangle looks the same from a pose and its 180-degree twin: the filter must not
+    call either, whatever the belief's mass does."""
+    occupancy = _room(symmetric=True)
+    grid = GridFilter(occupancy, FilterConfig(), reach=8.5)
+    updates = _drive(grid, occupancy, _path())
+    assert not any(u.localized for u in updates)
+    assert len(updates[-1].modes) >= 2
+
+
+def test_a_kidnapped_robot_is_not_localized_where_it_was() -> None:
+    occupancy = _room()
+    grid = GridFilter(occupancy, FilterConfig(), reach=8.5)
+    updates = _drive(grid, occupancy, _path())
+    assert updates[-1].localized
+    # carried to the other side of the room; the odometry says it only turned in place
+    odom = np.array(_path()[-1])
+    after = []
+    for n in range(6):
+        odom = odom + np.array([0.0, 0.0, 0.25])
+        pose = (2.3, 0.0, math.pi + 0.25 * n)
+        after.append(grid.update(100 + n, odom, _beams(occupancy, pose, grid.config.laser)))
+    first = after[0]
+    assert first.beams > 0
+    assert first.fraction < grid.config.fit.min_inlier_fraction or first.surprise < grid.config.fit.min_surprise
+    assert not first.localized
+    for u in after:
+        wrong = math.hypot(u.x - _path()[-1][0], u.y - _path()[-1][1]) < 0.5
+        assert not (u.localized and wrong)
+
+
+def test_fit_numbers() -> None:
+    assert inlier_fraction(np.array([0.0, 0.1, 0.5, 1.0]), 0.2) == 0.5
+    assert inlier_fraction(np.array([]), 0.2) == 1.0
+    ll = np.array([-10.0, -50.0])
+    assert surprise(np.array([1.0, 0.0]), ll, 10) == pytest.approx(0.0)
+    assert surprise(np.array([0.0, 1.0]), ll, 10) == pytest.approx(-4.0)
+    tracker = FitTracker(FitConfig(window=2, min_inlier_fraction=0.6))
+    tracker.add(0.9, 0.0)
+    assert not tracker.fits() and "only 1" in (tracker.why_not() or "")
+    tracker.add(0.8, 0.0)
+    assert tracker.fits() and tracker.why_not() is None
+    tracker.add(0.2, 0.0)
+    assert not tracker.fits() and "fit the best pose poorly" in (tracker.why_not() or "")
+
+
+def test_config_is_checked() -> None:
+    with pytest.raises(ValueError, match="threshold"):
+        FilterConfig(threshold=1.5)
+    with pytest.raises(ValueError, match="cell_size"):
+        FilterConfig(cell_size=0.0)
