@@ -50,7 +50,6 @@ from beliefloc.continuous.likelihood_field import (  # noqa: E402
 from beliefloc.continuous.motion import grid_yaws  # noqa: E402
 from beliefloc.continuous.world import Segment  # noqa: E402
 from beliefloc.model import MapFrame  # noqa: E402
-from beliefloc.occupancy import load_occupancy  # noqa: E402
 from beliefloc.recordings.reader import read_recording  # noqa: E402
 from beliefloc.recordings.replay import track_recording  # noqa: E402
 from beliefloc.recordings.scenarios import (  # noqa: E402
@@ -60,6 +59,7 @@ from beliefloc.recordings.scenarios import (  # noqa: E402
     simulate_scenario,
     write_scenario,
 )
+from beliefloc.semantic_map.occupancy_map import load_occupancy  # noqa: E402
 
 MAPS = ROOT / "maps" / "occupancy"
 RESULTS = ROOT / "benchmarks" / "results"

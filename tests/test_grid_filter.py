@@ -13,7 +13,7 @@ from beliefloc.continuous.grid_filter import FilterConfig, GridFilter
 from beliefloc.continuous.likelihood_field import LaserModel, Scan, select_beams
 from beliefloc.continuous.raycast import cast_rays
 from beliefloc.model import MapFrame
-from beliefloc.occupancy import Occupancy, OccupancyMap
+from beliefloc.semantic_map.occupancy_map import Occupancy, OccupancyMap
 
 MOUNT = (0.0, 0.0, math.pi / 2)
 ANGLES = np.linspace(-math.pi, math.pi, 360, endpoint=False)

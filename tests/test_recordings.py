@@ -14,10 +14,10 @@ from typer.testing import CliRunner
 from beliefloc.cli.app import app
 from beliefloc.continuous.grid_filter import FilterConfig
 from beliefloc.errors import RecordingError
-from beliefloc.occupancy import load_occupancy
 from beliefloc.recordings.reader import read_recording
 from beliefloc.recordings.replay import track_recording
 from beliefloc.recordings.writer import FrameSpec
+from beliefloc.semantic_map.occupancy_map import load_occupancy
 from tests.conftest import DATA, MAPS
 
 BAGS = DATA / "bags"

@@ -12,11 +12,11 @@ import pytest
 
 from beliefloc.continuous.grid_filter import FilterConfig
 from beliefloc.continuous.world import Clutter, Drift, Segment
-from beliefloc.occupancy import load_occupancy
 from beliefloc.recordings.reader import read_recording
 from beliefloc.recordings.replay import TrackResult, track_recording
 from beliefloc.recordings.scenarios import TURTLEBOT4_WORLD, Scenario, simulate_scenario, write_scenario
 from beliefloc.recordings.writer import write_run
+from beliefloc.semantic_map.occupancy_map import load_occupancy
 from tests.conftest import MAPS
 
 DEPOT = MAPS / "occupancy" / "depot.yaml"

@@ -13,8 +13,8 @@ import shutil
 import sqlite3
 from pathlib import Path
 
-from beliefloc.occupancy import load_occupancy
 from beliefloc.recordings.scenarios import Scenario, short_plan, simulate_scenario, write_scenario
+from beliefloc.semantic_map.occupancy_map import load_occupancy
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "tests" / "data" / "bags"

@@ -21,9 +21,9 @@ if TYPE_CHECKING:
 
     from beliefloc.continuous.grid_filter import FilterConfig, GridFilter
     from beliefloc.model import GridLayout
-    from beliefloc.occupancy import OccupancyMap
     from beliefloc.recordings.reader import Recording
     from beliefloc.recordings.replay import TrackResult
+    from beliefloc.semantic_map.occupancy_map import OccupancyMap
 
 BELIEF_OUT_SUFFIXES = (".json",)
 MAX_MAP_YAML_BYTES = 1 << 20
@@ -50,9 +50,9 @@ def read_map(path: Path, *, layout: bool = False) -> tuple[OccupancyMap, GridLay
     radius (None if unset) and whether MAP is a beliefloc map."""
     import yaml
 
-    from beliefloc import file_kinds
-    from beliefloc.occupancy import load_occupancy
     from beliefloc.semantic_map import compile_model, load_map
+    from beliefloc.semantic_map.occupancy_map import load_occupancy
+    from beliefloc.source import file_kinds
 
     data: object = None
     if path.is_file() and path.stat().st_size <= MAX_MAP_YAML_BYTES:
@@ -92,11 +92,11 @@ def track_bag(
     """The command's body; raises BeliefLocError on bad input, typer.Exit(1) when not localized."""
     from dataclasses import replace
 
-    from beliefloc import file_kinds
     from beliefloc.recordings.reader import read_recording
     from beliefloc.recordings.replay import belief_on_layout, filter_for, track_recording
     from beliefloc.render import stderr_console, stdout_console
     from beliefloc.render.progress import progress_bar
+    from beliefloc.source import file_kinds
 
     laser_pose = parse_laser_pose(laser_pose_text) if laser_pose_text is not None else None
     if output is not None:
@@ -139,8 +139,8 @@ def track_bag(
         verdict = "localized" if result.localized else "not localized"
         write_track_picture(output, grid, result, f"{bag.name} on {map_path.name}: {verdict}")
     if belief_out is not None and layout is not None:
-        from beliefloc.atomic_write import write_atomically
         from beliefloc.model import StateSpace
+        from beliefloc.source.atomic_write import write_atomically
 
         vector = belief_on_layout(grid, layout)
         states = StateSpace(len(vector), grid=layout)

@@ -43,8 +43,8 @@ from beliefloc.continuous.image import OccupancyImage
 from beliefloc.continuous.likelihood_field import Beams, CellWindow, LaserModel, LikelihoodField
 from beliefloc.continuous.motion import OdometryNoise, compose, grid_yaws, odometry_parts, predict_grid, relative
 from beliefloc.model import wrap_angle
-from beliefloc.occupancy import OccupancyMap
 from beliefloc.semantic_map.occupancy_grid import free_cells
+from beliefloc.semantic_map.occupancy_map import OccupancyMap
 
 
 @dataclass(frozen=True)

@@ -22,8 +22,8 @@ from beliefloc.continuous.grid_filter import FilterConfig, GridFilter, Mode, Upd
 from beliefloc.continuous.likelihood_field import Scan, select_beams
 from beliefloc.continuous.motion import compose, relative
 from beliefloc.model import GridLayout
-from beliefloc.occupancy import OccupancyMap
 from beliefloc.recordings.reader import Recording
+from beliefloc.semantic_map.occupancy_map import OccupancyMap
 
 
 @dataclass(frozen=True)

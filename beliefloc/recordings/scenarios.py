@@ -24,8 +24,8 @@ from beliefloc.continuous.world import (
     WorldConfig,
     simulate_run,
 )
-from beliefloc.occupancy import OccupancyMap
 from beliefloc.recordings.writer import FrameSpec
+from beliefloc.semantic_map.occupancy_map import OccupancyMap
 
 TURTLEBOT4_WORLD = WorldConfig(
     laser=LaserSpec(mount=FrameSpec().mount),

@@ -17,7 +17,7 @@ _FREE, _OCCUPIED, _UNKNOWN = 1.0, 0.0, 0.75
 
 def write_track_picture(path: Path, grid: GridFilter, result: TrackResult, title: str) -> None:
     """Draw and write (atomically) the picture of a tracked run."""
-    from beliefloc.occupancy import Occupancy
+    from beliefloc.semantic_map.occupancy_map import Occupancy
 
     occupancy = grid.occupancy
     width_m, height_m = occupancy.size_m
