@@ -113,11 +113,20 @@ class PlannerSettings:
     :func:`beliefloc.planning.settings.default_lookahead` of the model's size."""
     prune_below: float = DEFAULT_PRUNE_BELOW
     """``contingent``: observation branches less likely than this are not planned for."""
+    anytime: bool = True
+    """Best-first strategies: when a plan call's budget runs out, act on the best partial plan by its
+    estimate (:attr:`beliefloc.planning.best_first.PlanResult.partial`) and plan again after it,
+    instead of giving up (False: the strategy of before issue 28, kept for side-by-side benchmarks)."""
 
 
 @dataclass
 class PlanningStrategy:
-    """Plan, act, perceive and replan when the world surprises us (Algorithm 1, ``Main``)."""
+    """Plan, act, perceive and replan when the world surprises us (Algorithm 1, ``Main``).
+
+    Anytime (``settings.anytime``): a plan call whose budget runs out still returns the best partial
+    plan by its estimate; the strategy follows it as it follows a complete one (while the observations
+    are the expected ones) and plans again at its end, so it gives up only when the search proves
+    there is no plan."""
 
     name: str
     model: Model
@@ -148,7 +157,8 @@ class PlanningStrategy:
             self.plans.append(result)
             self.plan_seconds.append(result.seconds)
             self.new_plan = result
-            if not result.found or not result.steps:
+            usable = result.found or (s.anytime and result.partial)
+            if not usable or not result.steps:
                 return GiveUp(EpisodeStatus(result.status.value))
             self._current, self._index = result, 0
         return self._current.steps[self._index].action
