@@ -117,6 +117,11 @@ class PlannerSettings:
     """Best-first strategies: when a plan call's budget runs out, act on the best partial plan by its
     estimate (:attr:`beliefloc.planning.best_first.PlanResult.partial`) and plan again after it,
     instead of giving up (False: the strategy of before issue 28, kept for side-by-side benchmarks)."""
+    partial_steps: int | None = 1
+    """Anytime: how many steps of a partial plan to follow before planning again (None: all of them,
+    while the observations are the expected ones). 1, the best action found so far and then a new
+    search from the belief it leads to: on the depot (0.5 s a call) following whole partial plans cost
+    788.5 over six hard episodes, their first steps 455 (today's complete plans: 367.5)."""
 
 
 @dataclass
@@ -160,6 +165,8 @@ class PlanningStrategy:
             usable = result.found or (s.anytime and result.partial)
             if not usable or not result.steps:
                 return GiveUp(EpisodeStatus(result.status.value))
+            if result.partial and s.partial_steps is not None:
+                result = replace(result, steps=result.steps[: s.partial_steps])
             self._current, self._index = result, 0
         return self._current.steps[self._index].action
 
