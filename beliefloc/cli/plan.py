@@ -199,11 +199,7 @@ def plan_command(
             else:
                 out.print(plan_table(result, title))
         elif result.partial:
-            partial_title = (
-                f"incomplete plan for {model.name} (the budget ran out): the best partial plan by its estimate, "
-                f"cost {result.cost:g} so far; its first step is the best action found"
-            )
-            out.print(plan_table(result, partial_title))
+            out.print(plan_table(result, f"incomplete plan for {model.name}: cost {result.cost:g} so far"))
         if result.steps:
             out.print(path_line(result, PATH_PROBABILITY_FLOOR))
         out.print(effort_line(result))

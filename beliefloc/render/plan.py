@@ -33,6 +33,11 @@ def plan_table(result: PlanResult, title: str) -> Table:
             f"{step.max_belief:.3f}",
             f"{step.cost:g}",
         )
+    if result.partial:
+        table.caption = (
+            "incomplete: the budget ran out; the best partial plan by its estimate (a robot does its first step)"
+        )
+        table.caption_justify = "left"
     return table
 
 
