@@ -10,8 +10,9 @@ Run by hand from the repository root (not part of the test suite)::
 **Planners.** ``today``: the best-first strategy as it was before issue 28 -- the library's default
 budget (200,000 expansions, 60 s a plan call) and an episode that gives up when a plan call runs out
 of it (``PlannerSettings(anytime=False)``). ``anytime``: the same search with ``--budget`` seconds a
-call (0.5 by default), acting on the best partial plan by its estimate when the budget runs out
-(:attr:`beliefloc.planning.best_first.PlanResult.partial`) and planning again after it.
+call (0.5 by default), doing the first step of the best partial plan by its estimate when the budget
+runs out (:attr:`beliefloc.planning.best_first.PlanResult.partial`, ``PlannerSettings.partial_steps``)
+and planning again after it.
 
 **Maps.** ``maps/tb3-sandbox.yaml`` (2,088 states), ``maps/depot.yaml`` (49,592 states, six objects)
 and ``maps/depot-corridor.yaml`` (24,796 states, a three-beam scan and one object: the
