@@ -313,3 +313,17 @@ def test_a_tiny_weight_finds_the_least_cost_plan(data: dict[str, Any]):
     assume(cheapest.found and weighted.found)
     assert weighted.cost == cheapest.cost
     assert replay(model, start, weighted.steps).max() >= 0.95
+
+
+def test_plan_cli_json_of_an_incomplete_plan_and_policy(runner):
+    """Issue 28: out of budget, --json still carries the best partial plan, marked incomplete, with its
+    path probability; a policy out of budget is marked incomplete beside its expected cost."""
+    result = runner.invoke(app, ["plan", str(MAPS / "kitchen.yaml"), "--max-expansions", "2", "--json"])
+    assert result.exit_code == EXIT_NEGATIVE
+    data = json.loads(result.stdout)
+    assert data["complete"] is False and data["status"] == "budget_exceeded" and data["steps"]
+    assert data["path_probability"] == pytest.approx(float(np.prod([s["probability"] for s in data["steps"]])))
+    result = runner.invoke(app, ["plan", str(MAPS / "kitchen.yaml"), "--policy", "--max-expansions", "2", "--json"])
+    assert result.exit_code == EXIT_NEGATIVE
+    policy = json.loads(result.stdout)
+    assert policy["complete"] is False and policy["expected_cost"] > 0
