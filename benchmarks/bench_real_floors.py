@@ -12,7 +12,8 @@ budget (200,000 expansions, 60 s a plan call) and an episode that gives up when 
 of it (``PlannerSettings(anytime=False)``). ``anytime``: the same search with ``--budget`` seconds a
 call (0.5 by default), doing the first step of the best partial plan by its estimate when the budget
 runs out (:attr:`beliefloc.planning.best_first.PlanResult.partial`, ``PlannerSettings.partial_steps``)
-and planning again after it.
+and planning again after it; after a call out of budget the next call gets twice the seconds, up to
+``--max-budget`` (1.0; ``PlannerSettings.max_time_limit``).
 
 **Maps.** ``maps/tb3-sandbox.yaml`` (2,088 states), ``maps/depot.yaml`` (49,592 states, six objects)
 and ``maps/depot-corridor.yaml`` (24,796 states, a three-beam scan and one object: the
@@ -52,12 +53,22 @@ RESULTS = ROOT / "benchmarks" / "results" / "real-floors.md"
 MAPS = ("tb3-sandbox", "depot", "depot-corridor")
 PLANNERS = ("today", "anytime")
 DEFAULT_BUDGET = 0.5
+DEFAULT_MAX_BUDGET = 1.0
 TARGET_MEDIAN_S = 0.5
 TARGET_WORST_S = 2.0
 TARGET_COST_RATIO = 1.10
 
 
-def child(map_name: str, planner: str, episodes: int, seed: int, budget: float, max_steps: int, strategy: str) -> None:
+def child(
+    map_name: str,
+    planner: str,
+    episodes: int,
+    seed: int,
+    budget: float,
+    max_budget: float | None,
+    max_steps: int,
+    strategy: str,
+) -> None:
     """One map and planner: the episodes' records as JSON on the last line of stdout."""
     from beliefloc import compile_model, load_map, uniform
     from beliefloc.simulation.episode import run_episode, start_state
@@ -68,7 +79,7 @@ def child(map_name: str, planner: str, episodes: int, seed: int, budget: float, 
     if planner == "today":
         settings = PlannerSettings(anytime=False)
     else:
-        settings = PlannerSettings(anytime=True, time_limit=budget)
+        settings = PlannerSettings(anytime=True, time_limit=budget, max_time_limit=max_budget)
     records = []
     for e in range(episodes):
         started = time.perf_counter()
@@ -215,6 +226,12 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--episodes", type=int, default=50)
     parser.add_argument("--today-episodes", type=int, default=None, help="today's planner (default --episodes)")
     parser.add_argument("--budget", type=float, default=DEFAULT_BUDGET, help="anytime: seconds a plan call")
+    parser.add_argument(
+        "--max-budget",
+        type=float,
+        default=DEFAULT_MAX_BUDGET,
+        help="anytime: after a call out of budget the next gets twice the seconds, up to this (0: no growth)",
+    )
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--max-steps", type=int, default=200)
     parser.add_argument("--jobs", type=int, default=1, help="children at a time")
@@ -227,11 +244,13 @@ def main(argv: list[str] | None = None) -> None:
     single_threaded()
     if args.child:
         name, planner, episodes, strategy = args.child
-        child(name, planner, int(episodes), args.seed, args.budget, args.max_steps, strategy)
+        max_budget = args.max_budget if args.max_budget > 0 else None
+        child(name, planner, int(episodes), args.seed, args.budget, max_budget, args.max_steps, strategy)
         return
     episodes = 3 if args.quick else args.episodes
     today_episodes = 3 if args.quick else (args.today_episodes or episodes)
     base = [sys.executable, str(Path(__file__).resolve()), "--seed", str(args.seed), "--budget", str(args.budget)]
+    base += ["--max-budget", str(args.max_budget)]
     base += ["--max-steps", str(args.max_steps)]
     jobs = []
     for name in args.maps:
@@ -247,7 +266,8 @@ def main(argv: list[str] | None = None) -> None:
         "# Plans a waiting robot can use on real floors (issue 28)",
         "",
         f"`python benchmarks/bench_real_floors.py {' '.join(argv if argv is not None else sys.argv[1:])}` on "
-        f"{cpu_name()}, {time.strftime('%Y-%m-%d')}; anytime budget {args.budget:g} s a plan call; "
+        f"{cpu_name()}, {time.strftime('%Y-%m-%d')}; anytime budget {args.budget:g} s a plan call "
+        f"(doubling after a call out of budget, up to {args.max_budget:g} s; 0: no growth); "
         f"today: {today_episodes} episodes a map, anytime: {episodes}.",
         "",
         *floors_table(results, list(args.maps)),
