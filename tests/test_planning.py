@@ -327,3 +327,16 @@ def test_plan_cli_json_of_an_incomplete_plan_and_policy(runner):
     assert result.exit_code == EXIT_NEGATIVE
     policy = json.loads(result.stdout)
     assert policy["complete"] is False and policy["expected_cost"] > 0
+
+
+def test_plan_cli_flags_a_path_below_the_floor(runner):
+    """The kitchen's plan expects two observations seen together with probability 0.026 (< 0.05):
+    flagged; the perfect window world's plan is as likely as its JSON says, and above the floor."""
+    from beliefloc.planning.settings import PATH_PROBABILITY_FLOOR
+
+    for name, flagged in (("kitchen.yaml", True), ("window-2x2-perfect.yaml", False)):
+        data = json.loads(runner.invoke(app, ["plan", str(MAPS / name), "--json"]).stdout)
+        assert (data["path_probability"] < PATH_PROBABILITY_FLOOR) is flagged
+        text = " ".join(runner.invoke(app, ["plan", str(MAPS / name)]).stdout.split())
+        assert f"path probability {data['path_probability']:.3g}" in text
+        assert ("unlikely path" in text) is flagged
