@@ -147,8 +147,32 @@ def test_a_reading_the_binner_refuses_is_a_reply_error() -> None:
 def test_the_planner_settings_reach_the_planner(kitchen: Any) -> None:
     model, binner = kitchen
     robot = Scripted({})
-    outcome = localize(model, uniform(model.n_states), robot, binner, settings=PlannerSettings(max_expansions=1))
+    settings = PlannerSettings(max_expansions=1, anytime=False)
+    outcome = localize(model, uniform(model.n_states), robot, binner, settings=settings)
     assert outcome.status is EpisodeStatus.BUDGET_EXCEEDED and robot.commands == []
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_out_of_budget_localize_acts_on_the_best_partial_plan_and_never_gives_up(kitchen: Any, seed: int) -> None:
+    """Issue 28: one expansion a plan call never finds a whole plan on the kitchen, yet the robot acts
+    on the best partial plans and is localized."""
+    model, binner = kitchen
+    world = SimulatedRobot(model, model.states.index("1,1,1"), np.random.default_rng(seed))
+    commands: list[Command] = []
+    outcome = localize(
+        model,
+        uniform(model.n_states),
+        SimulatedReadingRobot(world, binner),
+        binner,
+        settings=PlannerSettings(max_expansions=1),
+        on_step=lambda step: commands.append(step.command),
+    )
+    assert outcome.status is EpisodeStatus.LOCALIZED and int(np.argmax(outcome.belief)) == world.state
+    plans = [c.plan for c in commands if c.plan is not None]
+    assert plans and commands[0].plan is not None
+    assert plans[0].partial and not plans[0].complete  # near the goal a call may find a whole plan
+    assert all(p.partial or p.complete for p in plans)
+    assert commands[0].action.name == commands[0].plan.steps[0].action
 
 
 # --- the line protocol ---------------------------------------------------------------------------

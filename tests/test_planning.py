@@ -79,12 +79,68 @@ def test_two_states_no_action_separates_is_no_plan():
     assert result.expanded >= 1 and result.steps == ()
 
 
-def test_budget_gives_up_honestly():
+def test_budget_gives_up_honestly_with_the_best_partial_plan():
     model = compile_model(load_map(MAPS / "window-2x2.yaml"))
     result = plan(model, uniform(4), max_expansions=2)
     assert result.status is PlanStatus.BUDGET_EXCEEDED
-    assert not result.found and result.steps == ()
-    assert result.expanded == 2
+    assert not result.found and not result.complete and result.partial
+    assert result.belief is None and result.expanded == 2
+    data = result.as_json(model)
+    assert data["complete"] is False and data["found"] is False and data["cost"] is None
+
+
+@pytest.mark.parametrize(("name", "budget"), [("kitchen.yaml", 1), ("kitchen.yaml", 5), ("window-2x2.yaml", 2)])
+def test_anytime_answer_is_the_first_step_of_the_node_searched_next(
+    monkeypatch: pytest.MonkeyPatch, name: str, budget: int
+):
+    """The partial plan of a search out of budget ends at the belief a search with one more
+    expansion expands last: the open node of least f, the best partial plan by its estimate."""
+    model = compile_model(load_map(MAPS / name))
+    start = uniform(model.n_states)
+    partial = plan(model, start, max_expansions=budget)
+    assert partial.partial and partial.steps
+    first = partial.steps[0]
+    assert model.actions[first.action_index].name == first.action  # an action of the model
+    evaluator = SuccessorEvaluator(model)
+    expanded: list[np.ndarray] = []
+    original = evaluator.evaluate
+    monkeypatch.setattr(evaluator, "evaluate", lambda b: expanded.append(b.copy()) or original(b))
+    plan(model, start, max_expansions=budget + 1, evaluator=evaluator)
+    assert len(expanded) == budget + 1
+    reached = start
+    for step in partial.steps:
+        reached, _ = update(model, reached, model.actions[step.action_index], step.observation_index)
+    np.testing.assert_allclose(reached, expanded[-1], atol=1e-12)
+
+
+def test_anytime_answer_before_any_expansion_is_the_start_best_child():
+    model = compile_model(load_map(MAPS / "kitchen.yaml"))
+    start = uniform(model.n_states)
+    result = plan(model, start, max_expansions=0)
+    assert result.partial and len(result.steps) == 1 and result.expanded == 1
+    h = Heuristic.ENTROPY_MAX_PROB
+    scores = [
+        model.actions[s.action].cost + h(s.entropy, s.max_belief, s.probability)
+        for s in SuccessorEvaluator(model).evaluate(start)
+    ]
+    best = SuccessorEvaluator(model).evaluate(start)[int(np.argmin(scores))]
+    assert (result.steps[0].action_index, result.steps[0].observation_index) == (best.action, best.observation)
+
+
+@pytest.mark.parametrize("budget", [None, 3])
+def test_path_probability_is_the_product_of_the_steps_and_of_the_bayes_updates(budget: int | None):
+    model = compile_model(load_map(MAPS / "kitchen.yaml"))
+    start = uniform(model.n_states)
+    result = plan(model, start) if budget is None else plan(model, start, max_expansions=budget)
+    assert result.steps
+    data = result.as_json(model)
+    product = float(np.prod([step["probability"] for step in data["steps"]]))
+    assert data["path_probability"] == pytest.approx(product, rel=1e-12)
+    belief, chained = start, 1.0
+    for step in result.steps:
+        belief, p = update(model, belief, model.actions[step.action_index], step.observation_index)
+        chained *= p
+    assert result.path_probability == pytest.approx(chained, rel=1e-9)
 
 
 def test_already_localized_is_an_empty_plan():
@@ -140,7 +196,8 @@ def test_plan_cli_not_localizable_no_plan_and_gave_up_exit_1(runner, tmp_path: P
     assert "no plan" in result.stderr and "cannot be told apart" in result.stderr
     result = runner.invoke(app, ["plan", str(MAPS / "window-2x2.yaml"), "--max-expansions", "2"])
     assert result.exit_code == EXIT_NEGATIVE
-    assert "gave up" in result.stderr
+    assert "gave up" in result.stderr and "best partial plan" in " ".join(result.stderr.split())
+    assert "incomplete plan for" in result.stdout and "path probability" in result.stdout
 
 
 def test_plan_cli_json(runner):
@@ -256,3 +313,30 @@ def test_a_tiny_weight_finds_the_least_cost_plan(data: dict[str, Any]):
     assume(cheapest.found and weighted.found)
     assert weighted.cost == cheapest.cost
     assert replay(model, start, weighted.steps).max() >= 0.95
+
+
+def test_plan_cli_json_of_an_incomplete_plan_and_policy(runner):
+    """Issue 28: out of budget, --json still carries the best partial plan, marked incomplete, with its
+    path probability; a policy out of budget is marked incomplete beside its expected cost."""
+    result = runner.invoke(app, ["plan", str(MAPS / "kitchen.yaml"), "--max-expansions", "2", "--json"])
+    assert result.exit_code == EXIT_NEGATIVE
+    data = json.loads(result.stdout)
+    assert data["complete"] is False and data["status"] == "budget_exceeded" and data["steps"]
+    assert data["path_probability"] == pytest.approx(float(np.prod([s["probability"] for s in data["steps"]])))
+    result = runner.invoke(app, ["plan", str(MAPS / "kitchen.yaml"), "--policy", "--max-expansions", "2", "--json"])
+    assert result.exit_code == EXIT_NEGATIVE
+    policy = json.loads(result.stdout)
+    assert policy["complete"] is False and policy["expected_cost"] > 0
+
+
+def test_plan_cli_flags_a_path_below_the_floor(runner):
+    """The kitchen's plan expects two observations seen together with probability 0.026 (< 0.05):
+    flagged; the perfect window world's plan is as likely as its JSON says, and above the floor."""
+    from beliefloc.planning.settings import PATH_PROBABILITY_FLOOR
+
+    for name, flagged in (("kitchen.yaml", True), ("window-2x2-perfect.yaml", False)):
+        data = json.loads(runner.invoke(app, ["plan", str(MAPS / name), "--json"]).stdout)
+        assert (data["path_probability"] < PATH_PROBABILITY_FLOOR) is flagged
+        text = " ".join(runner.invoke(app, ["plan", str(MAPS / name)]).stdout.split())
+        assert f"path probability {data['path_probability']:.3g}" in text
+        assert ("unlikely path" in text) is flagged

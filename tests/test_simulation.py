@@ -173,3 +173,30 @@ def test_simulate_unknown_strategy_and_failing_episodes(runner, tmp_path):
     result = runner.invoke(app, ["simulate", str(triplets)])
     assert result.exit_code == EXIT_NEGATIVE
     assert "no plan" in result.stdout
+
+
+def test_an_anytime_robot_doubles_its_budget_after_partial_plans_and_acts_on_their_first_step(
+    kitchen, monkeypatch: pytest.MonkeyPatch
+):
+    """Issue 28: a plan call out of budget gives the best partial plan; the robot does its first step
+    only, and the next call gets twice the seconds (up to max_time_limit), back to time_limit after a
+    complete plan. The search's budget is forced by one expansion a call until the fourth call."""
+    from beliefloc.planning import best_first
+    from beliefloc.simulation import strategies
+
+    limits: list[float] = []
+
+    def forced(*args, **kwargs):  # type: ignore[no-untyped-def]
+        limits.append(kwargs["time_limit"])
+        if len(limits) <= 3:
+            kwargs["max_expansions"] = 1
+        return best_first.plan(*args, **kwargs)
+
+    monkeypatch.setattr(strategies, "plan", forced)
+    settings = strategies.PlannerSettings(time_limit=0.25, max_time_limit=0.6)
+    record = run_episode(kitchen, "bestfirst", 5, uniform(kitchen.n_states), seed=0, settings=settings)
+    assert record.status is EpisodeStatus.LOCALIZED
+    assert limits[:4] == [0.25, 0.5, 0.6, 0.6]
+    partial = [step.plan for step in record.trace[:3]]
+    assert all(p is not None and p.partial for p in partial)  # a new plan before each of the first 3 actions
+    assert [step.action for step in record.trace[:3]] == [p.steps[0].action for p in partial if p is not None]

@@ -124,8 +124,11 @@ def localize(
         action = command.action
         if command.plan is not None:
             what = "plan" if command.seq == 1 else "replan"
+            # out of budget: the best partial plan so far, whose first step the robot does now
+            partial = ", incomplete: its first step, then plan again" if command.plan.partial else ""
             err.print(
-                f"{what}: {len(command.plan.steps)} actions, cost {command.plan.cost:g} ({command.plan.seconds:.2f} s)"
+                f"{what}: {len(command.plan.steps)} actions, cost {command.plan.cost:g} ({command.plan.seconds:.2f} s"
+                f"{partial})"
             )
         seen = ""
         if step.observation is not None:

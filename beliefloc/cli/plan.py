@@ -101,7 +101,13 @@ def plan_command(
     Exit code 1 when there is no plan: the start belief lies on look-alike states that no sequence of
     actions tells apart (known before any search, as 'macros build' knows it), every reachable belief
     was searched, or the search gave up. A --threshold that no belief can reach (1 with noisy
-    sensors) is refused with exit code 2.
+    sensors) is refused with exit code 2. When the budget runs out, the best partial plan found is
+    shown (its first step is the action a robot would take now; --json: "complete": false), with exit
+    code 1.
+
+    Under the plan, its path probability: the probability that the robot sees every expected
+    observation of the path (the product of the p(o|a,b) column). A path below 0.05 is flagged as
+    unlikely: its cost is one branch's, not what localizing is expected to cost (--policy gives that).
 
     With -o, a picture of the start belief (as `show -o` draws it) with the plan on it: the moves
     as a path from the most likely state, each move going as intended (the most likely successor),
@@ -124,7 +130,8 @@ def plan_command(
       beliefloc plan maps/kitchen.yaml -o kitchen-plan.svg
     """
     from beliefloc.planning.best_first import PlanStatus, plan
-    from beliefloc.render.plan import effort_line, plan_table
+    from beliefloc.planning.settings import PATH_PROBABILITY_FLOOR
+    from beliefloc.render.plan import effort_line, path_line, plan_table
     from beliefloc.render.progress import search_progress
 
     chosen = resolve_heuristic(planner, heuristic, h_weight)
@@ -191,6 +198,10 @@ def plan_command(
                 out.print(f"already localized: one state holds at least {threshold:g}")
             else:
                 out.print(plan_table(result, title))
+        elif result.partial:
+            out.print(plan_table(result, f"incomplete plan for {model.name}: cost {result.cost:g} so far"))
+        if result.steps:
+            out.print(path_line(result, PATH_PROBABILITY_FLOOR))
         out.print(effort_line(result))
         if output is not None and result.found:
             out.print(f"wrote {escape(str(output))}", soft_wrap=True)
@@ -203,7 +214,9 @@ def plan_command(
     if result.status is PlanStatus.BUDGET_EXCEEDED:
         stderr_console().print(
             f"[bold]gave up:[/] the search budget ran out ({result.expanded} expansions, {result.seconds:.1f} s) "
-            "before a plan was found; raise --max-expansions or --time-limit, or lower --threshold."
+            "before a complete plan was found"
+            + ("; the steps shown are the best partial plan by its estimate" if result.partial else "")
+            + "; raise --max-expansions or --time-limit, or lower --threshold."
         )
         raise typer.Exit(EXIT_NEGATIVE)
 

@@ -19,9 +19,14 @@ Differences from the pseudocode, each for a stated reason:
 
 * **Duplicates** are detected on pop with :func:`belief_key`: beliefs equal to within about 1e-9
   in every entry are one node. Without it, the reachable set of a noise-free world is infinite.
-* **Termination is honest.** The open list running empty means every reachable belief was searched
-  and none is a goal: :attr:`PlanStatus.NO_PLAN`. A budget (expansions, seconds) that runs out gives
-  :attr:`PlanStatus.BUDGET_EXCEEDED`, never a fake success.
+* **Termination is honest, and anytime.** The open list running empty means every reachable belief
+  was searched and none is a goal: :attr:`PlanStatus.NO_PLAN`. A budget (expansions, seconds) that
+  runs out gives :attr:`PlanStatus.BUDGET_EXCEEDED`, never a fake success -- but not empty-handed:
+  the result carries the *best partial plan by its estimate*, the path to the open node of least
+  ``f`` (the node the search would have expanded next), marked incomplete (:attr:`PlanResult.complete`
+  is false). A robot acts on its first step and plans again (the waiting robot of issue 28). When
+  the budget runs out before the start belief is expanded, the start is expanded anyway (one
+  expansion over the budget) and the partial plan is its child of least ``f``.
 * **Memory.** A node keeps its parent, action, observation and g -- not its belief, which is
   recomputed from the parent's on pop (parents' beliefs are kept in a bounded cache).
 * **The closed list is kept across replans** as a :class:`ClosedList`: the successor statistics of
@@ -34,6 +39,7 @@ from __future__ import annotations
 import enum
 import hashlib
 import heapq
+import math
 import time
 from collections import OrderedDict
 from collections.abc import Callable
@@ -101,7 +107,7 @@ class PlanResult:
     status: PlanStatus
     steps: tuple[PlanStep, ...]
     belief: np.ndarray | None
-    """The belief the plan is expected to reach (None unless FOUND)."""
+    """The belief the plan is expected to reach (None unless FOUND, also for a partial plan)."""
     expanded: int
     generated: int
     seconds: float
@@ -111,23 +117,52 @@ class PlanResult:
         return self.status is PlanStatus.FOUND
 
     @property
+    def complete(self) -> bool:
+        """The steps reach the goal; false for the partial plan of a search out of budget (and for
+        no plan)."""
+        return self.found
+
+    @property
+    def partial(self) -> bool:
+        """The budget ran out and :attr:`steps` is the best partial plan by its estimate."""
+        return self.status is PlanStatus.BUDGET_EXCEEDED and bool(self.steps)
+
+    @property
     def cost(self) -> float:
         return self.steps[-1].cost if self.steps else 0.0
+
+    @property
+    def path_probability(self) -> float:
+        """The probability that the robot sees every expected observation of :attr:`steps` when it
+        does their actions from the start belief: ``Π p(o_k | a_k, b_{k-1})`` by the chain rule (1 for
+        no steps, and each action that observes nothing counts 1). A plan shown as "the" plan is a
+        hope, not a forecast, when this is small (:data:`~beliefloc.planning.settings.PATH_PROBABILITY_FLOOR`)."""
+        return math.prod(step.probability for step in self.steps)
 
     def as_json(self, model: Model) -> dict[str, Any]:
         """What ``plan --json`` prints: the status, the steps with their expected observations, the
         search's effort, and ``"pose"``: the pose of the most likely state of the belief the plan is
         expected to reach (:attr:`belief`) with that belief's covariance
         (:meth:`beliefloc.pose.PoseEstimate.as_json`); null without a plan or for a model without
-        a grid."""
+        a grid. ``"complete"`` is false when the budget ran out (the steps are then the best partial
+        plan, the first the action to take now); ``"path_probability"`` is :attr:`path_probability`,
+        and each step's ``"probability"`` is ``p(o | a, b)`` of its observation (1 without one)."""
         from beliefloc.pose import pose_json
 
         return {
             "found": self.found,
             "status": self.status.value,
+            "complete": self.complete,
             "cost": self.cost if self.found else None,
+            "path_probability": self.path_probability,
             "steps": [
-                {"action": s.action, "observation": s.observation, "max_belief": s.max_belief, "cost": s.cost}
+                {
+                    "action": s.action,
+                    "observation": s.observation,
+                    "probability": s.probability,
+                    "max_belief": s.max_belief,
+                    "cost": s.cost,
+                }
                 for s in self.steps
             ],
             "pose": None if self.belief is None else pose_json(model, self.belief),
@@ -207,7 +242,7 @@ def plan(
             status, goal = PlanStatus.FOUND, node
             break
         if expanded >= max_expansions or time.perf_counter() - start > time_limit:
-            status = PlanStatus.BUDGET_EXCEEDED
+            status, goal = PlanStatus.BUDGET_EXCEEDED, node
             break
         expanded += 1
         if progress is not None and expanded % _PROGRESS_EVERY == 0:
@@ -226,8 +261,28 @@ def plan(
             stats_of.append(stats)
             h = weight * heuristic(stats.entropy, stats.max_belief, stats.probability)
             heapq.heappush(open_heap, (g + h, h, child, child))
+    if status is PlanStatus.BUDGET_EXCEEDED and goal == 0:
+        # out of budget before the start was expanded: expand it anyway, and take its best child
+        successors = memory.successors.get(belief_key(belief))
+        if successors is None:
+            successors = evaluator.evaluate(belief)
+            memory.remember(belief_key(belief), successors)
+        expanded += 1
+        best_f, chosen = math.inf, None
+        for stats in successors:
+            g = model.actions[stats.action].cost
+            f = g + weight * heuristic(stats.entropy, stats.max_belief, stats.probability)
+            if f < best_f:
+                best_f, chosen = f, stats
+        if chosen is not None:
+            goal = len(parent)
+            parent.append(0)
+            action_of.append(chosen.action)
+            observation_of.append(chosen.observation)
+            g_of.append(model.actions[chosen.action].cost)
+            stats_of.append(chosen)
     seconds = time.perf_counter() - start
-    if status is not PlanStatus.FOUND:
+    if status is PlanStatus.NO_PLAN or (status is PlanStatus.BUDGET_EXCEEDED and goal <= 0):
         return PlanResult(status, (), None, expanded, len(parent) - 1, seconds)
     path = []
     node = goal
@@ -252,7 +307,8 @@ def plan(
                 stats.observation,
             )
         )
-    return PlanResult(status, tuple(steps), belief_of(goal), expanded, len(parent) - 1, seconds)
+    reached = belief_of(goal) if status is PlanStatus.FOUND else None
+    return PlanResult(status, tuple(steps), reached, expanded, len(parent) - 1, seconds)
 
 
 class BeliefCache:

@@ -256,9 +256,12 @@ class PolicyResult:
         return self.root.size()
 
     def as_json(self, model: Model) -> dict[str, Any]:
-        """What ``plan --policy --json`` prints: the status, the expected cost, the whole policy."""
+        """What ``plan --policy --json`` prints: the status, the expected cost, the whole policy;
+        ``"complete"`` is false when the budget ran out (frontier leaves are left, valued by the
+        estimate), as in ``plan --json``."""
         return {
             "found": self.found,
+            "complete": self.found,
             "status": self.status.value,
             "expected_cost": self.expected_cost,
             "open_probability": self.open_share,

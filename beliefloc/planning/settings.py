@@ -32,6 +32,13 @@ def default_lookahead(n_states: int) -> int:
     return max(MIN_LOOKAHEAD, LOOKAHEAD_WORK // max(1, n_states))
 
 
+PATH_PROBABILITY_FLOOR = 0.05
+"""``plan`` flags a path whose expected observations the robot sees together with less probability
+than this (:attr:`beliefloc.planning.best_first.PlanResult.path_probability`): such a path is one
+branch of what may happen, not a forecast -- the robot will most likely see something else and plan
+again, so its cost is no estimate of what localizing costs (``plan --policy`` gives the expected cost).
+One in twenty: below it the path is rarer than the outcome a 95 % threshold leaves out."""
+
 DEFAULT_PRUNE_BELOW = 1e-3
 """Contingent plans: branches reached with less probability than this are not planned for (the robot
 plans again if it gets there)."""

@@ -33,7 +33,28 @@ def plan_table(result: PlanResult, title: str) -> Table:
             f"{step.max_belief:.3f}",
             f"{step.cost:g}",
         )
+    if result.partial:
+        table.caption = (
+            "incomplete: the budget ran out; the best partial plan by its estimate (a robot does its first step)"
+        )
+        table.caption_justify = "left"
     return table
+
+
+def path_line(result: PlanResult, floor: float) -> str:
+    """The shown path's probability (that the robot sees each of its expected observations), flagged
+    below ``floor``."""
+    seen = sum(step.observation is not None for step in result.steps)
+    line = (
+        f"path probability {result.path_probability:.3g}: the robot sees the {seen} expected "
+        f"observation{'' if seen == 1 else 's'} above together with this probability"
+    )
+    if result.path_probability < floor:
+        line += (
+            f"\n[bold]unlikely path[/] (below {floor:g}): the robot will most likely see something else and "
+            "plan again; the cost shown is not what localizing is expected to cost (plan --policy estimates that)"
+        )
+    return line
 
 
 def effort_line(result: PlanResult) -> str:

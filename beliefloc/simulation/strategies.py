@@ -113,11 +113,29 @@ class PlannerSettings:
     :func:`beliefloc.planning.settings.default_lookahead` of the model's size."""
     prune_below: float = DEFAULT_PRUNE_BELOW
     """``contingent``: observation branches less likely than this are not planned for."""
+    anytime: bool = True
+    """Best-first strategies: when a plan call's budget runs out, act on the best partial plan by its
+    estimate (:attr:`beliefloc.planning.best_first.PlanResult.partial`) and plan again after it,
+    instead of giving up (False: the strategy of before issue 28, kept for side-by-side benchmarks)."""
+    max_time_limit: float | None = None
+    """Anytime: after a plan call out of budget, the next call gets twice the seconds, up to this
+    (back to ``time_limit`` after a complete plan): a robot that keeps getting partial plans searches
+    deeper from each belief instead of turning back and forth. None: every call gets ``time_limit``."""
+    partial_steps: int | None = 1
+    """Anytime: how many steps of a partial plan to follow before planning again (None: all of them,
+    while the observations are the expected ones). 1, the best action found so far and then a new
+    search from the belief it leads to: on the depot (0.5 s a call) following whole partial plans cost
+    788.5 over six hard episodes, their first steps 455 (today's complete plans: 367.5)."""
 
 
 @dataclass
 class PlanningStrategy:
-    """Plan, act, perceive and replan when the world surprises us (Algorithm 1, ``Main``)."""
+    """Plan, act, perceive and replan when the world surprises us (Algorithm 1, ``Main``).
+
+    Anytime (``settings.anytime``): a plan call whose budget runs out still returns the best partial
+    plan by its estimate; the strategy follows it as it follows a complete one (while the observations
+    are the expected ones) and plans again at its end, so it gives up only when the search proves
+    there is no plan."""
 
     name: str
     model: Model
@@ -129,18 +147,20 @@ class PlanningStrategy:
     new_plan: PlanResult | None = None
     _current: PlanResult | None = None
     _index: int = 0
+    _time_limit: float | None = None
 
     def next_action(self, belief: np.ndarray) -> str | GiveUp:
         self.new_plan = None
         if self._current is None or self._index >= len(self._current.steps):
             s = self.settings
+            time_limit = self._time_limit or s.time_limit
             result = plan(
                 self.model,
                 belief,
                 threshold=s.threshold,
                 heuristic=s.heuristic,
                 max_expansions=s.max_expansions,
-                time_limit=s.time_limit,
+                time_limit=time_limit,
                 memory=self.memory,
                 evaluator=self.evaluator,
                 weight=s.weight,
@@ -148,8 +168,15 @@ class PlanningStrategy:
             self.plans.append(result)
             self.plan_seconds.append(result.seconds)
             self.new_plan = result
-            if not result.found or not result.steps:
+            usable = result.found or (s.anytime and result.partial)
+            if not usable or not result.steps:
                 return GiveUp(EpisodeStatus(result.status.value))
+            if result.partial and s.max_time_limit is not None:
+                self._time_limit = min(2.0 * time_limit, max(s.max_time_limit, s.time_limit))
+            elif result.found:
+                self._time_limit = None
+            if result.partial and s.partial_steps is not None:
+                result = replace(result, steps=result.steps[: s.partial_steps])
             self._current, self._index = result, 0
         return self._current.steps[self._index].action
 

@@ -65,7 +65,11 @@ def _world_episodes(p: dict[str, Any], e: int) -> dict[str, Any]:
     from beliefloc.simulation.episode import run_experiment
     from beliefloc.simulation.strategies import PlannerSettings
 
-    uniform_settings = PlannerSettings(max_expansions=p["uniform_max_expansions"], time_limit=p["uniform_time_limit"])
+    # the paper's protocol: a plan call out of budget ends the episode (anytime=False; issue 28's
+    # anytime robots act on partial plans instead), so Tables I-II count it as budget_exceeded
+    uniform_settings = PlannerSettings(
+        max_expansions=p["uniform_max_expansions"], time_limit=p["uniform_time_limit"], anytime=False
+    )
     with tempfile.TemporaryDirectory(prefix="bench-planning-") as tmp:
         wseed = world_seed(p["seed"], e)
         model = build_model(p["states"], wseed, Path(tmp), p.get("rotation_failure"))
@@ -74,7 +78,8 @@ def _world_episodes(p: dict[str, Any], e: int) -> dict[str, Any]:
     ablation: list[dict[str, Any]] = []
     on_step = _replan_without_memory(model, evaluator, start_belief, ablation)
     common = {"episodes": 1, "seed": wseed, "start_belief": start_belief, "max_steps": p["max_steps"]}
-    records = run_experiment(model, p["strategies"], settings=PlannerSettings(), on_step=on_step, **common)
+    paper = PlannerSettings(anytime=False)
+    records = run_experiment(model, p["strategies"], settings=paper, on_step=on_step, **common)
     if p["uniform"] and e < p["uniform_episodes"]:
         records += run_experiment(model, ["uniform"], settings=uniform_settings, **common)
     for r in records:
