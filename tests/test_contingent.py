@@ -412,6 +412,7 @@ def without_clock(result: PolicyResult, model: Model) -> dict[str, Any]:
     return data
 
 
+@pytest.mark.slow
 @QUICK
 @given(data=small_maps(), heuristic=st.sampled_from(list(Heuristic)), prune=st.sampled_from([0.0, 0.01]))
 def test_same_inputs_give_the_same_tree(data: dict[str, Any], heuristic: Heuristic, prune: float):
@@ -435,6 +436,7 @@ def trace_of(record: EpisodeRecord) -> list[tuple[Any, ...]]:
     return [(s.action, s.observation, s.probability, s.max_belief, s.true_state) for s in record.trace]
 
 
+@pytest.mark.slow
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(data=small_maps(), seed=st.integers(0, 2**16), lookahead=st.sampled_from([1, 8, 64]))
 def test_same_seed_gives_the_same_contingent_episodes(data: dict[str, Any], seed: int, lookahead: int):
@@ -646,6 +648,7 @@ def test_no_action_leads_anywhere_is_no_plan():
 # --- 8. the kitchen: every contingent episode localizes -----------------------------------------
 
 
+@pytest.mark.slow
 def test_kitchen_contingent_episodes_localize_with_beliefs_that_stay_distributions():
     model = compile_model(load_map(MAPS / "kitchen.yaml"))
     seen: list[str] = []

@@ -71,6 +71,7 @@ _DRIVER = textwrap.dedent(
 )
 
 
+@pytest.mark.slow
 def test_every_corpus_file_is_read_or_refused_within_bounds(tmp_path: Path):
     """One process reads the whole corpus under a memory bound: a segfault, a hang or a blow-up
     would kill it; every file must end in exit 0 or 2 and never in an unexpected exception."""
@@ -209,6 +210,7 @@ def _read_or_refuse(load: Any, path: Path) -> None:
         assert str(exc).strip(), "an error with no message"
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=PER_EXAMPLE, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(
     st.sampled_from(BUNDLED_MAPS),
@@ -227,6 +229,7 @@ def test_a_mutated_map_loads_or_is_refused(tmp_path: Path, original: Path, where
         assert str(exc).strip()
 
 
+@pytest.mark.slow
 @settings(max_examples=100, deadline=PER_EXAMPLE, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.sampled_from(BUNDLED_DOMAINS), st.lists(st.integers(0, 50), max_size=5), _VALUES)
 def test_a_mutated_domain_loads_or_is_refused(tmp_path: Path, original: Path, where: list[int], value: Any):

@@ -77,6 +77,7 @@ def test_every_command_shows_an_example(runner, path):
     assert examples_of(_help(runner, path)), f"beliefloc {' '.join(path)} --help has no example"
 
 
+@pytest.mark.slow
 def test_every_help_example_runs_as_written(runner, tmp_path: Path):
     """In one folder holding the bundled maps, domains and knowledge bases, in the order the help
     lists the commands (an example may use a file an earlier one wrote): each exits 0, or the code

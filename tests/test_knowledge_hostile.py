@@ -167,6 +167,7 @@ def test_special_files_are_refused_before_reading(tmp_path: Path, runner: CliRun
 # -- 2. the budget of grounding and solving ------------------------------------------------------------
 
 
+@pytest.mark.slow
 def test_a_memory_bomb_is_stopped_by_the_memory_budget(monkeypatch: pytest.MonkeyPatch, runner: CliRunner) -> None:
     """n(0..100000000). grows to gigabytes; under a 300 MB budget it stops, naming the budget."""
     monkeypatch.setenv("BELIEFLOC_MAX_KB_BYTES", "300000000")
@@ -176,6 +177,7 @@ def test_a_memory_bomb_is_stopped_by_the_memory_budget(monkeypatch: pytest.Monke
     assert "printer-example.yaml (with " in text and "bomb_memory.lp): grounding and solving needed more" in text
 
 
+@pytest.mark.slow
 def test_a_time_bomb_is_stopped_by_the_time_budget(monkeypatch: pytest.MonkeyPatch, runner: CliRunner) -> None:
     """10^9 combinations that make no atom: little memory, a lot of time; a 1-second budget stops it."""
     monkeypatch.setenv("BELIEFLOC_MAX_KB_SECONDS", "1")

@@ -400,6 +400,7 @@ def test_a_robot_in_another_process_is_localized(start: str) -> None:
     assert "localized:" in run["stderr"]
 
 
+@pytest.mark.slow
 def test_a_robot_on_the_depot_gets_an_initial_pose_for_amcl(tmp_path: Path) -> None:
     """The README's path from a SLAM map to AMCL: localize with --belief-out on Nav2's depot (a robot
     in another process answering laser ranges cast over the pixels), then 'pose --format ros'."""

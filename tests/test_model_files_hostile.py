@@ -126,6 +126,7 @@ def _rows_summing_to_097(header: dict[str, Any], arrays: Arrays) -> None:
     arrays["action0_data"] = arrays["action0_data"] * 0.97
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(
     "command", [["plan"], ["track", "--belief", "uniform", "forward"], ["simulate", "-n", "1", "--max-steps", "3"]]
 )

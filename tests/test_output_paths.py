@@ -330,6 +330,7 @@ def test_every_command_has_a_base_invocation() -> None:
     assert "build:-o" in outputs and "macros build:--output" in outputs and "simulate:--record" in outputs
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("param", "case"), list(_cases()))
 def test_bad_path_is_refused_and_nothing_is_written(param: Param, case: str, files: Files) -> None:
     value = _value(param, case, files)

@@ -58,6 +58,7 @@ def test_one_process_and_a_pool_print_the_same_bytes(runner, tmp_path: Path, nam
     assert json.loads(one)["summary"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", list(SWEEPS))
 def test_a_dask_cluster_prints_the_same_bytes(runner, tmp_path: Path, cluster: str, name: str):
     args = [*SWEEPS[name], "--json", "--no-timings"]
@@ -123,6 +124,7 @@ def _cli(args: list[str], **kwargs) -> subprocess.Popen[bytes]:
     return subprocess.Popen([sys.executable, "-m", "beliefloc", *args], env=env, **kwargs)
 
 
+@pytest.mark.slow
 def test_a_killed_sweep_resumes_to_the_same_bytes(tmp_path: Path):
     """SIGKILL half way, ``--resume`` (on two workers, even): the file and the output are those of a
     run that was never interrupted."""

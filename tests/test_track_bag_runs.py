@@ -46,6 +46,7 @@ def _run(tmp_path: Path, yaml: Path, scenario: Scenario) -> tuple[TrackResult, d
     return track_recording(occupancy, read_recording(paths["sqlite3"]), FilterConfig()), truth, paths["sqlite3"]
 
 
+@pytest.mark.slow
 def test_an_informative_depot_run_ends_localized_at_the_truth(tmp_path: Path) -> None:
     result, truth, _ = _run(tmp_path, DEPOT, Scenario("depot", DEPOT_PLAN, seed=100))
     assert result.localized
@@ -64,6 +65,7 @@ def test_the_nearly_symmetric_sandbox_is_never_confidently_wrong(tmp_path: Path,
         assert result.reason
 
 
+@pytest.mark.slow
 def test_heavy_clutter_and_drift_are_never_confidently_wrong(tmp_path: Path) -> None:
     world = TURTLEBOT4_WORLD.__class__(
         laser=TURTLEBOT4_WORLD.laser,
@@ -74,6 +76,7 @@ def test_heavy_clutter_and_drift_are_never_confidently_wrong(tmp_path: Path) -> 
     assert _confidently_wrong(result, truth) == 0
 
 
+@pytest.mark.slow
 def test_clockwise_scans_and_tf_odometry_give_the_same_pose(tmp_path: Path) -> None:
     occupancy = load_occupancy(DEPOT)
     run = simulate_scenario(occupancy, Scenario("depot", DEPOT_PLAN, seed=103))
