@@ -273,6 +273,6 @@ def test_a_room_only_the_kb_file_knows_has_no_cells(tmp_path: Path) -> None:
 def test_the_field_name_behind_a_map_search_is_not_a_key_of_the_file() -> None:
     data = _domain(None, map_search={"robot_start": [0, 0]})
     with pytest.raises(
-        DomainError, match=r"map_search: unknown key 'map_search'; expected one of: .*robot, rooms, search"
+        DomainError, match=r"map_search: unknown key 'map_search'; expected one of: .*robot, rooms, scene, search"
     ):
         domain_from_data(data)

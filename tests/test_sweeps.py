@@ -109,6 +109,9 @@ def test_a_worker_of_another_version_refuses_the_work():
 def test_a_pool_of_another_version_is_exit_2(runner, monkeypatch):
     """The client's version travels with every chunk; the pool's workers (this installation) refuse it."""
     monkeypatch.setattr(sweeps, "__version__", "0.0.0-other")
+    # spawned workers import this installation; a forked one would inherit the patched version (the
+    # pool forks when no other thread runs, which depends on the tests that ran before this one)
+    monkeypatch.setattr(sweeps.PoolBackend, "start_method", lambda self: "spawn")
     result = runner.invoke(app, [*SIMULATE, "--workers", "2"])
     assert result.exit_code == 2, result.output
     assert "but the client runs 0.0.0-other" in result.stderr
