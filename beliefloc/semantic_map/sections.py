@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import collections
 import math
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, TypeVar
 
 from pydantic import (
     BaseModel,
@@ -17,9 +17,12 @@ from pydantic import (
     ConfigDict,
     Field,
     field_validator,
+    model_validator,
 )
 
 from beliefloc.semantic_map import observations
+
+_T = TypeVar("_T", int, float)
 
 MAX_COST = 1e6
 """The largest cost of an action: plans add costs up, and a sum must stay a finite number."""
@@ -50,6 +53,20 @@ MOVES_BY_HEADINGS: dict[int, tuple[str, ...]] = {
 }
 NO_ROOM = FREE
 """In a room layout, a free cell in no room (blocked cells stay ``#``)."""
+
+
+SubSamples = Annotated[int, Field(strict=True, ge=1, le=7)]
+"""Positions per axis a region model averages over a cell (``k × k``)."""
+YawSamples = Annotated[int, Field(strict=True, ge=1, le=9)]
+"""Yaw offsets a region model averages over a heading's sector."""
+
+
+def _pick(value: _T | None, real: _T, exact: _T, occupancy: bool) -> _T:
+    """A region-model field: the file's value, else the default for a real place (an occupancy map)
+    or for a hand-drawn grid (the papers' exact model)."""
+    if value is not None:
+        return value
+    return real if occupancy else exact
 
 
 class StrictModel(BaseModel):
@@ -122,6 +139,28 @@ class LookSensor(_SensorBase):
     """Upper edges (degrees) of viewing-angle bins: [18, 30, 45] reports 0-18, 18-30 or 30-45."""
     occlusion: bool = True
     """Blocked cells between the robot and a landmark hide it."""
+    sub_samples: SubSamples | None = None
+    """Region model (:mod:`beliefloc.semantic_map.regions`): positions per axis averaged over each
+    cell (``k × k``). Default 3 on an occupancy map (a real place), 1 (the cell's centre, the papers'
+    exact model) on a hand-drawn grid."""
+    yaw_samples: YawSamples | None = None
+    """Region model: yaw offsets averaged over each heading's sector. Default 3 on an occupancy map, 1
+    on a hand-drawn grid."""
+    fov_edge: Annotated[Degrees, Field(ge=0.0, le=90.0)] | None = None
+    """Region model: degrees over which detection fades at the edge of the field of view (the σ of
+    a Gaussian edge). Default 3 on an occupancy map, 0 (a step) on a hand-drawn grid."""
+    range_edge: Annotated[Length, Field(le=100.0)] | None = None
+    """Region model: metres over which detection fades at the range limit (σ). Default 0.2 on an
+    occupancy map, 0 on a hand-drawn grid."""
+
+    def region(self, occupancy: bool) -> tuple[int, int, float, float]:
+        """``(sub_samples, yaw_samples, fov_edge, range_edge)`` with the defaults filled in."""
+        return (
+            _pick(self.sub_samples, 3, 1, occupancy),
+            _pick(self.yaw_samples, 3, 1, occupancy),
+            _pick(self.fov_edge, 3.0, 0.0, occupancy),
+            _pick(self.range_edge, 0.2, 0.0, occupancy),
+        )
 
     @field_validator("classes")
     @classmethod
@@ -174,6 +213,38 @@ class ScanSensor(_SensorBase):
         if len(set(turns)) != len(turns):
             raise ValueError(f"beams point the same way twice: {value}")
         return value
+
+    sub_samples: SubSamples | None = None
+    """Region model (:mod:`beliefloc.semantic_map.regions`): positions per axis averaged over each
+    cell. Default 3 on an occupancy map, 1 (the papers' exact model) on a hand-drawn grid."""
+    yaw_samples: YawSamples | None = None
+    """Region model: yaw offsets averaged over each heading's sector. Default 3 on an occupancy map,
+    1 on a hand-drawn grid."""
+    sigma: Annotated[Length, Field(le=10.0)] | None = None
+    """Region model: standard deviation of the range error in metres. Default 0.03 on an occupancy
+    map (a 2D lidar's few centimetres), 0 on a hand-drawn grid."""
+    random: Probability | None = None
+    """Region model: share of readings that are random (every bin alike; AMCL's ``z_rand``).
+    Default 0.05 on an occupancy map, 0 on a hand-drawn grid."""
+    short: Probability | None = None
+    """Region model: share of readings cut short by something not on the map, uniform before the
+    true range (AMCL's ``z_short``). Default 0.1 on an occupancy map, 0 on a hand-drawn grid."""
+
+    @model_validator(mode="after")
+    def _mixture(self) -> ScanSensor:
+        if (self.random or 0.0) + (self.short or 0.0) > 1.0:
+            raise ValueError(f"random + short must be at most 1, got {self.random} + {self.short}")
+        return self
+
+    def region(self, occupancy: bool) -> tuple[int, int, float, float, float]:
+        """``(sub_samples, yaw_samples, sigma, random, short)`` with the defaults filled in."""
+        return (
+            _pick(self.sub_samples, 3, 1, occupancy),
+            _pick(self.yaw_samples, 3, 1, occupancy),
+            _pick(self.sigma, 0.03, 0.0, occupancy),
+            _pick(self.random, 0.05, 0.0, occupancy),
+            _pick(self.short, 0.1, 0.0, occupancy),
+        )
 
     @property
     def multi_beam(self) -> bool:
