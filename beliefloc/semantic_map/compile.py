@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -21,10 +22,13 @@ from beliefloc.model import (
     SourceInfo,
     StateSpace,
 )
-from beliefloc.semantic_map import geometry, pixel_geometry, regions
+from beliefloc.semantic_map import geometry, pixel_geometry
 from beliefloc.semantic_map.observations import label, look_values, scan_values
 from beliefloc.semantic_map.schema import SemanticMap, here_classes
 from beliefloc.semantic_map.sections import HereSensor, LookSensor, ScanSensor, Sensor, grid_lines
+
+if TYPE_CHECKING:  # the region models need scipy; validating a map must not load it
+    from beliefloc.continuous.image import OccupancyImage
 
 
 def layout_of(smap: SemanticMap) -> GridLayout:
@@ -239,7 +243,7 @@ def _look_parts(
     n = layout.n_states
     fov = sensor.effective_fov(layout.headings)
     bins = np.array(sensor.angle_bins) if sensor.angle_bins else None
-    sub, yaw, fov_edge, range_edge = sensor.region(pixels is not None)
+    sub, yaw, fov_edge, range_edge = sensor.region()
     region_exact = (sub, yaw, fov_edge, range_edge) == (1, 1, 0.0, 0.0)
     fp, fn = sensor.false_positive, sensor.false_negative
     cells_by_class: dict[str, list[tuple[int, int]]] = {}
@@ -273,14 +277,26 @@ def _look_parts(
             confusion[1:, 1:] += np.eye(k) * (1.0 - fn)
         if not region_exact:
             truth, confusion = _region_look(
-                name, cls, sensor, smap, layout, annotated, pixels, fov, bins, (sub, yaw, fov_edge, range_edge), confusion
+                name,
+                cls,
+                sensor,
+                smap,
+                layout,
+                annotated,
+                pixels,
+                fov,
+                bins,
+                (sub, yaw, fov_edge, range_edge),
+                confusion,
             )
         parts.append(ObservationPart(f"{name}.{cls}", values, truth, confusion, aliases))
     return tuple(parts)
 
 
-def _region_image(layout: GridLayout, pixels: _Pixels | None) -> regions.OccupancyImage:
+def _region_image(layout: GridLayout, pixels: _Pixels | None) -> OccupancyImage:
     """What stops a ray for the region models, in the grid frame: the pixels, or the blocked cells."""
+    from beliefloc.semantic_map import regions
+
     if pixels is None:
         return regions.blocked_image(~layout.free, layout.cell_size)
     return regions.blocked_image(pixels.blocked, pixels.resolution)
@@ -300,6 +316,8 @@ def _region_look(
     confusion: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """A Look part's ``(truth, confusion)`` under the region model: a distinct row per distribution."""
+    from beliefloc.semantic_map import regions
+
     sub, yaw, fov_edge, range_edge = settings
     xy = _landmarks_xy(smap, layout, cls) if any(c == cls for c, _, _ in layout.landmarks) else np.zeros((0, 2))
     dist = regions.region_look(
@@ -322,6 +340,8 @@ def _region_look(
 
 
 def _rows(dist: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    from beliefloc.semantic_map import regions
+
     rows, index = regions.quantised_rows(dist)
     return index, rows
 
@@ -372,7 +392,7 @@ def _scan_parts(
     readings are suffixed ``@angle`` (``wall_0-0.2@-90``), so joint names stay unambiguous."""
     names = sensor.observation_names()
     bins = np.array(sensor.bins)
-    sub, yaw, sigma, random, short = sensor.region(pixels is not None)
+    sub, yaw, sigma, random, short = sensor.region()
     region_exact = (sub, yaw, sigma, random, short) == (1, 1, 0.0, 0.0, 0.0)
     image = _region_image(layout, pixels) if not region_exact else None
     if pixels is None:
@@ -397,10 +417,10 @@ def _scan_parts(
                 else:
                     truth[states] = int(np.searchsorted(bins, np.float64(float(reading)) - 1e-9))  # type: ignore[arg-type]
         confusion = _noise(len(names), sensor.error)
-        if not region_exact:
-            dist = regions.region_scan(
-                layout, image, regions.RegionSpec(sub, yaw), angle, bins, sigma, random, short
-            )
+        if image is not None:
+            from beliefloc.semantic_map import regions
+
+            dist = regions.region_scan(layout, image, regions.RegionSpec(sub, yaw), angle, bins, sigma, random, short)
             for states, readings in annotated:  # an annotated state reads what the file says
                 if name in readings:
                     dist[states] = np.eye(len(names))[truth[states]]

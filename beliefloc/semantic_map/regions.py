@@ -114,9 +114,7 @@ def sub_poses(layout: GridLayout, image: OccupancyImage, spec: RegionSpec) -> tu
     return poses, weight
 
 
-def scan_distribution(
-    ranges: np.ndarray, bins: np.ndarray, sigma: float, random: float, short: float
-) -> np.ndarray:
+def scan_distribution(ranges: np.ndarray, bins: np.ndarray, sigma: float, random: float, short: float) -> np.ndarray:
     """``P(reading | true range)`` for an array of true ranges (``inf``: nothing within the last
     edge): shape ``ranges.shape + (len(bins) + 1,)``; the last reading is ``no_wall``."""
     r = np.asarray(ranges, dtype=np.float64)[..., None]
