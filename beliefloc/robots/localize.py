@@ -39,7 +39,7 @@ from beliefloc.planning.best_first import PlanResult
 from beliefloc.planning.successors import SuccessorEvaluator
 from beliefloc.pose import pose_json
 from beliefloc.robots.readings import RawReading, ReadingBinner
-from beliefloc.robots.surprise import SurpriseCheck, respread
+from beliefloc.robots.surprise import DeclarationCheck, SurpriseCheck, respread
 from beliefloc.simulation.robot import SimulatedRobot
 from beliefloc.simulation.settings import DEFAULT_MAX_STEPS, StrategyName
 from beliefloc.simulation.strategies import EpisodeStatus, GiveUp, PlannerSettings, PlanningStrategy
@@ -158,8 +158,10 @@ def localize(
     steps, cost, reason = 0, 0.0, ""
     status = EpisodeStatus.LOCALIZED
     check = surprise if surprise is not None else SurpriseCheck()
+    declaration = DeclarationCheck()
+    declaration.start(belief)
     recovered = 0
-    while belief.max() < settings.threshold:
+    while belief.max() < settings.threshold or not declaration.explains(belief):
         if steps >= max_steps:
             status, reason = EpisodeStatus.STEP_LIMIT, f"{steps} actions done, the most allowed"
             break
@@ -186,17 +188,21 @@ def localize(
         cost += action.cost
         if expected is not None and observation is not None:
             check.observe(expected, observation)
-            if not check.fits:
+            declaration.observe(action, probability, belief)
+            if not check.fits or (belief.max() >= settings.threshold and not declaration.explains(belief)):
                 if recovered >= recoveries:
                     status = EpisodeStatus.INCONSISTENT
                     reason = (
                         f"action {command.seq}: the readings stopped fitting the belief (fit {check.fit:.2g} over the "
-                        f"last {len(check.ratios)} readings) after {recovered} re-spread(s): the world is not "
-                        "the map's model (a kidnapped robot, an unmapped obstacle, or sensors noisier than it says)"
+                        f"last {len(check.ratios)} readings; the most likely state's path explains them "
+                        f"{declaration.deficit(belief):.1f} nats worse than expected) after {recovered} "
+                        "re-spread(s): the world is not the map's model (a kidnapped robot, an unmapped "
+                        "obstacle, or sensors noisier than it says)"
                     )
                     break
                 belief = respread(belief)
                 check.reset()
+                declaration.start(belief)
                 recovered += 1
         strategy.observed(decision, observation, belief)  # a re-spread belief is not the planned one: replan
         if on_step is not None:
