@@ -3,17 +3,19 @@
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping
 
 import numpy as np
 import pytest
 
 from beliefloc import compile_model, load_map
-from beliefloc.belief import uniform
+from beliefloc.belief import predict, uniform
 from beliefloc.errors import InvalidValueError
 from beliefloc.model import Model
 from beliefloc.robots.line_protocol import motion
 from beliefloc.robots.localize import Command, SimulatedReadingRobot, localize
+from beliefloc.robots.odometry import FLAG_FLOOR, MotionReport, predict_reported
 from beliefloc.robots.readings import RawReading, ReadingBinner
 from beliefloc.robots.surprise import SurpriseCheck, respread
 from beliefloc.semantic_map import SemanticMap, geometry
@@ -165,3 +167,114 @@ def test_every_heading_moves_the_distance_the_action_message_says(name: str) -> 
 def test_four_heading_grids_keep_the_protocol_1_motion() -> None:
     model, _ = _kitchen()
     assert motion(model.grid, model.action("forward")) == {"advance": 1.2}
+
+
+# --- odometry and blocked in a reply ------------------------------------------------------------
+
+
+def _open_model(headings: int = 4) -> Model:
+    data = {
+        "name": "open",
+        "grid": {"rows": 6, "cols": 6, "headings": headings, "cell_size": 0.5},
+        "actions": {m: {} for m in ("forward", "backward", "rotate_cw", "rotate_ccw")},
+        "sensors": {"scan": {"type": "scan", "bins": [0.5, 1.0], "error": 0.05}},
+    }
+    return compile_model(SemanticMap.model_validate(data))
+
+
+def _interior_belief(model: Model, rng: np.random.Generator) -> np.ndarray:
+    grid = model.grid
+    assert grid is not None
+    rows, cols = np.divmod(grid.free_cells, grid.cols)
+    inner = np.repeat((rows >= 2) & (rows <= 3) & (cols >= 2) & (cols <= 3), grid.headings)
+    belief = np.where(inner, rng.random(model.n_states), 0.0)
+    belief /= belief.sum()
+    return belief
+
+
+@pytest.mark.parametrize(
+    ("action", "delta"),
+    [
+        ("forward", (0.5, 0.0, 0.0)),
+        ("backward", (-0.5, 0.0, 0.0)),
+        ("rotate_cw", (0.0, 0.0, -math.pi / 2)),
+        ("rotate_ccw", (0.0, 0.0, math.pi / 2)),
+    ],
+)
+def test_odometry_equal_to_the_command_predicts_what_the_command_does(
+    action: str, delta: tuple[float, float, float]
+) -> None:
+    """Away from walls, with noise-free odometry, the measured-motion prediction is ``T_a``'s (up to
+    the grid filter's least blur, ``continuous.motion.MIN_BLUR_CELLS`` split bilinearly: 10-15 % of
+    the mass spills into the neighbours)."""
+    from beliefloc.continuous.motion import OdometryNoise
+
+    model = _open_model()
+    belief = _interior_belief(model, np.random.default_rng(3))
+    act = model.action(action)
+    commanded = predict(act, belief)
+    report = MotionReport(odometry=delta)
+    measured = predict_reported(act, belief, report, model.grid, OdometryNoise(0.0, 0.0, 0.0, 0.0))
+    assert np.abs(measured - commanded).sum() <= 0.2
+    assert int(np.argmax(measured)) == int(np.argmax(commanded))
+    noisy = predict_reported(act, belief, report, model.grid)  # AMCL's default noise: spread, same mean cell
+    assert noisy.sum() == pytest.approx(1.0) and noisy.max() < commanded.max()
+
+
+def test_a_blocked_flag_keeps_the_states_whose_move_is_stopped() -> None:
+    model = _open_model()
+    belief = uniform(model.n_states)
+    act = model.action("forward")
+    stuck = act.transition.diagonal() > 0.5  # type: ignore[union-attr]
+    after = predict_reported(act, belief, MotionReport(blocked=True), model.grid)
+    assert after[stuck].sum() > 0.9
+    moved = predict_reported(act, belief, MotionReport(blocked=False), model.grid)
+    weighted = np.where(stuck, FLAG_FLOOR, 1.0) * belief
+    assert moved == pytest.approx(predict(act, weighted / weighted.sum()))
+
+
+@pytest.mark.parametrize(
+    ("reply", "field"),
+    [
+        ('{"seq": 1, "odometry": {"dx": NaN, "dy": 0, "dyaw": 0}}', "NaN is not a reading"),  # refused by the parser
+        ('{"seq": 1, "odometry": {"dx": Infinity, "dy": 0, "dyaw": 0}}', "odometry.dx"),
+        ('{"seq": 1, "odometry": {"dx": 40.0, "dy": 0, "dyaw": 0}}', "'odometry': a motion of 40 m"),
+        ('{"seq": 1, "odometry": {"dx": 0, "dy": 0, "dyaw": 7}}', "odometry.dyaw"),
+        ('{"seq": 1, "odometry": {"dx": 0, "dy": 0}}', "'odometry' should be an object"),
+        ('{"seq": 1, "blocked": "yes"}', "'blocked' should be true or false"),
+    ],
+)
+def test_bad_odometry_is_refused_naming_the_field(reply: str, field: str) -> None:
+    import io
+
+    from beliefloc.errors import ReplyError
+    from beliefloc.robots.line_protocol import LineRobot
+
+    model, binner = _kitchen()
+    robot = LineRobot(binner, io.StringIO(reply + "\n").readline, lambda line: None)
+    command = Command(1, model.action("forward"), None, None)
+    with pytest.raises(ReplyError, match=re.escape(field)):
+        robot.act(command)
+
+
+def test_a_blocked_flag_on_a_perception_action_is_refused() -> None:
+    import io
+
+    from beliefloc.errors import ReplyError
+    from beliefloc.robots.line_protocol import LineRobot
+
+    model, binner = _kitchen()
+    robot = LineRobot(binner, io.StringIO('{"seq": 1, "readings": {"scan": 0.5}, "blocked": true}\n').readline, print)
+    with pytest.raises(ReplyError, match="'blocked': scan is a perception action"):
+        robot.act(Command(1, model.action("scan"), None, None))
+
+
+def test_a_protocol_1_reply_reports_nothing() -> None:
+    import io
+
+    from beliefloc.robots.line_protocol import LineRobot
+
+    model, binner = _kitchen()
+    robot = LineRobot(binner, io.StringIO('{"seq": 1}\n').readline, lambda line: None)
+    robot.act(Command(1, model.action("forward"), None, None))
+    assert robot.motion_report() is None

@@ -19,15 +19,17 @@ import math
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from beliefloc.errors import ReplyError
+from beliefloc.errors import InvalidValueError, ReplyError
 from beliefloc.model import Action, GridLayout, Model
 from beliefloc.robots.localize import Command, Localization
+from beliefloc.robots.odometry import MotionReport, parse_report
 from beliefloc.robots.readings import RawReading, ReadingBinner
 
 PROTOCOL_VERSION = 1
 MAX_LINE_CHARS = 1 << 20
 """A reply longer than this (1 MiB) is refused: no reading needs it."""
-REPLY_KEYS = ("seq", "readings")
+REPLY_KEYS = ("seq", "readings", "odometry", "blocked")
+"""``odometry`` and ``blocked`` are optional (:mod:`beliefloc.robots.odometry`); protocol 1 replies have neither."""
 
 ReadLine = Callable[[int], str]
 """``readline(limit)`` of a text stream: one line with its newline, at most ``limit`` characters,
@@ -119,6 +121,11 @@ class LineRobot:
         self.write_line = write_line
         self.source = source
         self.lines_read = 0
+        self._report: MotionReport | None = None
+
+    def motion_report(self) -> MotionReport | None:
+        """What the last reply said the robot did (odometry, blocked), or None."""
+        return self._report
 
     def send(self, message: Mapping[str, Any]) -> None:
         self.write_line(json.dumps(message, allow_nan=False))
@@ -159,7 +166,10 @@ class LineRobot:
             raise ReplyError(f"{where}: a JSON object such as {example} was expected, got {_kind(data)}")
         unknown = [key for key in data if key not in REPLY_KEYS]
         if unknown:
-            raise ReplyError(f"{where}: unknown key {unknown[0]!r}; a reply has {' and '.join(map(repr, REPLY_KEYS))}")
+            raise ReplyError(
+                f"{where}: unknown key {unknown[0]!r}; a reply has 'seq' and 'readings', and after a move "
+                "optionally 'odometry' and 'blocked'"
+            )
         seq = data.get("seq")
         if isinstance(seq, bool) or not isinstance(seq, int):
             raise ReplyError(f"{where}: 'seq' should be the action's sequence number {command.seq}, got {seq!r}")
@@ -167,6 +177,10 @@ class LineRobot:
             raise ReplyError(
                 f"{where}: out of order: 'seq' is {seq}, but the action waiting for a reply is {command.seq}"
             )
+        try:
+            self._report = parse_report(data, command.action, self.binner.model.grid)
+        except InvalidValueError as exc:
+            raise ReplyError(f"{where}: {exc}") from None
         readings = data.get("readings", {})
         if not isinstance(readings, dict):
             raise ReplyError(
