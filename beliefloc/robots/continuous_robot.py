@@ -93,7 +93,7 @@ class ContinuousReadingRobot:
         grid = self.grid
         step = 2 * math.pi / grid.headings
         offset = grid.frame.yaw + math.pi / 2 - float(self.robot.pose[2])
-        return int(round(offset / step)) % grid.headings
+        return round(offset / step) % grid.headings
 
     def _command(self, motion: Mapping[str, float]) -> tuple[float, float, float]:
         if "turn" in motion:
