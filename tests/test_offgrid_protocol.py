@@ -278,3 +278,48 @@ def test_a_protocol_1_reply_reports_nothing() -> None:
     robot = LineRobot(binner, io.StringIO('{"seq": 1}\n').readline, lambda line: None)
     robot.act(Command(1, model.action("forward"), None, None))
     assert robot.motion_report() is None
+
+
+# --- the continuous robot, in process and through the line protocol -----------------------------
+
+
+def _continuous_episode(seed: int, through_lines: bool) -> tuple[np.ndarray, np.ndarray]:
+    """One seeded episode of a continuous robot on the kitchen; the final belief and true pose."""
+    import json
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "benchmarks"))
+    from bench_offgrid import world_of
+
+    from beliefloc.continuous.world import ContinuousRobot
+    from beliefloc.robots.continuous_robot import ContinuousReadingRobot
+    from beliefloc.robots.line_protocol import LineRobot
+
+    smap = load_map(MAPS / "kitchen.yaml")
+    model = compile_model(smap)
+    binner = ReadingBinner(smap, model)
+    rng = np.random.default_rng(seed)
+    world = world_of(smap, 0.05, rng)
+    robot = ContinuousReadingRobot(ContinuousRobot(world, world.random_poses(1)[0]), smap, binner)
+    if not through_lines:
+        outcome = localize(model, uniform(model.n_states), robot, binner, max_steps=20)
+        return outcome.belief, robot.robot.pose
+    pending: list[str] = []
+
+    def write(line: str) -> None:  # the robot's end of the pipe: answer each action message
+        message = json.loads(line)
+        if message["message"] == "action":
+            pending.append(json.dumps(robot.reply(message)) + "\n")
+
+    line_robot = LineRobot(binner, lambda limit: pending.pop(0) if pending else "", write)
+    outcome = localize(model, uniform(model.n_states), line_robot, binner, max_steps=20)
+    return outcome.belief, robot.robot.pose
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_continuous_robot_gives_the_same_belief_in_process_and_through_the_line_protocol(seed: int) -> None:
+    direct, pose_a = _continuous_episode(seed, through_lines=False)
+    wired, pose_b = _continuous_episode(seed, through_lines=True)
+    assert np.array_equal(pose_a, pose_b)
+    assert wired == pytest.approx(direct, rel=1e-9, abs=1e-15)
