@@ -59,8 +59,25 @@ def world_of(smap: SemanticMap, clutter: float, rng: np.random.Generator) -> Con
     return ContinuousWorld(image, config, rng)
 
 
-def episode(name: str, seed: int, clutter: float, protocol_1: bool, max_steps: int) -> dict[str, object]:
+REAL_SCAN = {"sub_samples": 3, "yaw_samples": 3, "sigma": 0.03, "random": 0.05, "short": 0.1}
+REAL_LOOK = {"sub_samples": 3, "yaw_samples": 3, "fov_edge": 3.0, "range_edge": 0.2}
+
+
+def with_region_model(smap: SemanticMap) -> SemanticMap:
+    """``smap`` with every Scan and Look sensor's region fields at docs/map-format.md's real-robot values."""
+    sensors = {}
+    for name, sensor in smap.sensors.items():
+        update = REAL_SCAN if sensor.type == "scan" else REAL_LOOK if sensor.type == "look" else {}
+        sensors[name] = sensor.model_copy(update=update)
+    return smap.model_copy(update={"sensors": sensors})
+
+
+def episode(
+    name: str, seed: int, clutter: float, protocol_1: bool, max_steps: int, region: bool = False
+) -> dict[str, object]:
     smap = load_map(MAPS / f"{name}.yaml")
+    if region:
+        smap = with_region_model(smap)
     model = compile_model(smap)
     binner = ReadingBinner(smap, model)
     rng = np.random.default_rng(seed)
@@ -104,11 +121,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--clutter", type=float, default=0.0, help="share of beams reading clutter")
     parser.add_argument("--protocol-1", action="store_true", help="replies carry readings only")
     parser.add_argument("--max-steps", type=int, default=60)
+    parser.add_argument("--region", action="store_true", help="region models at the real-robot values")
     parser.add_argument("--json", type=Path, help="write the episode records here")
     args = parser.parse_args(argv)
     records = []
     for name in args.maps:
-        rows = [episode(name, seed, args.clutter, args.protocol_1, args.max_steps) for seed in range(args.episodes)]
+        rows = [episode(name, seed, args.clutter, args.protocol_1, args.max_steps, args.region) for seed in range(args.episodes)]
         records.extend(rows)
         n = len(rows)
         localized = sum(bool(r["localized"]) for r in rows)
