@@ -126,7 +126,10 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     records = []
     for name in args.maps:
-        rows = [episode(name, seed, args.clutter, args.protocol_1, args.max_steps, args.region) for seed in range(args.episodes)]
+        rows = [
+            episode(name, seed, args.clutter, args.protocol_1, args.max_steps, args.region)
+            for seed in range(args.episodes)
+        ]
         records.extend(rows)
         n = len(rows)
         localized = sum(bool(r["localized"]) for r in rows)
