@@ -233,7 +233,11 @@ def test_a_reply_is_read_one_line_at_a_time(kitchen: Any) -> None:
         ("\n", r"^stdin line 1, the reply to action 1 \(scan\): an empty line; expected one JSON object such as"),
         ("hello\n", r"^stdin line 1, the reply to action 1 \(scan\): not JSON \(Expecting value"),
         ("[1]\n", r": a JSON object such as \{\"seq\": 1, \"readings\": \{\.\.\.\}\} was expected, got a list$"),
-        ('{"seq": 1, "reading": {}}\n', r": unknown key 'reading'; a reply has 'seq' and 'readings'$"),
+        (
+            '{"seq": 1, "reading": {}}\n',
+            r": unknown key 'reading'; a reply has 'seq' and 'readings', and after a move optionally 'odometry' "
+            r"and 'blocked'$",
+        ),
         ('{"readings": {}}\n', r": 'seq' should be the action's sequence number 1, got None$"),
         ('{"seq": true}\n', r": 'seq' should be the action's sequence number 1, got True$"),
         ('{"seq": 2}\n', r": out of order: 'seq' is 2, but the action waiting for a reply is 1$"),

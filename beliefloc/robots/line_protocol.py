@@ -19,15 +19,17 @@ import math
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from beliefloc.errors import ReplyError
+from beliefloc.errors import InvalidValueError, ReplyError
 from beliefloc.model import Action, GridLayout, Model
 from beliefloc.robots.localize import Command, Localization
+from beliefloc.robots.odometry import MotionReport, parse_report
 from beliefloc.robots.readings import RawReading, ReadingBinner
 
 PROTOCOL_VERSION = 1
 MAX_LINE_CHARS = 1 << 20
 """A reply longer than this (1 MiB) is refused: no reading needs it."""
-REPLY_KEYS = ("seq", "readings")
+REPLY_KEYS = ("seq", "readings", "odometry", "blocked")
+"""``odometry`` and ``blocked`` are optional (:mod:`beliefloc.robots.odometry`); protocol 1 replies have neither."""
 
 ReadLine = Callable[[int], str]
 """``readline(limit)`` of a text stream: one line with its newline, at most ``limit`` characters,
@@ -39,9 +41,15 @@ WriteLine = Callable[[str], None]
 def motion(grid: GridLayout | None, action: Action) -> dict[str, float] | None:
     """What an actuation action asks the robot to do, in metres and radians (counter-clockwise
     positive): ``{"turn": θ}`` for a rotation (``2π/headings``), ``{"advance": ±s}`` for forward and
-    backward (one cell of ``s`` metres along the heading; ``s·√2`` on a diagonal heading of an
-    8-heading grid), ``{"x": dx, "y": dy}`` for a compass move (map-frame metres). None for a
-    perception action or a model without a grid."""
+    backward (one cell of ``s`` metres along the heading), ``{"x": dx, "y": dy}`` for a compass move
+    (map-frame metres). None for a perception action or a model without a grid.
+
+    **Diagonals.** beliefloc does not know the robot's heading, and on an 8-heading grid a move
+    along a diagonal heading goes to the diagonal neighbour's centre (``s·√2`` away, as the model's
+    ``T_a`` says). The message therefore carries both distances on an 8-heading grid:
+    ``{"advance": ±s, "advance_diagonal": ±s·√2}``; the robot drives ``advance_diagonal`` when its
+    heading is a diagonal one (NE, SE, SW, NW), ``advance`` otherwise: always to the centre of the
+    next cell along its heading."""
     if grid is None or not action.is_actuation:
         return None
     step = grid.cell_size
@@ -49,7 +57,10 @@ def motion(grid: GridLayout | None, action: Action) -> dict[str, float] | None:
         turn = 2 * math.pi / grid.headings
         return {"turn": turn if action.name == "rotate_ccw" else -turn}
     if action.name in ("forward", "backward"):
-        return {"advance": step if action.name == "forward" else -step}
+        sign = 1.0 if action.name == "forward" else -1.0
+        if grid.headings == 8:
+            return {"advance": sign * step, "advance_diagonal": sign * step * math.sqrt(2.0)}
+        return {"advance": sign * step}
     grid_step = {"up": (0.0, step), "down": (0.0, -step), "left": (-step, 0.0), "right": (step, 0.0)}.get(action.name)
     if grid_step is None:
         return None
@@ -110,6 +121,11 @@ class LineRobot:
         self.write_line = write_line
         self.source = source
         self.lines_read = 0
+        self._report: MotionReport | None = None
+
+    def motion_report(self) -> MotionReport | None:
+        """What the last reply said the robot did (odometry, blocked), or None."""
+        return self._report
 
     def send(self, message: Mapping[str, Any]) -> None:
         self.write_line(json.dumps(message, allow_nan=False))
@@ -150,7 +166,10 @@ class LineRobot:
             raise ReplyError(f"{where}: a JSON object such as {example} was expected, got {_kind(data)}")
         unknown = [key for key in data if key not in REPLY_KEYS]
         if unknown:
-            raise ReplyError(f"{where}: unknown key {unknown[0]!r}; a reply has {' and '.join(map(repr, REPLY_KEYS))}")
+            raise ReplyError(
+                f"{where}: unknown key {unknown[0]!r}; a reply has 'seq' and 'readings', and after a move "
+                "optionally 'odometry' and 'blocked'"
+            )
         seq = data.get("seq")
         if isinstance(seq, bool) or not isinstance(seq, int):
             raise ReplyError(f"{where}: 'seq' should be the action's sequence number {command.seq}, got {seq!r}")
@@ -158,6 +177,10 @@ class LineRobot:
             raise ReplyError(
                 f"{where}: out of order: 'seq' is {seq}, but the action waiting for a reply is {command.seq}"
             )
+        try:
+            self._report = parse_report(data, command.action, self.binner.model.grid)
+        except InvalidValueError as exc:
+            raise ReplyError(f"{where}: {exc}") from None
         readings = data.get("readings", {})
         if not isinstance(readings, dict):
             raise ReplyError(

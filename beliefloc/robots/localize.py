@@ -10,6 +10,13 @@
         b <- update(b, a, o)                     b'(s_j) ∝ O_a[j, o] Σ_i T_a[i, j] b(s_i)
         if o differs from the observation the plan expected: drop the plan (replan next time)
 
+**Surprise** (:mod:`beliefloc.robots.surprise`): beside the belief, the loop tracks how well the
+readings fit it. When they stop fitting -- a kidnapped robot, something not on the map, a map unlike
+the world -- the belief is never declared localized: it is re-spread (mixed half and half with the
+uniform belief, AMCL's recovery) at most ``recoveries`` times, then the loop ends ``inconsistent``.
+The result says which happened (``recoveries``) and how well the last readings fit
+(``model_confidence``), beside the belief's maximum.
+
 The planning is :class:`~beliefloc.simulation.strategies.PlanningStrategy`'s, exactly as in a
 simulated episode; the robot is anything with ``act(command) -> raw readings``
 (:class:`ReadingRobot`): a real one over ``beliefloc localize``'s line protocol
@@ -25,13 +32,15 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from beliefloc.belief import most_likely, update
+from beliefloc.belief import most_likely
 from beliefloc.errors import ImpossibleObservationError, InvalidValueError, ReplyError
 from beliefloc.model import Action, Model
 from beliefloc.planning.best_first import PlanResult
 from beliefloc.planning.successors import SuccessorEvaluator
 from beliefloc.pose import pose_json
+from beliefloc.robots.odometry import ReportingRobot, predict_reported
 from beliefloc.robots.readings import RawReading, ReadingBinner
+from beliefloc.robots.surprise import DeclarationCheck, SurpriseCheck, respread
 from beliefloc.simulation.robot import SimulatedRobot
 from beliefloc.simulation.settings import DEFAULT_MAX_STEPS, StrategyName
 from beliefloc.simulation.strategies import EpisodeStatus, GiveUp, PlannerSettings, PlanningStrategy
@@ -86,6 +95,10 @@ class Localization:
     plan_seconds: tuple[float, ...]
     reason: str = ""
     """Why the loop stopped short, in words (empty when localized)."""
+    model_confidence: float = 1.0
+    """How well the last readings fit the belief (:attr:`SurpriseCheck.confidence`, in [0, 1])."""
+    recoveries: int = 0
+    """How many times the readings stopped fitting and the belief was re-spread."""
 
     @property
     def localized(self) -> bool:
@@ -106,6 +119,8 @@ class Localization:
             "steps": self.steps,
             "cost": self.cost,
             "replans": self.replans,
+            "model_confidence": self.model_confidence,
+            "recoveries": self.recoveries,
         }
 
 
@@ -115,6 +130,9 @@ _GIVE_UP_REASONS = {
     "some states cannot be told apart",
     EpisodeStatus.BUDGET_EXCEEDED: "the planner's budget (expansions or seconds) ran out before it found a plan",
 }
+DEFAULT_RECOVERIES = 1
+"""How many times ``localize`` re-spreads a belief whose readings stopped fitting before it ends
+``inconsistent``."""
 
 
 def localize(
@@ -127,6 +145,8 @@ def localize(
     max_steps: int = DEFAULT_MAX_STEPS,
     evaluator: SuccessorEvaluator | None = None,
     on_step: OnStep | None = None,
+    surprise: SurpriseCheck | None = None,
+    recoveries: int = DEFAULT_RECOVERIES,
 ) -> Localization:
     """Plan, act, perceive and replan until one state holds ``settings.threshold`` (see the module).
 
@@ -138,7 +158,11 @@ def localize(
     strategy = PlanningStrategy(StrategyName.BESTFIRST.value, model, settings, evaluator or SuccessorEvaluator(model))
     steps, cost, reason = 0, 0.0, ""
     status = EpisodeStatus.LOCALIZED
-    while belief.max() < settings.threshold:
+    check = surprise if surprise is not None else SurpriseCheck()
+    declaration = DeclarationCheck()
+    declaration.start(belief)
+    recovered = 0
+    while belief.max() < settings.threshold or not declaration.explains(belief):
         if steps >= max_steps:
             status, reason = EpisodeStatus.STEP_LIMIT, f"{steps} actions done, the most allowed"
             break
@@ -155,17 +179,66 @@ def localize(
             observation = binner.observation(action, readings)
         except InvalidValueError as exc:
             raise ReplyError(f"the reply to action {command.seq} ({action.name}): {exc}") from None
+        report = robot.motion_report() if isinstance(robot, ReportingRobot) else None
         try:
-            belief, probability = update(model, belief, action, observation)
+            predicted = predict_reported(action, belief, report, model.grid)
+        except InvalidValueError as exc:
+            raise ReplyError(f"the reply to action {command.seq} ({action.name}): {exc}") from None
+        expected = action.observation.probabilities(predicted) if observation is not None else None
+        try:
+            belief, probability = _perceive(action, predicted, observation)
         except ImpossibleObservationError as exc:
             status, reason = EpisodeStatus.IMPOSSIBLE_OBSERVATION, f"action {command.seq}: {exc}"
             break
         steps += 1
         cost += action.cost
-        strategy.observed(decision, observation, belief)
+        if expected is not None and observation is not None:
+            check.observe(expected, observation)
+            declaration.observe(action, probability, belief)
+            if not check.fits or (belief.max() >= settings.threshold and not declaration.explains(belief)):
+                if recovered >= recoveries:
+                    status = EpisodeStatus.INCONSISTENT
+                    reason = (
+                        f"action {command.seq}: the readings stopped fitting the belief (fit {check.fit:.2g} over the "
+                        f"last {len(check.ratios)} readings; the most likely state's path explains them "
+                        f"{declaration.deficit(belief):.1f} nats worse than expected) after {recovered} "
+                        "re-spread(s): the world is not the map's model (a kidnapped robot, an unmapped "
+                        "obstacle, or sensors noisier than it says)"
+                    )
+                    break
+                belief = respread(belief)
+                check.reset()
+                declaration.start(belief)
+                recovered += 1
+        strategy.observed(decision, observation, belief)  # a re-spread belief is not the planned one: replan
         if on_step is not None:
             on_step(LocalizeStep(command, observation, probability, belief))
-    return Localization(status, belief, steps, cost, strategy.replans, tuple(strategy.plan_seconds), reason)
+    return Localization(
+        status,
+        belief,
+        steps,
+        cost,
+        strategy.replans,
+        tuple(strategy.plan_seconds),
+        reason,
+        check.confidence,
+        recovered,
+    )
+
+
+def _perceive(action: Action, predicted: np.ndarray, observation: int | None) -> tuple[np.ndarray, float]:
+    """:func:`beliefloc.belief.update` after the prediction: Bayes' rule with ``O_a``."""
+    if observation is None:
+        return predicted, 1.0
+    weighted = predicted * action.observation.likelihood(observation)
+    total = float(weighted.sum())
+    if not total > 0.0:
+        raise ImpossibleObservationError(
+            f"observation {action.observation.name(observation)!r} after {action.name!r} has probability 0 under "
+            "the current belief: no state the robot may be in can produce it"
+        )
+    weighted /= total
+    return weighted, total
 
 
 class SimulatedReadingRobot:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -25,6 +26,9 @@ from beliefloc.semantic_map import geometry, pixel_geometry
 from beliefloc.semantic_map.observations import label, look_values, scan_values
 from beliefloc.semantic_map.schema import SemanticMap, here_classes
 from beliefloc.semantic_map.sections import HereSensor, LookSensor, ScanSensor, Sensor, grid_lines
+
+if TYPE_CHECKING:  # the region models need scipy; validating a map must not load it
+    from beliefloc.continuous.image import OccupancyImage
 
 
 def layout_of(smap: SemanticMap) -> GridLayout:
@@ -239,6 +243,8 @@ def _look_parts(
     n = layout.n_states
     fov = sensor.effective_fov(layout.headings)
     bins = np.array(sensor.angle_bins) if sensor.angle_bins else None
+    sub, yaw, fov_edge, range_edge = sensor.region()
+    region_exact = (sub, yaw, fov_edge, range_edge) == (1, 1, 0.0, 0.0)
     fp, fn = sensor.false_positive, sensor.false_negative
     cells_by_class: dict[str, list[tuple[int, int]]] = {}
     for lm_class, lr, lc in layout.landmarks:
@@ -269,8 +275,75 @@ def _look_parts(
             confusion[0, 0], confusion[0, 1:] = 1.0 - fp, fp / k
             confusion[1:, 0] = fn
             confusion[1:, 1:] += np.eye(k) * (1.0 - fn)
+        if not region_exact:
+            truth, confusion = _region_look(
+                name,
+                cls,
+                sensor,
+                smap,
+                layout,
+                annotated,
+                pixels,
+                fov,
+                bins,
+                (sub, yaw, fov_edge, range_edge),
+                confusion,
+            )
         parts.append(ObservationPart(f"{name}.{cls}", values, truth, confusion, aliases))
     return tuple(parts)
+
+
+def _region_image(layout: GridLayout, pixels: _Pixels | None) -> OccupancyImage:
+    """What stops a ray for the region models, in the grid frame: the pixels, or the blocked cells."""
+    from beliefloc.semantic_map import regions
+
+    if pixels is None:
+        return regions.blocked_image(~layout.free, layout.cell_size)
+    return regions.blocked_image(pixels.blocked, pixels.resolution)
+
+
+def _region_look(
+    name: str,
+    cls: str,
+    sensor: LookSensor,
+    smap: SemanticMap,
+    layout: GridLayout,
+    annotated: list[tuple[np.ndarray, dict[str, object]]],
+    pixels: _Pixels | None,
+    fov: float,
+    bins: np.ndarray | None,
+    settings: tuple[int, int, float, float],
+    confusion: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """A Look part's ``(truth, confusion)`` under the region model: a distinct row per distribution."""
+    from beliefloc.semantic_map import regions
+
+    sub, yaw, fov_edge, range_edge = settings
+    xy = _landmarks_xy(smap, layout, cls) if any(c == cls for c, _, _ in layout.landmarks) else np.zeros((0, 2))
+    dist = regions.region_look(
+        layout,
+        _region_image(layout, pixels),
+        regions.RegionSpec(sub, yaw),
+        xy,
+        fov,
+        sensor.range,
+        sensor.occlusion,
+        bins,
+        fov_edge,
+        range_edge,
+    )
+    for states, readings in annotated:  # an annotation is what the file says is read there
+        if name in readings:
+            value = _angle_to_value(np.array([_annotated_angle(readings[name], cls)]), bins)[0]
+            dist[states] = np.eye(dist.shape[1])[value]
+    return _rows(dist @ confusion)
+
+
+def _rows(dist: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    from beliefloc.semantic_map import regions
+
+    rows, index = regions.quantised_rows(dist)
+    return index, rows
 
 
 def _landmarks_xy(smap: SemanticMap, layout: GridLayout, cls: str) -> np.ndarray:
@@ -319,6 +392,9 @@ def _scan_parts(
     readings are suffixed ``@angle`` (``wall_0-0.2@-90``), so joint names stay unambiguous."""
     names = sensor.observation_names()
     bins = np.array(sensor.bins)
+    sub, yaw, sigma, random, short = sensor.region()
+    region_exact = (sub, yaw, sigma, random, short) == (1, 1, 0.0, 0.0, 0.0)
+    image = _region_image(layout, pixels) if not region_exact else None
     if pixels is None:
         distance = geometry.wall_distances(layout, sensor.bins[-1])
     else:  # rays cast over the pixels: unknown space and the map's edge stop them, as AMCL's do
@@ -340,6 +416,15 @@ def _scan_parts(
                     truth[states] = names.index(reading)
                 else:
                     truth[states] = int(np.searchsorted(bins, np.float64(float(reading)) - 1e-9))  # type: ignore[arg-type]
+        confusion = _noise(len(names), sensor.error)
+        if image is not None:
+            from beliefloc.semantic_map import regions
+
+            dist = regions.region_scan(layout, image, regions.RegionSpec(sub, yaw), angle, bins, sigma, random, short)
+            for states, readings in annotated:  # an annotated state reads what the file says
+                if name in readings:
+                    dist[states] = np.eye(len(names))[truth[states]]
+            truth, confusion = _rows(dist @ confusion)
         if sensor.multi_beam:
             angle_label = label(angle)
             parts.append(
@@ -347,11 +432,11 @@ def _scan_parts(
                     f"{name}@{angle_label}",
                     scan_values(sensor.bins, angle_label),
                     truth,
-                    _noise(len(names), sensor.error),
+                    confusion,
                 )
             )
         else:
-            parts.append(ObservationPart(name, tuple(names), truth, _noise(len(names), sensor.error)))
+            parts.append(ObservationPart(name, tuple(names), truth, confusion))
     return tuple(parts)
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import collections
 import math
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, TypeVar
 
 from pydantic import (
     BaseModel,
@@ -17,9 +17,12 @@ from pydantic import (
     ConfigDict,
     Field,
     field_validator,
+    model_validator,
 )
 
 from beliefloc.semantic_map import observations
+
+_T = TypeVar("_T", int, float)
 
 MAX_COST = 1e6
 """The largest cost of an action: plans add costs up, and a sum must stay a finite number."""
@@ -50,6 +53,24 @@ MOVES_BY_HEADINGS: dict[int, tuple[str, ...]] = {
 }
 NO_ROOM = FREE
 """In a room layout, a free cell in no room (blocked cells stay ``#``)."""
+
+
+SubSamples = Annotated[int, Field(strict=True, ge=1, le=7)]
+"""Positions per axis a region model averages over a cell (``k × k``)."""
+YawSamples = Annotated[int, Field(strict=True, ge=1, le=9)]
+"""Yaw offsets a region model averages over a heading's sector."""
+
+
+def _pick(value: _T | None, real: _T, exact: _T, real_place: bool) -> _T:
+    """A region-model field: the file's value, else the value for a real place (``real``, what a 2D
+    lidar and an object detector are like) when ``real_place``, else the papers' exact model.
+
+    :func:`beliefloc.semantic_map.compile.compile_model` asks for the exact model by default
+    (``real_place=False``) for every map: the planners' signature grouping and EC2's gamma range are
+    built on few distinct reading rows, which region rows are not yet (see docs/map-format.md)."""
+    if value is not None:
+        return value
+    return real if real_place else exact
 
 
 class StrictModel(BaseModel):
@@ -122,6 +143,29 @@ class LookSensor(_SensorBase):
     """Upper edges (degrees) of viewing-angle bins: [18, 30, 45] reports 0-18, 18-30 or 30-45."""
     occlusion: bool = True
     """Blocked cells between the robot and a landmark hide it."""
+    sub_samples: SubSamples | None = None
+    """Region model (:mod:`beliefloc.semantic_map.regions`): positions per axis averaged over each
+    cell (``k × k``). Default 1 (the cell's centre: the papers'
+    exact model); 3 suits a real robot."""
+    yaw_samples: YawSamples | None = None
+    """Region model: yaw offsets averaged over each heading's sector. Default 1; 3 suits a
+    real robot."""
+    fov_edge: Annotated[Degrees, Field(ge=0.0, le=90.0)] | None = None
+    """Region model: degrees over which detection fades at the edge of the field of view (the σ of
+    a Gaussian edge). Default 0 (a step); 3 suits a real
+    detector."""
+    range_edge: Annotated[Length, Field(le=100.0)] | None = None
+    """Region model: metres over which detection fades at the range limit (σ). Default 0 (a step); 0.2
+    suits a real detector."""
+
+    def region(self, real_place: bool = False) -> tuple[int, int, float, float]:
+        """``(sub_samples, yaw_samples, fov_edge, range_edge)`` with the defaults filled in."""
+        return (
+            _pick(self.sub_samples, 3, 1, real_place),
+            _pick(self.yaw_samples, 3, 1, real_place),
+            _pick(self.fov_edge, 3.0, 0.0, real_place),
+            _pick(self.range_edge, 0.2, 0.0, real_place),
+        )
 
     @field_validator("classes")
     @classmethod
@@ -174,6 +218,40 @@ class ScanSensor(_SensorBase):
         if len(set(turns)) != len(turns):
             raise ValueError(f"beams point the same way twice: {value}")
         return value
+
+    sub_samples: SubSamples | None = None
+    """Region model (:mod:`beliefloc.semantic_map.regions`): positions per axis averaged over each
+    cell. Default 1 (the papers' exact
+    model); 3 suits a real robot."""
+    yaw_samples: YawSamples | None = None
+    """Region model: yaw offsets averaged over each heading's sector. Default 1; 3 suits a real
+    robot."""
+    sigma: Annotated[Length, Field(le=10.0)] | None = None
+    """Region model: standard deviation of the range error in metres. Default 0; a 2D lidar's few
+    centimetres (0.03) suit a real robot."""
+    random: Probability | None = None
+    """Region model: share of readings that are random (every bin alike; AMCL's ``z_rand``).
+    Default 0; 0.05 suits a real lidar."""
+    short: Probability | None = None
+    """Region model: share of readings cut short by something not on the map, uniform before the
+    true range (AMCL's ``z_short``). Default 0; 0.1 suits a real
+    lidar among people and furniture."""
+
+    @model_validator(mode="after")
+    def _mixture(self) -> ScanSensor:
+        if (self.random or 0.0) + (self.short or 0.0) > 1.0:
+            raise ValueError(f"random + short must be at most 1, got {self.random} + {self.short}")
+        return self
+
+    def region(self, real_place: bool = False) -> tuple[int, int, float, float, float]:
+        """``(sub_samples, yaw_samples, sigma, random, short)`` with the defaults filled in."""
+        return (
+            _pick(self.sub_samples, 3, 1, real_place),
+            _pick(self.yaw_samples, 3, 1, real_place),
+            _pick(self.sigma, 0.03, 0.0, real_place),
+            _pick(self.random, 0.05, 0.0, real_place),
+            _pick(self.short, 0.1, 0.0, real_place),
+        )
 
     @property
     def multi_beam(self) -> bool:

@@ -65,6 +65,9 @@ class EpisodeStatus(enum.Enum):
     """The episode took its maximum number of actions."""
     IMPOSSIBLE_OBSERVATION = "impossible_observation"
     """The world gave an observation the robot's model says cannot happen (a world unlike the model)."""
+    INCONSISTENT = "inconsistent"
+    """The readings stopped fitting the belief, and re-spreading it did not help (a world unlike the
+    model: :mod:`beliefloc.robots.surprise`)."""
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,156 @@
+"""How well the readings fit the belief: the check that keeps ``localize`` from a confident wrong pose.
+
+A Bayes filter always produces *some* peaked belief: a reading no state explains well is explained
+away by the sensors' confusion rate, and the belief collapses on whichever state fits least badly. So
+besides the belief, track how likely the readings were under it, against what the model expects
+(Fox, Burgard, Dellaert & Thrun's "believability", AMCL's ``w_slow``/``w_fast`` recovery):
+
+* for each observation ``o`` after action ``a`` from belief ``b``, ``p(o) = p(o | a, b)`` and the
+  likelihood an observation drawn from the model itself would have on average,
+  ``E[p] = Σ_o' p(o' | a, b)²``; their **ratio** ``r = p(o) / E[p]`` is 1 on average when the model
+  is right, and small when the world is not the model (a kidnapped robot, an unmapped obstacle, a
+  wrong map);
+* the **fit** is the product of the ratios (each capped at 1: a reading likelier than expected is
+  no evidence the model is right) over the last :attr:`SurpriseCheck.window` observations; the
+  readings **stop fitting** when the fit falls below :attr:`SurpriseCheck.threshold`. With the
+  defaults (window 5, threshold 10⁻³) a well-modelled robot whose sensors err 1 % of the time trips
+  it about once in a thousand windows (two 1 % readings among five); a robot moved elsewhere trips it
+  within two or three readings;
+* **confidence** in the model, reported beside the belief's maximum, is the fit's geometric mean
+  per reading, in ``[0, 1]``: 1 when every recent reading was as likely as the model expects.
+
+What ``localize`` does when the readings stop fitting is its business (:mod:`beliefloc.robots.localize`:
+re-spread the belief, AMCL's recovery, at most ``recoveries`` times; then end ``inconsistent``); a
+belief whose readings do not fit is never declared localized.
+
+Pure numpy, no I/O.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from beliefloc.errors import InvalidValueError
+from beliefloc.model import Action
+
+DEFAULT_WINDOW = 5
+DEFAULT_THRESHOLD = 1e-2
+
+
+@dataclass
+class SurpriseCheck:
+    """The running fit of the readings to the belief (see the module)."""
+
+    window: int = DEFAULT_WINDOW
+    threshold: float = DEFAULT_THRESHOLD
+    ratios: deque[float] = field(default_factory=deque)
+
+    def __post_init__(self) -> None:
+        if isinstance(self.window, bool) or not isinstance(self.window, int) or not 1 <= self.window <= 1000:
+            raise InvalidValueError(f"surprise window: {self.window!r} is not a whole number from 1 to 1000")
+        if not (math.isfinite(self.threshold) and 0.0 < self.threshold < 1.0):
+            raise InvalidValueError(f"surprise threshold: {self.threshold!r} is not a number strictly between 0 and 1")
+        self.ratios = deque(self.ratios, maxlen=self.window)
+
+    def observe(self, probabilities: np.ndarray, observation: int) -> float:
+        """Record observation ``observation`` given ``probabilities[o] = p(o | a, b)`` (before the
+        update); returns its ratio."""
+        p = np.asarray(probabilities, dtype=np.float64)
+        expected = float(np.dot(p, p))
+        ratio = float(p[observation]) / expected if expected > 0 else 0.0
+        self.ratios.append(min(ratio, 1.0))
+        return ratio
+
+    @property
+    def fit(self) -> float:
+        """The product of the capped ratios over the window (1 before any reading)."""
+        if not self.ratios:
+            return 1.0
+        with np.errstate(divide="ignore"):
+            return float(np.exp(np.sum(np.log(np.maximum(np.array(self.ratios), 0.0)))))
+
+    @property
+    def fits(self) -> bool:
+        """The readings fit the belief: the window's fit is at least the threshold."""
+        return self.fit >= self.threshold
+
+    @property
+    def confidence(self) -> float:
+        """The fit's geometric mean per reading, in [0, 1]."""
+        if not self.ratios:
+            return 1.0
+        return float(self.fit ** (1.0 / len(self.ratios)))
+
+    def reset(self) -> None:
+        """Forget the window (after a re-spread: the new belief has its own readings to explain)."""
+        self.ratios.clear()
+
+
+def respread(belief: np.ndarray, weight: float = 0.5) -> np.ndarray:
+    """AMCL's recovery on a grid: mix the belief with the uniform one, ``weight`` of the mass spread
+    evenly over every state (the belief keeps the rest)."""
+    n = belief.size
+    out: np.ndarray = (1.0 - weight) * belief + weight / n
+    out /= out.sum()
+    return out
+
+
+def expected_log_likelihood(action: Action, belief: np.ndarray) -> float:
+    """``-Σ_j b(j) H(O_a | s_j)``: the mean log-likelihood of one reading of ``action`` if the
+    robot were where ``belief`` says (each part's entropy of its row, summed over the parts)."""
+    total = 0.0
+    for part in action.observation.parts:
+        rows = np.asarray(part.confusion, dtype=np.float64)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            entropy = -np.where(rows > 0, rows * np.log(np.where(rows > 0, rows, 1.0)), 0.0).sum(axis=1)
+        total -= float(np.dot(belief, entropy[part.truth]))
+    return total
+
+
+@dataclass
+class DeclarationCheck:
+    """Does the state about to be declared explain the readings that led to it?
+
+    The window fit (:class:`SurpriseCheck`) cannot see a belief that *moved to* whichever state
+    explains odd readings least badly: under a spread belief every reading is plausible. So before
+    "localized" is declared, the readings since the start (or the last re-spread) are scored against
+    the declared state's own path. With moves that land on one state, Bayes' rule gives that path's
+    log-likelihood without replaying it::
+
+        log P(o_1..T | path to s*) = Σ_t log p(o_t | a_t, b_{t-1}) + log b_T(s*) - log b_0(s_0)
+
+    (the evidence, times the posterior over the prior); ``b_0(s_0)`` is bounded by ``max b_0``. Its
+    expectation, were the robot on that path, is ``Σ_t -E_{b_t}[H(O_{a_t} | s)]``
+    (:func:`expected_log_likelihood`). The **deficit** (expected minus actual, in nats) is 0 on
+    average for the true state; each reading the declared state does not explain costs about
+    ``ln(1/error)``: ~4.6 nats for a 1 % error. The declaration is refused when the deficit exceeds
+    ``limit`` (default ``ln 1000``: one odd reading is what noisy sensors do, two are not).
+    """
+
+    limit: float = math.log(100.0)
+    log_evidence: float = 0.0
+    expected: float = 0.0
+    log_prior_max: float = 0.0
+
+    def start(self, belief: np.ndarray) -> None:
+        """Start (again) from ``belief``: the readings before it are forgotten."""
+        self.log_evidence, self.expected = 0.0, 0.0
+        self.log_prior_max = math.log(float(belief.max()))
+
+    def observe(self, action: Action, probability: float, posterior: np.ndarray) -> None:
+        """Record a reading of probability ``probability`` under the belief before it, and the
+        belief after it."""
+        self.log_evidence += math.log(probability) if probability > 0 else -math.inf
+        self.expected += expected_log_likelihood(action, posterior)
+
+    def deficit(self, belief: np.ndarray) -> float:
+        """Expected minus actual log-likelihood of the readings on the most likely state's path."""
+        actual = self.log_evidence + math.log(float(belief.max())) - self.log_prior_max
+        return self.expected - actual
+
+    def explains(self, belief: np.ndarray) -> bool:
+        return self.deficit(belief) <= self.limit

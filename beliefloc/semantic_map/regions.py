@@ -1,0 +1,276 @@
+"""Region observation models: a state is its cell × its heading sector, not one point.
+
+The papers' model (:mod:`beliefloc.semantic_map.compile`) gives each state the reading of one exact
+pose -- its cell's centre and its heading -- blurred by a small confusion rate. A real robot is
+anywhere in the cell and a few degrees off the heading, so a state's reading probabilities here are
+the **average over sub-poses of the region** of what a sensor with continuous noise reports:
+
+* **Sub-poses.** ``sub_samples`` positions per axis, evenly spread over the cell (``k × k``, at the
+  centres of a ``k × k`` split), times ``yaw_samples`` yaw offsets evenly spread over the heading's
+  sector (``360 / headings`` degrees; none on a map with one heading). A sub-pose on a blocked
+  pixel is not a place the robot can be and is left out; a state whose every sub-pose is blocked
+  keeps its centre. ``sub_samples: 1, yaw_samples: 1`` is the centre and the heading: the exact pose.
+* **Scan** (one beam at ``heading yaw − beam angle``, cast over the same blocked pixels as the exact
+  model: :mod:`beliefloc.continuous.raycast`): the reading is a mixture, as AMCL's beam model
+  (Thrun et al., Probabilistic Robotics §6.3):
+
+  - with ``1 − random − short``: the true range plus a Gaussian error of standard deviation
+    ``sigma``; a bin gets the Gaussian's mass between its edges (below 0 counts in the first bin,
+    beyond the last edge is ``no_wall``); nothing within the last edge (``inf``) reads ``no_wall``;
+  - with ``short``: an unmapped obstacle in front, uniform over ``[0, min(range, last edge))``;
+  - with ``random``: any reading, every bin equally likely.
+
+  Then the scan's ``error`` (another bin, spread evenly) is applied as before. ``sigma: 0``,
+  ``random: 0``, ``short: 0`` and one sub-pose give exactly the papers' model.
+* **Look**: a landmark at distance ``d`` and viewing angle ``a`` from a sub-pose is detected with
+  probability ``Φ((fov/2 − |a|) / fov_edge) · Φ((range − d) / range_edge)`` when nothing blocks the
+  line of sight (a step when an edge is 0). A landmark in the robot's own cell is *not* always seen:
+  it is seen when it is in the field of view from where the robot stands (a real detector does not
+  see behind itself). With several landmarks of a class the reading is the smallest viewing angle
+  among those detected (their detections independent). Then ``false_positive`` and
+  ``false_negative`` apply as before.
+
+Rows are quantised (:data:`STEP`) with a floor (:data:`FLOOR`) wherever the continuous model gives
+any mass, so a reading the region can produce never zeroes a state, and states share a handful of
+distinct rows (the model stores one row per distinct distribution: ``ObservationPart.truth`` indexes
+``confusion``).
+
+Pure numpy/scipy, no I/O. Vectorised over states × sub-poses; the loops are over beams, landmarks of a
+class and the steps of a ray.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import special
+
+from beliefloc.continuous.image import OccupancyImage
+from beliefloc.continuous.motion import grid_yaws
+from beliefloc.continuous.raycast import cast_rays
+from beliefloc.model import GridLayout, MapFrame
+
+STEP = 1.0 / 200.0
+"""Reading probabilities are rounded to multiples of this (then renormalised)."""
+FLOOR = 1.0 / 1000.0
+"""A reading with any probability under the continuous model keeps at least this much."""
+
+
+@dataclass(frozen=True)
+class RegionSpec:
+    """How a sensor averages over a state's region (the map's ``sub_samples`` and ``yaw_samples``)."""
+
+    sub_samples: int = 1
+    yaw_samples: int = 1
+
+    @property
+    def exact(self) -> bool:
+        return self.sub_samples == 1 and self.yaw_samples == 1
+
+
+def blocked_image(blocked: np.ndarray, resolution: float) -> OccupancyImage:
+    """The blocked pixels (row 0 at the top) in the *grid* frame, padded by one blocked pixel all
+    round, so that the image's edge stops a ray as it does in the exact model."""
+    padded = np.pad(np.asarray(blocked, dtype=bool), 1, constant_values=True)
+    return OccupancyImage(padded, resolution, MapFrame(-resolution, -resolution, 0.0))
+
+
+def sub_poses(layout: GridLayout, image: OccupancyImage, spec: RegionSpec) -> tuple[np.ndarray, np.ndarray]:
+    """``(poses, weight)``: ``poses[s, k] = (x, y, yaw)`` in the grid frame for state ``s`` and
+    sub-pose ``k``; ``weight[s, k]`` is ``1 / (its state's standing sub-poses)`` or 0 on a blocked
+    pixel."""
+    s = layout.cell_size
+    H = layout.headings
+    k = spec.sub_samples
+    m = spec.yaw_samples if H > 1 else 1
+    offsets = ((np.arange(k) + 0.5) / k - 0.5) * s
+    ox, oy = (a.ravel() for a in np.meshgrid(offsets, offsets, indexing="xy"))
+    yaw_offsets = ((np.arange(m) + 0.5) / m - 0.5) * (2 * math.pi / H) if H > 1 else np.zeros(1)
+    cells = layout.free_cells
+    row, col = np.divmod(cells, layout.cols)
+    cx = (col + 0.5) * s
+    cy = (layout.rows - row - 0.5) * s
+    yaws = grid_yaws(H) if H > 1 else np.zeros(1)
+    # states are cell-major: state = cell * H + h
+    px = np.repeat(cx, H)[:, None, None] + ox[None, :, None] + 0 * yaw_offsets[None, None, :]
+    py = np.repeat(cy, H)[:, None, None] + oy[None, :, None] + 0 * yaw_offsets[None, None, :]
+    pyaw = np.tile(yaws, len(cells))[:, None, None] + 0 * ox[None, :, None] - yaw_offsets[None, None, :]
+    n = len(cells) * H
+    poses = np.stack([px.reshape(n, -1), py.reshape(n, -1), pyaw.reshape(n, -1)], axis=-1)
+    i, j = image.pixel_of(poses[..., 0], poses[..., 1])
+    inside = (i >= 0) & (i < image.height) & (j >= 0) & (j < image.width)
+    stands = np.zeros(inside.shape, dtype=bool)
+    stands[inside] = ~image.blocked[i[inside], j[inside]]
+    centre = (k * k // 2) * m + m // 2 if k % 2 == 1 else None
+    none = ~stands.any(axis=1)
+    if none.any():  # keep the centre (or, with an even split, every sub-pose) of a fully blocked region
+        if centre is not None:
+            stands[none, centre] = True
+        else:
+            stands[none, :] = True
+    weight = stands / stands.sum(axis=1, keepdims=True)
+    return poses, weight
+
+
+def scan_distribution(ranges: np.ndarray, bins: np.ndarray, sigma: float, random: float, short: float) -> np.ndarray:
+    """``P(reading | true range)`` for an array of true ranges (``inf``: nothing within the last
+    edge): shape ``ranges.shape + (len(bins) + 1,)``; the last reading is ``no_wall``."""
+    r = np.asarray(ranges, dtype=np.float64)[..., None]
+    last = float(bins[-1])
+    upper = np.r_[bins, np.inf]
+    lower = np.r_[-np.inf, bins]
+    finite = np.isfinite(r)
+    if sigma > 0:
+        with np.errstate(invalid="ignore"):
+            cdf_hi = np.where(np.isposinf(upper), 1.0, special.ndtr((upper - np.where(finite, r, 0.0)) / sigma))
+            cdf_lo = np.where(np.isneginf(lower), 0.0, special.ndtr((lower - np.where(finite, r, 0.0)) / sigma))
+        hit = cdf_hi - cdf_lo
+    else:
+        index = np.searchsorted(bins, np.where(finite, r, np.inf)[..., 0] - 1e-9, side="left")
+        hit = np.eye(len(bins) + 1)[index]
+    no_wall = np.zeros(len(bins) + 1)
+    no_wall[-1] = 1.0
+    hit = np.where(finite, hit, no_wall)
+    # short: uniform over [0, min(r, last)): the share of each bin's span below that limit
+    reach = np.minimum(np.where(finite, r, last), last)
+    span = np.clip(np.minimum(upper, last) - np.maximum(lower, 0.0), 0.0, None)
+    below = np.clip(np.minimum(upper, reach) - np.maximum(lower, 0.0), 0.0, None)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        short_part = np.where(reach > 0, below / np.where(reach > 0, reach, 1.0), hit)
+    del span
+    uniform = np.full(len(bins) + 1, 1.0 / (len(bins) + 1))
+    out: np.ndarray = (1.0 - random - short) * hit + short * short_part + random * uniform
+    return out
+
+
+def detection_probability(
+    distance: np.ndarray,
+    angle_deg: np.ndarray,
+    fov: float,
+    view_range: float | None,
+    fov_edge: float,
+    range_edge: float,
+) -> np.ndarray:
+    """The probability a landmark at ``distance`` (m) and viewing angle ``angle_deg`` (absolute
+    degrees off the heading) is detected, line of sight aside."""
+    half = fov / 2.0
+    if fov >= 360.0:
+        p_fov = np.ones_like(angle_deg)
+    elif fov_edge > 0:
+        p_fov = special.ndtr((half - angle_deg) / fov_edge)
+    else:
+        p_fov = (angle_deg <= half + 1e-9).astype(np.float64)
+    if view_range is None:
+        p_range = np.ones_like(distance)
+    elif range_edge > 0:
+        p_range = special.ndtr((view_range - distance) / range_edge)
+    else:
+        p_range = (distance <= view_range + 1e-9).astype(np.float64)
+    out: np.ndarray = p_fov * p_range
+    return out
+
+
+def quantised_rows(dist: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(rows, index)`` with ``rows[index] ≈ dist``: probabilities rounded to :data:`STEP`, any
+    positive one kept at :data:`FLOOR` at least, rows renormalised, then made distinct."""
+    q = np.round(dist / STEP) * STEP
+    q = np.where((dist > 1e-12) & (q < FLOOR), FLOOR, q)
+    q /= q.sum(axis=1, keepdims=True)
+    rows, index = np.unique(np.round(q, 12), axis=0, return_inverse=True)
+    rows = rows / rows.sum(axis=1, keepdims=True)
+    return rows, index.ravel().astype(np.int32)
+
+
+def region_scan(
+    layout: GridLayout,
+    image: OccupancyImage,
+    spec: RegionSpec,
+    beam_deg: float,
+    bins: np.ndarray,
+    sigma: float,
+    random: float,
+    short: float,
+) -> np.ndarray:
+    """The average reading distribution of every state's region for one beam (``beam_deg`` degrees
+    clockwise from the heading): shape ``(n_states, len(bins) + 1)``."""
+    poses, weight = sub_poses(layout, image, spec)
+    reach = float(bins[-1]) + 4.0 * sigma
+    used = weight > 0
+    ranges = np.full(weight.shape, np.inf)
+    p = poses[used]
+    ranges[used] = cast_rays(image, p[:, 0], p[:, 1], p[:, 2] - math.radians(beam_deg), reach)
+    ranges[ranges > reach] = np.inf
+    dist = scan_distribution(ranges, bins, sigma, random, short)  # (n, K, values)
+    out: np.ndarray = np.einsum("nk,nkv->nv", weight, dist)
+    return out
+
+
+def region_look(
+    layout: GridLayout,
+    image: OccupancyImage,
+    spec: RegionSpec,
+    landmarks_xy: np.ndarray,
+    fov: float,
+    view_range: float | None,
+    occlusion: bool,
+    angle_bins: np.ndarray | None,
+    fov_edge: float,
+    range_edge: float,
+) -> np.ndarray:
+    """The average distribution of a class's Look part over every state's region: column 0 "not
+    seen", then one column (no ``angle_bins``) or one per angle bin. ``landmarks_xy`` in grid-frame
+    metres."""
+    poses, weight = sub_poses(layout, image, spec)
+    n, K = weight.shape
+    n_values = 1 + (len(angle_bins) if angle_bins is not None else 1)
+    if len(landmarks_xy) == 0:
+        out = np.zeros((n, n_values))
+        out[:, 0] = 1.0
+        return out
+    x, y, yaw = poses[..., 0], poses[..., 1], poses[..., 2]
+    probs, angles = [], []
+    margin = 4.0 * range_edge if view_range is not None else 0.0
+    for lx, ly in landmarks_xy:
+        dx, dy = lx - x, ly - y
+        d = np.hypot(dx, dy)
+        if layout.headings == 1:
+            a = np.zeros_like(d)
+        else:
+            a = np.abs(np.degrees(np.angle(np.exp(1j * (np.arctan2(dy, dx) - yaw)))))
+        a = np.where(d < 1e-9, 0.0, a)
+        p = detection_probability(d, a, fov, view_range, fov_edge, range_edge)
+        p = np.where(weight > 0, p, 0.0)
+        if occlusion:
+            look = p > 0
+            if view_range is not None:
+                look &= d <= view_range + margin
+            bearing = np.arctan2(dy[look], dx[look])
+            cast = cast_rays(image, x[look], y[look], bearing, float(d[look].max()) + 1.0 if look.any() else 1.0)
+            clear = cast >= d[look] - 1e-6 - image.resolution * 0.5
+            q = p[look]
+            q[~clear] = 0.0
+            p[look] = q
+        probs.append(p)
+        angles.append(a)
+    P = np.stack(probs, axis=-1)  # (n, K, L)
+    A = np.stack(angles, axis=-1)
+    order = np.argsort(A, axis=-1)
+    P_sorted = np.take_along_axis(P, order, axis=-1)
+    A_sorted = np.take_along_axis(A, order, axis=-1)
+    miss = np.cumprod(1.0 - P_sorted, axis=-1)
+    before = np.concatenate([np.ones((n, K, 1)), miss[..., :-1]], axis=-1)
+    first = P_sorted * before  # P(the smallest-angle detected landmark is this one)
+    sub = np.zeros((n, K, n_values))
+    sub[..., 0] = miss[..., -1]
+    if angle_bins is None:
+        sub[..., 1] = first.sum(axis=-1)
+    else:
+        col = np.searchsorted(angle_bins, A_sorted - 1e-9, side="left") + 1
+        inside = col <= len(angle_bins)
+        for v in range(1, n_values):
+            sub[..., v] = (first * ((col == v) & inside)).sum(axis=-1)
+        sub[..., 0] += (first * ~inside).sum(axis=-1)  # beyond the last bin: not reported
+    out2: np.ndarray = np.einsum("nk,nkv->nv", weight, sub)
+    return out2
