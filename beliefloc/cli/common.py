@@ -32,17 +32,86 @@ R = TypeVar("R")
 
 def boundary(command: Callable[P, R]) -> Callable[P, R]:
     """The CLI's one error boundary: a :class:`BeliefLocError` becomes a message on stderr and its
-    exit code; anything else is a bug and keeps its traceback."""
+    exit code, and so do the failures that come from outside rather than from a bug (an output
+    stream that cannot be written, a number too large, rich refusing markup; see
+    :func:`outside_failure`); anything else is a bug and keeps its traceback."""
 
     @functools.wraps(command)
     def wrapper(*args: P.args, **kwargs: P.kwargs) -> R:
         try:
-            return command(*args, **kwargs)
+            result = command(*args, **kwargs)
+            sys.stdout.flush()  # a full stdout is found here, not at exit where Python hides it
+            return result
         except BeliefLocError as exc:
             report_error(exc)
             raise typer.Exit(exc.exit_code) from None
+        except Exception as exc:
+            fail_outside(exc)
+            raise
 
     return wrapper
+
+
+def fail_outside(exc: Exception) -> None:
+    """For an exception that input or the surroundings caused (:func:`outside_failure`): report it
+    in one paragraph and raise ``typer.Exit(2)``; return for a bug, which the caller re-raises."""
+    message = outside_failure(exc)
+    if message is None:
+        return
+    _silence_stdout()
+    report_error(UsageError(message))
+    raise typer.Exit(UsageError.exit_code) from None
+
+
+_STREAM_ERRNOS = frozenset({"ENOSPC", "EPIPE", "EIO", "EDQUOT", "EFBIG"})
+"""Why writing stdout or stderr fails when the fault is where they lead (``> /dev/full``, a closed
+pipe, a full disk), never in beliefloc."""
+
+
+def outside_failure(exc: BaseException) -> str | None:
+    """The one-paragraph message for an exception that input or the surroundings caused, or None
+    for a bug (which keeps its traceback).
+
+    - an :class:`OSError` while writing the output streams (stdout into ``/dev/full``);
+    - an :class:`OverflowError`: a number from outside too large for a float or a C integer;
+    - Python's limit on the digits of an integer (``int()`` of a 5,000-digit string);
+    - rich's markup and rendering errors: a string from a file that rich would not print.
+    """
+    import errno as errno_names
+
+    if isinstance(exc, OSError) and not isinstance(exc, FileNotFoundError):
+        name = errno_names.errorcode.get(exc.errno or 0, "")
+        if name in _STREAM_ERRNOS and _raised_writing_streams(exc):
+            return f"cannot write the output: {exc.strerror or name} (is the disk or the pipe full or closed?)"
+        return None
+    if isinstance(exc, OverflowError):
+        return f"a number is too large to be used here ({exc}); give a smaller value"
+    if isinstance(exc, ValueError) and "limit" in str(exc) and "integer string conversion" in str(exc):
+        return "a number has more digits than any count or size beliefloc accepts; give a smaller value"
+    from rich.errors import MarkupError, NotRenderableError
+
+    if isinstance(exc, (MarkupError, NotRenderableError)):
+        return f"a value read from a file could not be printed ({exc}); check the file's text fields"
+    return None
+
+
+def _raised_writing_streams(exc: OSError) -> bool:
+    """Whether ``exc`` came from writing stdout/stderr rather than a file: beliefloc writes its
+    files through :mod:`beliefloc.source.atomic_write` (an :class:`OutputError`), and an error on a
+    named file carries its name; a write to a standard stream carries none."""
+    return exc.filename is None and exc.filename2 is None
+
+
+def _silence_stdout() -> None:
+    """After stdout failed, point it at /dev/null so Python's exit does not fail flushing it again."""
+    import os
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):
+        pass
 
 
 @contextlib.contextmanager
@@ -190,13 +259,15 @@ def existing_kind(path: Path) -> str | None:
 
 def positive_int(option: str, text: str) -> int:
     """A count given on the command line (a frame limit, say): a UsageError unless a positive integer."""
+    from beliefloc.source.limits import LARGEST_COUNT, read_count
+
     try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise UsageError(f"{option} {text}: must be a positive integer")
-    return value
+        return read_count(text, option, lowest=1)
+    except ValueError as exc:
+        shown = text if len(text) <= 40 else f"({len(text):,} characters)"
+        too_large = "out of range" in str(exc) and text.strip() not in ("0", "")
+        most = f" of at most {LARGEST_COUNT:,}" if too_large else ""
+        raise UsageError(f"{option} {shown}: must be a positive integer{most}") from None
 
 
 def check_record(option: str, path: Path, inputs: tuple[Path, ...] = ()) -> bool:

@@ -1,0 +1,118 @@
+"""Hostile input, third round (issue 30): the CLI's one boundary for failures from outside, and the
+one reader for integers from outside.
+
+Each case ends with exit 2 and one paragraph naming what was wrong, never a traceback.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from beliefloc.errors import LimitError
+from beliefloc.source.limits import INPUT_BYTES, LARGEST_COUNT, read_count
+
+from .conftest import MAPS, ROOT
+
+APARTMENT = MAPS / "apartment.yaml"
+
+
+def _run(
+    *args: str, env: dict[str, str] | None = None, stdout: int | object = subprocess.PIPE
+) -> subprocess.CompletedProcess[str]:
+    full_env = {**os.environ, "PYTHONPATH": str(ROOT), **(env or {})}
+    return subprocess.run(
+        [sys.executable, "-m", "beliefloc", *args],
+        stdout=stdout,  # type: ignore[arg-type]
+        stderr=subprocess.PIPE,
+        text=True,
+        env=full_env,
+        timeout=60,
+        check=False,
+    )
+
+
+def _one_paragraph(result: subprocess.CompletedProcess[str]) -> str:
+    assert result.returncode == 2, result.stderr
+    assert "Traceback" not in result.stderr
+    return result.stderr
+
+
+@pytest.mark.parametrize("value", ["²", "1kB", "1e3", "-1", "0", "١٢", "1__0", "", "10" * 30])
+def test_read_count_refuses_what_is_not_ascii_digits_in_range(value: str) -> None:
+    with pytest.raises(ValueError, match="whole number from 1 to"):
+        read_count(value, "X", lowest=1)
+
+
+def test_read_count_reads_ascii_digits_with_underscores() -> None:
+    assert read_count(" 1_000 ", "X") == 1000
+    assert read_count(str(LARGEST_COUNT), "X") == LARGEST_COUNT
+
+
+@pytest.mark.parametrize("value", ["²", "1kB", "1e3", "-1", "0", str(10**23)])
+def test_a_garbage_limit_variable_is_refused_naming_it(value: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv(INPUT_BYTES.variable, value)
+    with pytest.raises(LimitError, match=INPUT_BYTES.variable):
+        INPUT_BYTES.check(1, "a file")
+
+
+def test_a_limit_variable_lowers_the_bound(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setenv(INPUT_BYTES.variable, "1_000")
+    with pytest.raises(LimitError, match="limit of 1,000"):
+        INPUT_BYTES.check(1001, "a file")
+
+
+@pytest.mark.parametrize(
+    ("variable", "args"),
+    [
+        ("BELIEFLOC_MAX_INPUT_BYTES", ("validate", str(APARTMENT))),
+        ("BELIEFLOC_MAX_MODEL_ENTRIES", ("validate", str(APARTMENT))),
+        ("BELIEFLOC_MAX_KB_SECONDS", ("kb", "check", str(ROOT / "domains" / "home.yaml"))),
+    ],
+)
+@pytest.mark.parametrize("value", ["²", str(10**23)])
+def test_a_garbage_limit_variable_on_the_command_line(variable: str, args: tuple[str, ...], value: str) -> None:
+    message = _one_paragraph(_run(*args, env={variable: value}))
+    assert variable in message
+    assert "line" not in message  # not blamed on the map
+
+
+@pytest.mark.parametrize("args", [("validate", str(APARTMENT)), ("--help",), ("show", str(APARTMENT))])
+def test_a_full_stdout_is_one_paragraph(args: tuple[str, ...]) -> None:
+    with open("/dev/full", "w") as full:
+        message = _one_paragraph(_run(*args, stdout=full))
+    assert "cannot write the output" in message
+
+
+def test_huge_counts_on_the_command_line_are_refused_naming_the_option(tmp_path: Path) -> None:
+    huge = str(2**200)
+    message = _one_paragraph(_run("simulate", str(APARTMENT), "-n", huge))
+    assert "--episodes" in message and "out of range" in message
+    message = _one_paragraph(
+        _run("simulate", str(APARTMENT), "-n", "1", "--record", str(tmp_path / "a.gif"), "--record-frames", huge)
+    )
+    assert "--record-frames" in message and "positive integer" in message
+
+
+@pytest.mark.parametrize("start", ["1" * 5000 + ",1", "١,١", "１,１"])
+def test_a_start_that_is_not_ascii_digits_is_an_unknown_state(start: str) -> None:
+    message = _one_paragraph(_run("simulate", str(APARTMENT), "-n", "1", "--start", start))
+    assert "unknown state" in message
+    assert len(message) < 2000
+
+
+def test_outside_failure_keeps_bugs() -> None:
+    from beliefloc.cli.common import outside_failure
+
+    assert outside_failure(KeyError("x")) is None
+    assert outside_failure(ValueError("a bug")) is None
+    assert outside_failure(OSError(28, "No space left on device", "some-file")) is None
+    assert outside_failure(OSError(28, "No space left on device")) is not None
+    assert outside_failure(OverflowError("int too large")) is not None
+    from rich.errors import MarkupError
+
+    assert outside_failure(MarkupError("closing tag '[/]' has nothing to close")) is not None
