@@ -116,3 +116,40 @@ def test_outside_failure_keeps_bugs() -> None:
     from rich.errors import MarkupError
 
     assert outside_failure(MarkupError("closing tag '[/]' has nothing to close")) is not None
+
+
+# --- results files -----------------------------------------------------------------------------------
+
+RESULTS = ROOT / "tests" / "data" / "fuzz" / "results"
+
+
+@pytest.mark.parametrize("path", sorted(RESULTS.glob("*.jsonl")), ids=lambda p: p.name)
+def test_a_damaged_results_file_is_refused_before_any_work(path: Path) -> None:
+    result = _run("summarize", str(path))
+    if path.name.startswith("strategy_markup"):
+        assert result.returncode == 0, result.stderr
+        assert "[/]" in result.stdout  # shown as written, never read as markup
+        return
+    message = _one_paragraph(result)
+    assert str(path) in message
+    assert "\x1b" not in message
+
+
+def test_a_strategy_written_as_markup_is_shown_as_text(tmp_path: Path) -> None:
+    source = (RESULTS / "strategy_markup_close.jsonl").read_text()
+    path = tmp_path / "bold.jsonl"
+    path.write_text(source.replace('"strategy":"[/]"', '"strategy":"[bold red]x"'))
+    result = _run("summarize", str(path), env={"TERM": "xterm-256color", "FORCE_COLOR": "1"})
+    assert result.returncode == 0, result.stderr
+    assert "[bold red]x" in result.stdout
+
+
+@pytest.mark.parametrize("name", ["cost_text.jsonl", "no_records.jsonl", "total_text.jsonl"])
+def test_resume_refuses_a_damaged_file_without_appending(name: str, tmp_path: Path) -> None:
+    path = tmp_path / name
+    path.write_bytes((RESULTS / name).read_bytes())
+    before = path.read_bytes()
+    args = ("simulate", str(MAPS / "kitchen.yaml"), "-n", "3", "--no-timings", "--out", str(path), "--resume")
+    message = _one_paragraph(_run(*args))
+    assert str(path) in message
+    assert path.read_bytes() == before

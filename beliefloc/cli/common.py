@@ -23,6 +23,7 @@ from beliefloc.render import stderr_console
 if TYPE_CHECKING:
     import numpy as np
 
+    from beliefloc.files.results_file import ResultsContent
     from beliefloc.model import GridLayout, Model
     from beliefloc.semantic_map import SemanticMap
 
@@ -132,11 +133,13 @@ def target_option(target: str | None) -> str:
 
 
 def report_error(exc: BeliefLocError) -> None:
-    stderr_console().print(f"[bold red]error:[/] {escape(str(exc))}", soft_wrap=True)  # one line per error
+    stderr_console().print(
+        f"[bold red]error:[/] {escape(escape_controls(str(exc)))}", soft_wrap=True
+    )  # one line per error
 
 
 def warn(message: str) -> None:
-    stderr_console().print(f"[yellow]warning:[/] {escape(message)}", soft_wrap=True)
+    stderr_console().print(f"[yellow]warning:[/] {escape(escape_controls(message))}", soft_wrap=True)
 
 
 PRIOR_PREFIX = "prior:"
@@ -437,6 +440,7 @@ def run_sweep(
     found = None
     if out is not None and resume and out.is_file() and out.stat().st_size > 0:
         found = read_results(out)
+        check_results(out, found)  # the whole file, before any unit is run or appended
         differ = differences(found.header, head)
         if differ:
             raise UsageError(f"--resume {out}: the file was written with other settings: {'; '.join(differ)}")
@@ -458,6 +462,32 @@ def run_sweep(
             writer.close()
         runs_on.close()
     return done
+
+
+def check_results(path: Path, content: ResultsContent) -> None:
+    """Every line of a results file read back as its command's records (``summarize``,
+    ``--resume``): a :class:`ResultsFileError` naming the first line that is not one, before any work."""
+    from beliefloc.files.results_file import ResultsFileError, check_lines
+
+    command = content.header["command"]
+    if command == "simulate":
+        from beliefloc.simulation.episode import records_from_results
+
+        check_lines(path, content, lambda line: records_from_results([line]))
+    elif command == "search simulate":
+        from beliefloc.object_search.experiment import TrialRecord
+
+        check_lines(path, content, TrialRecord.from_json)
+    else:
+        raise ResultsFileError(
+            f"{path}: written by '{escape_controls(str(command))[:60]}', which this beliefloc cannot read"
+        )
+
+
+def escape_controls(text: str) -> str:
+    """``text`` with control characters written as escapes (``ESC[2J`` as ``\\x1b[2J``): what a
+    file holds is shown, never obeyed by the terminal."""
+    return "".join(c if c.isprintable() or c in "\n\t" else c.encode("unicode_escape").decode("ascii") for c in text)
 
 
 def _counting(

@@ -16,14 +16,14 @@ Appending to a file is not atomic, by design: what was written stays, whatever h
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
 from beliefloc import __version__
 from beliefloc.errors import InputFileError
-from beliefloc.source.limits import INPUT_BYTES
+from beliefloc.source.limits import INPUT_BYTES, LARGEST_COUNT
 
 FORMAT = "beliefloc-results"
 FORMAT_VERSION = 1
@@ -106,6 +106,7 @@ def read_results(path: Path) -> ResultsContent:
     for key in ("command", "unit", "total", "settings"):
         if key not in head:
             raise ResultsFileError(f"{path}: the header has no {key!r}")
+    _check_header(path, head)
     unit = str(head["unit"])
     kept = len(complete[0]) + 1
     results: list[dict[str, Any]] = []
@@ -127,6 +128,37 @@ def read_results(path: Path) -> ResultsContent:
     if len(results) > int(head["total"]):
         raise ResultsFileError(f"{path}: holds {len(results)} {unit}s, more than the {head['total']} of its header")
     return ResultsContent(head, results, kept, torn)
+
+
+def _check_header(path: Path, head: dict[str, Any]) -> None:
+    """The header's fields have the types a sweep writes: checked before any line is used."""
+    total = head["total"]
+    if isinstance(total, bool) or not isinstance(total, int) or not 0 <= total <= LARGEST_COUNT:
+        shown = json.dumps(total)[:40] if not isinstance(total, int) else f"a {len(str(total))}-digit number"
+        raise ResultsFileError(f"{path}: the header's 'total' is {shown}; it must be a whole number of units")
+    for key in ("command", "unit"):
+        if not isinstance(head[key], str):
+            raise ResultsFileError(f"{path}: the header's {key!r} is {json.dumps(head[key])[:40]}, not a string")
+    if not isinstance(head["settings"], dict):
+        raise ResultsFileError(f"{path}: the header's 'settings' is not a JSON object")
+
+
+def check_lines(path: Path, content: ResultsContent, decode: Callable[[dict[str, Any]], object]) -> None:
+    """Every result line decoded by ``decode`` (the command's record reader) before any work is
+    done with the file: a :class:`ResultsFileError` naming the first line it refuses."""
+    for number, line in enumerate(content.results, start=2):
+        try:
+            decode(line)
+        except (KeyError, TypeError, ValueError, AttributeError, OverflowError) as exc:
+            what = f"no {exc.args[0]!r}" if isinstance(exc, KeyError) else str(exc)
+            raise ResultsFileError(
+                f"{path}:{number}: not a {content.header['command']!r} result ({_printable(what)}): the file is damaged"
+            ) from None
+
+
+def _printable(text: str) -> str:
+    """``text`` with control characters escaped (a terminal escape in a file stays inert)."""
+    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text)
 
 
 def _parse(raw: bytes) -> Any:
