@@ -153,3 +153,42 @@ def test_resume_refuses_a_damaged_file_without_appending(name: str, tmp_path: Pa
     message = _one_paragraph(_run(*args))
     assert str(path) in message
     assert path.read_bytes() == before
+
+
+# --- localize ----------------------------------------------------------------------------------------
+
+WINDOW = MAPS / "window-2x2-perfect.yaml"
+
+
+def test_a_silent_robot_is_given_up_naming_the_action() -> None:
+    robot = subprocess.Popen(["sleep", "30"], stdout=subprocess.PIPE)  # never writes, never closes
+    try:
+        result = subprocess.run(
+            [sys.executable, "-m", "beliefloc", "localize", str(WINDOW), "--quiet", "--reply-timeout", "0.5"],
+            stdin=robot.stdout,
+            capture_output=True,
+            text=True,
+            env={**os.environ, "PYTHONPATH": str(ROOT)},
+            timeout=30,
+            check=False,
+        )
+    finally:
+        robot.kill()
+        robot.wait()
+    message = _one_paragraph(result)
+    assert "no reply to action 1 (look) within 0.5 s (--reply-timeout)" in message
+
+
+@pytest.mark.parametrize("reply", ['{"seq": 1, "readings": {"look": [' + "9" * 311 + "]}}"])
+def test_a_311_digit_integer_in_a_reply_is_refused(reply: str) -> None:
+    result = subprocess.run(
+        [sys.executable, "-m", "beliefloc", "localize", str(WINDOW), "--quiet"],
+        input=reply + "\n",
+        capture_output=True,
+        text=True,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+        timeout=60,
+        check=False,
+    )
+    message = _one_paragraph(result)
+    assert "311-digit integer" in message
