@@ -192,3 +192,129 @@ def test_a_311_digit_integer_in_a_reply_is_refused(reply: str) -> None:
     )
     message = _one_paragraph(result)
     assert "311-digit integer" in message
+
+
+# --- sweeps ------------------------------------------------------------------------------------------
+
+KITCHEN = MAPS / "kitchen.yaml"
+
+
+def test_workers_are_capped_with_a_note() -> None:
+    result = _run("simulate", str(KITCHEN), "-n", "2", "--workers", "100000")
+    assert result.returncode == 0, result.stderr
+    assert "--workers 100,000: capped at" in result.stderr
+
+
+def test_pool_size_is_bounded_by_units_and_cores() -> None:
+    from beliefloc.simulation.sweep import WORKERS_PER_CORE, cores, pool_size
+
+    assert pool_size(100_000, 2) == (2, pool_size(100_000)[1])
+    size, note = pool_size(100_000)
+    assert size == WORKERS_PER_CORE * cores() and note is not None
+    assert pool_size(2, 100) == (2, None)
+
+
+@pytest.mark.parametrize("address", ["tcp://[::1:8786", "tcp://host:99999", "nonsense"])
+def test_a_malformed_scheduler_address_is_refused(address: str) -> None:
+    message = _one_paragraph(_run("simulate", str(KITCHEN), "-n", "2", "--scheduler", address))
+    assert "not a scheduler address" in message
+
+
+_SILENT_SERVER = """
+import socket, struct, sys
+server = socket.socket()
+server.bind(("127.0.0.1", 0))
+server.listen(5)
+print(server.getsockname()[1], flush=True)
+held = []
+while True:
+    connection, _ = server.accept()
+    held.append(connection)
+    if sys.argv[1] == "huge":
+        connection.sendall(struct.pack("<QQQ", 3_500_000_000, 1, 3_499_999_984))
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("mode", ["silent", "huge"])
+def test_a_scheduler_that_never_speaks_is_given_up(mode: str) -> None:
+    pytest.importorskip("distributed")
+    server = subprocess.Popen([sys.executable, "-c", _SILENT_SERVER, mode], stdout=subprocess.PIPE, text=True)
+    try:
+        assert server.stdout is not None
+        port = server.stdout.readline().strip()
+        message = _one_paragraph(_run("simulate", str(KITCHEN), "-n", "2", "--scheduler", f"tcp://127.0.0.1:{port}"))
+    finally:
+        server.kill()
+        server.wait()
+    assert ("said nothing within" if mode == "silent" else "3,500,000,000 bytes") in message
+
+
+def _children(pid: int) -> list[int]:
+    path = Path(f"/proc/{pid}/task/{pid}/children")
+    return [int(p) for p in path.read_text().split()] if path.exists() else []
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (FileNotFoundError, IndexError):
+        return False
+    return state != "Z"
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_sigterm_ends_the_pool_with_its_parent(tmp_path: Path) -> None:
+    import signal
+    import time
+
+    sweep = subprocess.Popen(
+        [sys.executable, "-m", "beliefloc", "simulate", str(KITCHEN), "-n", "4000", "--workers", "2"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
+    try:
+        deadline = time.monotonic() + 30
+        workers: list[int] = []
+        while time.monotonic() < deadline and len(workers) < 2:
+            time.sleep(0.2)
+            workers = [p for p in _children(sweep.pid) if _alive(p)]
+        assert len(workers) >= 2, "the pool did not start"
+        sweep.send_signal(signal.SIGTERM)
+        sweep.wait(timeout=20)
+        deadline = time.monotonic() + 10
+        while time.monotonic() < deadline and any(_alive(p) for p in workers):
+            time.sleep(0.2)
+        assert not any(_alive(p) for p in workers), "workers outlived their parent"
+    finally:
+        if sweep.poll() is None:
+            sweep.kill()
+            sweep.wait()
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_sigkill_of_the_parent_ends_its_workers() -> None:
+    import signal
+    import time
+
+    sweep = subprocess.Popen(
+        [sys.executable, "-m", "beliefloc", "simulate", str(KITCHEN), "-n", "4000", "--workers", "2"],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        env={**os.environ, "PYTHONPATH": str(ROOT)},
+    )
+    deadline = time.monotonic() + 30
+    workers: list[int] = []
+    while time.monotonic() < deadline and len(workers) < 2:
+        time.sleep(0.2)
+        workers = [p for p in _children(sweep.pid) if _alive(p)]
+    sweep.send_signal(signal.SIGKILL)
+    sweep.wait()
+    assert len(workers) >= 2, "the pool did not start"
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline and any(_alive(p) for p in workers):
+        time.sleep(0.2)
+    assert not any(_alive(p) for p in workers), "workers outlived their parent"

@@ -447,8 +447,9 @@ def run_sweep(
         done = list(found.results)
         if found.torn:
             warn(f"{out}: its last line was cut short; that {found.unit} is run again")
-    runs_on = backend(workers, scheduler, start=serial_start)  # a scheduler is reached now, or refused
     indices = list(range(len(done), total))
+    # a scheduler is reached now, or refused; a pool is no larger than the units or the cores allow
+    runs_on = backend(workers, scheduler, start=serial_start, units=len(indices), on_note=warn)
     writer = ResultsWriter(out, head, found) if out is not None else None
     try:
         started = runs_on.run(sweep, indices) if indices else iter(())  # a pool starts before the bar's thread
