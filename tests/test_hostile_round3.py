@@ -318,3 +318,67 @@ def test_sigkill_of_the_parent_ends_its_workers() -> None:
     while time.monotonic() < deadline and any(_alive(p) for p in workers):
         time.sleep(0.2)
     assert not any(_alive(p) for p in workers), "workers outlived their parent"
+
+
+def _wait_for_lines(path: Path, lines: int, seconds: float = 30) -> None:
+    import time
+
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        if path.exists() and path.read_bytes().count(b"\n") >= lines:
+            return
+        time.sleep(0.1)
+    raise AssertionError(f"{path} did not get {lines} lines")
+
+
+@pytest.mark.slow
+def test_a_second_sweep_on_the_same_results_file_is_refused_naming_the_first(tmp_path: Path) -> None:
+    out = tmp_path / "r.jsonl"
+    args = [
+        sys.executable,
+        "-m",
+        "beliefloc",
+        "simulate",
+        str(KITCHEN),
+        "-n",
+        "3000",
+        "--no-timings",
+        "--out",
+        str(out),
+    ]
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    first = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+    try:
+        _wait_for_lines(out, 2)
+        message = _one_paragraph(_run(*args[3:], "--resume"))
+        assert f"pid {first.pid}" in message
+    finally:
+        first.kill()
+        first.wait()
+    # the file the first wrote is whole: every line parses and the units are in order
+    from beliefloc.files.results_file import read_results
+
+    content = read_results(out)
+    assert len(content.results) >= 1
+
+
+@pytest.mark.slow
+def test_a_results_file_removed_during_the_run_is_reported(tmp_path: Path) -> None:
+    import shutil
+
+    folder = tmp_path / "runs"
+    folder.mkdir()
+    out = folder / "r.jsonl"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    sweep = subprocess.Popen(
+        [sys.executable, "-m", "beliefloc", "simulate", str(KITCHEN), "-n", "400", "--no-timings", "--out", str(out)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+    _wait_for_lines(out, 2)
+    shutil.rmtree(folder)
+    _, stderr = sweep.communicate(timeout=120)
+    assert sweep.returncode == 2, stderr
+    assert "removed or replaced during the run" in stderr and "Traceback" not in stderr

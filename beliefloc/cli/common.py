@@ -429,8 +429,8 @@ def run_sweep(
     which are not run again (a file of other settings is refused first, naming what differs). A
     progress bar on stderr when it is a terminal. ``serial_start``: the runner of a run in this
     process (with per-step callbacks, say); ``progress`` False: no bar (the steps are drawn)."""
-    from beliefloc.errors import UsageError
-    from beliefloc.files.results_file import ResultsWriter, differences, read_results
+    from beliefloc.errors import OutputError, UsageError
+    from beliefloc.files.results_file import ResultsWriter, differences, open_locked, read_results
     from beliefloc.render import stderr_console
     from beliefloc.render.sweep_progress import sweep_progress
     from beliefloc.simulation.sweep import backend, in_order
@@ -438,19 +438,31 @@ def run_sweep(
     total = int(head["total"])
     done: list[dict[str, Any]] = []
     found = None
-    if out is not None and resume and out.is_file() and out.stat().st_size > 0:
-        found = read_results(out)
-        check_results(out, found)  # the whole file, before any unit is run or appended
-        differ = differences(found.header, head)
-        if differ:
-            raise UsageError(f"--resume {out}: the file was written with other settings: {'; '.join(differ)}")
-        done = list(found.results)
-        if found.torn:
-            warn(f"{out}: its last line was cut short; that {found.unit} is run again")
-    indices = list(range(len(done), total))
-    # a scheduler is reached now, or refused; a pool is no larger than the units or the cores allow
-    runs_on = backend(workers, scheduler, start=serial_start, units=len(indices), on_note=warn)
-    writer = ResultsWriter(out, head, found) if out is not None else None
+    locked = None
+    created = False
+    if out is not None:
+        created = not out.exists()
+        locked = open_locked(out)  # before reading: a second sweep on the file is refused here
+    try:
+        if out is not None and resume and out.stat().st_size > 0:
+            found = read_results(out)
+            check_results(out, found)  # the whole file, before any unit is run or appended
+            differ = differences(found.header, head)
+            if differ:
+                raise UsageError(f"--resume {out}: the file was written with other settings: {'; '.join(differ)}")
+            done = list(found.results)
+            if found.torn:
+                warn(f"{out}: its last line was cut short; that {found.unit} is run again")
+        indices = list(range(len(done), total))
+        # a scheduler is reached now, or refused; a pool is no larger than the units or the cores allow
+        runs_on = backend(workers, scheduler, start=serial_start, units=len(indices), on_note=warn)
+    except BaseException:
+        if locked is not None:
+            locked.close()
+            if created and out is not None:
+                out.unlink(missing_ok=True)  # nothing half written is left behind
+        raise
+    writer = ResultsWriter(out, head, found, locked) if out is not None else None
     try:
         started = runs_on.run(sweep, indices) if indices else iter(())  # a pool starts before the bar's thread
         with sweep_progress(stderr_console(), f"{head['unit']}s", total, len(done), shown=progress) as advance:
@@ -458,6 +470,11 @@ def run_sweep(
                 done.append(result)
                 if writer is not None:
                     writer.write(result)
+        if writer is not None and not writer.still_there():
+            raise OutputError(
+                f"--out {out}: the results file was removed or replaced during the run; "
+                f"the {len(done)} {head['unit']}s written to it are lost: run again with another --out"
+            )
     finally:
         if writer is not None:
             writer.close()

@@ -201,21 +201,68 @@ def _shown(value: Any) -> str:
     return "absent" if value is _MISSING else json.dumps(value)
 
 
+def open_locked(path: Path) -> IO[bytes]:
+    """``path`` opened for writing (created when missing, never truncated here) and locked with
+    ``flock``: a second sweep on the same file is refused naming the first one's pid, instead of
+    both writing it."""
+    import fcntl
+    import os
+
+    file = os.fdopen(os.open(path, os.O_RDWR | os.O_CREAT, 0o666), "r+b")
+    try:
+        fcntl.flock(file.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        holder = _lock_holder(os.fstat(file.fileno()).st_ino)
+        file.close()
+        who = f"another beliefloc (pid {holder})" if holder else "another process"
+        raise ResultsFileError(
+            f"{path}: {who} is writing this results file; wait for it to end, or give another --out"
+        ) from None
+    return file
+
+
+def _lock_holder(inode: int) -> int | None:
+    """The pid holding a ``flock`` on the file of ``inode`` (Linux's /proc/locks), or None."""
+    try:
+        lines = Path("/proc/locks").read_text().splitlines()
+    except OSError:
+        return None
+    for line in lines:
+        fields = line.split()
+        if len(fields) > 5 and fields[1] == "FLOCK" and fields[5].rsplit(":", 1)[-1] == str(inode):
+            return int(fields[4]) if fields[4].isascii() and fields[4].isdigit() else None
+    return None
+
+
 class ResultsWriter:
     """Writes a results file line by line, each flushed as it is written. A new file gets
     ``head`` first; a resumed one (``resume``: what :func:`read_results` found) is cut back to its
-    whole lines and continued."""
+    whole lines and continued. ``file``: the file :func:`open_locked` opened (else it is opened
+    and locked here)."""
 
-    def __init__(self, path: Path, head: Mapping[str, Any], resume: ResultsContent | None = None) -> None:
+    def __init__(
+        self,
+        path: Path,
+        head: Mapping[str, Any],
+        resume: ResultsContent | None = None,
+        file: IO[bytes] | None = None,
+    ) -> None:
         self.path = path
-        self._file: IO[bytes]
+        self._file: IO[bytes] = file if file is not None else open_locked(path)
+        kept = 0 if resume is None else resume.kept_bytes
+        self._file.truncate(kept)
+        self._file.seek(kept)
         if resume is None:
-            self._file = path.open("wb")
             self.write(head)
-        else:
-            self._file = path.open("r+b")
-            self._file.truncate(resume.kept_bytes)
-            self._file.seek(resume.kept_bytes)
+
+    def still_there(self) -> bool:
+        """Whether the file written is still at :attr:`path` (not removed or replaced meanwhile)."""
+        import os
+
+        try:
+            return os.stat(self.path).st_ino == os.fstat(self._file.fileno()).st_ino
+        except OSError:
+            return False
 
     def write(self, data: Any) -> None:
         self._file.write((dumps(data) + "\n").encode("utf-8"))
