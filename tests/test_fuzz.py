@@ -52,6 +52,8 @@ def _corpus() -> list[list[str]]:
             runs.append(["inspect", str(path)])
         elif kind == "results":
             runs.append(["summarize", str(path)])
+        elif kind == "beliefs":
+            runs.append(["pose", str(MAPS / "apartment.yaml"), "--belief", str(path)])
     return runs
 
 

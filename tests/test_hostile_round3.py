@@ -382,3 +382,31 @@ def test_a_results_file_removed_during_the_run_is_reported(tmp_path: Path) -> No
     _, stderr = sweep.communicate(timeout=120)
     assert sweep.returncode == 2, stderr
     assert "removed or replaced during the run" in stderr and "Traceback" not in stderr
+
+
+# --- belief files ------------------------------------------------------------------------------------
+
+BELIEFS = ROOT / "tests" / "data" / "fuzz" / "beliefs"
+
+
+@pytest.mark.parametrize(
+    ("name", "expected"),
+    [
+        ("bool_probability.json", "got true (a boolean)"),
+        ("text_probability.json", "got '0.5'"),
+        ("arabic_indic_digits.json", "unknown state"),
+        ("fullwidth_digits.json", "unknown state"),
+        ("escape_in_key.json", "\\x1b[2J1,1,0"),
+    ],
+)
+def test_a_belief_file_reads_numbers_and_ascii_states_only(name: str, expected: str) -> None:
+    message = _one_paragraph(_run("pose", str(APARTMENT), "--belief", str(BELIEFS / name)))
+    assert expected in message
+    assert "\x1b" not in message and "\x07" not in message
+
+
+def test_a_map_key_with_terminal_escapes_is_shown_escaped(tmp_path: Path) -> None:
+    path = tmp_path / "m.yaml"
+    path.write_text(APARTMENT.read_text() + '"\\e[2J\\e]0;title\\a": 1\n')
+    message = _one_paragraph(_run("validate", str(path)))
+    assert "\\x1b[2J" in message and "\x1b" not in message and "\x07" not in message
