@@ -410,3 +410,28 @@ def test_a_map_key_with_terminal_escapes_is_shown_escaped(tmp_path: Path) -> Non
     path.write_text(APARTMENT.read_text() + '"\\e[2J\\e]0;title\\a": 1\n')
     message = _one_paragraph(_run("validate", str(path)))
     assert "\\x1b[2J" in message and "\x1b" not in message and "\x07" not in message
+
+
+# --- clearer messages --------------------------------------------------------------------------------
+
+FUZZ = ROOT / "tests" / "data" / "fuzz"
+
+
+def test_an_absurd_occupancy_resolution_is_named_on_its_line(tmp_path: Path) -> None:
+    import shutil
+
+    shutil.copy(MAPS / "occupancy" / "depot.pgm", tmp_path / "depot.pgm")
+    shutil.copy(FUZZ / "occupancy" / "resolution-1e300.yaml", tmp_path / "depot.yaml")
+    text = (
+        (MAPS / "depot.yaml")
+        .read_text()
+        .replace("occupancy: occupancy/depot.yaml", f"occupancy: {tmp_path}/depot.yaml")
+    )
+    (tmp_path / "map.yaml").write_text(text)
+    message = _one_paragraph(_run("validate", str(tmp_path / "map.yaml")))
+    assert "resolution" in message and "cell_size" not in message
+
+
+def test_a_pomdp_file_with_cr_only_line_endings_is_read() -> None:
+    result = _run("inspect", str(FUZZ / "pomdp" / "cr-only-line-endings.pomdp"), "--json")
+    assert result.returncode == 0, result.stderr
