@@ -356,7 +356,9 @@ class GridLayout:
         return cell * self.headings + heading
 
 
-_STATE_NAME = re.compile(r"^\s*(\d+)\s*,\s*(\d+)\s*(?:,\s*(\d+)\s*)?$")
+_STATE_NAME = re.compile(r"^\s*([0-9]{1,18})\s*,\s*([0-9]{1,18})\s*(?:,\s*([0-9]{1,18})\s*)?$", re.ASCII)
+"""``r,c`` or ``r,c,h`` in ASCII digits only (``١,١,٠`` is no state, as in ``.pomdp`` files), at
+most 18 of them so that a 5,000-digit row is an unknown state, not a trip to ``int``'s digit limit."""
 
 
 class StateSpace:
@@ -415,7 +417,8 @@ class StateSpace:
                         return [first + h]
         elif text.strip() in self._lookup:
             return [self._lookup[text.strip()]]
-        raise InvalidValueError(f"unknown state {text!r}: {self._describe()}")
+        shown = text if len(text) <= 80 else f"{text[:60]}… ({len(text):,} characters)"
+        raise InvalidValueError(f"unknown state {shown!r}: {self._describe()}")
 
     def index(self, text: str) -> int:
         found = self.indices(text)

@@ -50,6 +50,10 @@ def _corpus() -> list[list[str]]:
             runs.append(["kb", "check", str(DOMAINS / "home.yaml"), "--kb", str(path)])
         elif kind in ("npz", "pomdp"):
             runs.append(["inspect", str(path)])
+        elif kind == "results":
+            runs.append(["summarize", str(path)])
+        elif kind == "beliefs":
+            runs.append(["pose", str(MAPS / "apartment.yaml"), "--belief", str(path)])
     return runs
 
 

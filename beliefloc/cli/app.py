@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from typing import Any
 
 import typer
@@ -111,4 +112,19 @@ for module in (
 
 
 def main() -> None:
-    app()
+    """Run the command line; what escapes a command's :func:`~beliefloc.cli.common.boundary` (help
+    or usage text written to a full stdout, a command that reports its own errors) meets the same
+    rules here."""
+    from beliefloc.cli.common import fail_outside
+
+    try:
+        try:
+            app()
+        finally:
+            sys.stdout.flush()  # a full stdout is found here, not at exit where Python hides it
+    except Exception as exc:
+        try:
+            fail_outside(exc)
+        except typer.Exit as stop:
+            sys.exit(stop.exit_code)
+        raise

@@ -23,6 +23,7 @@ from beliefloc.render import stderr_console
 if TYPE_CHECKING:
     import numpy as np
 
+    from beliefloc.files.results_file import ResultsContent
     from beliefloc.model import GridLayout, Model
     from beliefloc.semantic_map import SemanticMap
 
@@ -32,17 +33,86 @@ R = TypeVar("R")
 
 def boundary(command: Callable[P, R]) -> Callable[P, R]:
     """The CLI's one error boundary: a :class:`BeliefLocError` becomes a message on stderr and its
-    exit code; anything else is a bug and keeps its traceback."""
+    exit code, and so do the failures that come from outside rather than from a bug (an output
+    stream that cannot be written, a number too large, rich refusing markup; see
+    :func:`outside_failure`); anything else is a bug and keeps its traceback."""
 
     @functools.wraps(command)
     def wrapper(*args: P.args, **kwargs: P.kwargs) -> R:
         try:
-            return command(*args, **kwargs)
+            result = command(*args, **kwargs)
+            sys.stdout.flush()  # a full stdout is found here, not at exit where Python hides it
+            return result
         except BeliefLocError as exc:
             report_error(exc)
             raise typer.Exit(exc.exit_code) from None
+        except Exception as exc:
+            fail_outside(exc)
+            raise
 
     return wrapper
+
+
+def fail_outside(exc: Exception) -> None:
+    """For an exception that input or the surroundings caused (:func:`outside_failure`): report it
+    in one paragraph and raise ``typer.Exit(2)``; return for a bug, which the caller re-raises."""
+    message = outside_failure(exc)
+    if message is None:
+        return
+    _silence_stdout()
+    report_error(UsageError(message))
+    raise typer.Exit(UsageError.exit_code) from None
+
+
+_STREAM_ERRNOS = frozenset({"ENOSPC", "EPIPE", "EIO", "EDQUOT", "EFBIG"})
+"""Why writing stdout or stderr fails when the fault is where they lead (``> /dev/full``, a closed
+pipe, a full disk), never in beliefloc."""
+
+
+def outside_failure(exc: BaseException) -> str | None:
+    """The one-paragraph message for an exception that input or the surroundings caused, or None
+    for a bug (which keeps its traceback).
+
+    - an :class:`OSError` while writing the output streams (stdout into ``/dev/full``);
+    - an :class:`OverflowError`: a number from outside too large for a float or a C integer;
+    - Python's limit on the digits of an integer (``int()`` of a 5,000-digit string);
+    - rich's markup and rendering errors: a string from a file that rich would not print.
+    """
+    import errno as errno_names
+
+    if isinstance(exc, OSError) and not isinstance(exc, FileNotFoundError):
+        name = errno_names.errorcode.get(exc.errno or 0, "")
+        if name in _STREAM_ERRNOS and _raised_writing_streams(exc):
+            return f"cannot write the output: {exc.strerror or name} (is the disk or the pipe full or closed?)"
+        return None
+    if isinstance(exc, OverflowError):
+        return f"a number is too large to be used here ({exc}); give a smaller value"
+    if isinstance(exc, ValueError) and "limit" in str(exc) and "integer string conversion" in str(exc):
+        return "a number has more digits than any count or size beliefloc accepts; give a smaller value"
+    from rich.errors import MarkupError, NotRenderableError
+
+    if isinstance(exc, (MarkupError, NotRenderableError)):
+        return f"a value read from a file could not be printed ({exc}); check the file's text fields"
+    return None
+
+
+def _raised_writing_streams(exc: OSError) -> bool:
+    """Whether ``exc`` came from writing stdout/stderr rather than a file: beliefloc writes its
+    files through :mod:`beliefloc.source.atomic_write` (an :class:`OutputError`), and an error on a
+    named file carries its name; a write to a standard stream carries none."""
+    return exc.filename is None and exc.filename2 is None
+
+
+def _silence_stdout() -> None:
+    """After stdout failed, point it at /dev/null so Python's exit does not fail flushing it again."""
+    import os
+
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):
+        pass
 
 
 @contextlib.contextmanager
@@ -63,11 +133,13 @@ def target_option(target: str | None) -> str:
 
 
 def report_error(exc: BeliefLocError) -> None:
-    stderr_console().print(f"[bold red]error:[/] {escape(str(exc))}", soft_wrap=True)  # one line per error
+    stderr_console().print(
+        f"[bold red]error:[/] {escape(escape_controls(str(exc)))}", soft_wrap=True
+    )  # one line per error
 
 
 def warn(message: str) -> None:
-    stderr_console().print(f"[yellow]warning:[/] {escape(message)}", soft_wrap=True)
+    stderr_console().print(f"[yellow]warning:[/] {escape(escape_controls(message))}", soft_wrap=True)
 
 
 PRIOR_PREFIX = "prior:"
@@ -190,13 +262,15 @@ def existing_kind(path: Path) -> str | None:
 
 def positive_int(option: str, text: str) -> int:
     """A count given on the command line (a frame limit, say): a UsageError unless a positive integer."""
+    from beliefloc.source.limits import LARGEST_COUNT, read_count
+
     try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise UsageError(f"{option} {text}: must be a positive integer")
-    return value
+        return read_count(text, option, lowest=1)
+    except ValueError as exc:
+        shown = text if len(text) <= 40 else f"({len(text):,} characters)"
+        too_large = "out of range" in str(exc) and text.strip() not in ("0", "")
+        most = f" of at most {LARGEST_COUNT:,}" if too_large else ""
+        raise UsageError(f"{option} {shown}: must be a positive integer{most}") from None
 
 
 def check_record(option: str, path: Path, inputs: tuple[Path, ...] = ()) -> bool:
@@ -355,8 +429,8 @@ def run_sweep(
     which are not run again (a file of other settings is refused first, naming what differs). A
     progress bar on stderr when it is a terminal. ``serial_start``: the runner of a run in this
     process (with per-step callbacks, say); ``progress`` False: no bar (the steps are drawn)."""
-    from beliefloc.errors import UsageError
-    from beliefloc.files.results_file import ResultsWriter, differences, read_results
+    from beliefloc.errors import OutputError, UsageError
+    from beliefloc.files.results_file import ResultsWriter, differences, open_locked, read_results
     from beliefloc.render import stderr_console
     from beliefloc.render.sweep_progress import sweep_progress
     from beliefloc.simulation.sweep import backend, in_order
@@ -364,17 +438,31 @@ def run_sweep(
     total = int(head["total"])
     done: list[dict[str, Any]] = []
     found = None
-    if out is not None and resume and out.is_file() and out.stat().st_size > 0:
-        found = read_results(out)
-        differ = differences(found.header, head)
-        if differ:
-            raise UsageError(f"--resume {out}: the file was written with other settings: {'; '.join(differ)}")
-        done = list(found.results)
-        if found.torn:
-            warn(f"{out}: its last line was cut short; that {found.unit} is run again")
-    runs_on = backend(workers, scheduler, start=serial_start)  # a scheduler is reached now, or refused
-    indices = list(range(len(done), total))
-    writer = ResultsWriter(out, head, found) if out is not None else None
+    locked = None
+    created = False
+    if out is not None:
+        created = not out.exists()
+        locked = open_locked(out)  # before reading: a second sweep on the file is refused here
+    try:
+        if out is not None and resume and out.stat().st_size > 0:
+            found = read_results(out)
+            check_results(out, found)  # the whole file, before any unit is run or appended
+            differ = differences(found.header, head)
+            if differ:
+                raise UsageError(f"--resume {out}: the file was written with other settings: {'; '.join(differ)}")
+            done = list(found.results)
+            if found.torn:
+                warn(f"{out}: its last line was cut short; that {found.unit} is run again")
+        indices = list(range(len(done), total))
+        # a scheduler is reached now, or refused; a pool is no larger than the units or the cores allow
+        runs_on = backend(workers, scheduler, start=serial_start, units=len(indices), on_note=warn)
+    except BaseException:
+        if locked is not None:
+            locked.close()
+            if created and out is not None:
+                out.unlink(missing_ok=True)  # nothing half written is left behind
+        raise
+    writer = ResultsWriter(out, head, found, locked) if out is not None else None
     try:
         started = runs_on.run(sweep, indices) if indices else iter(())  # a pool starts before the bar's thread
         with sweep_progress(stderr_console(), f"{head['unit']}s", total, len(done), shown=progress) as advance:
@@ -382,11 +470,42 @@ def run_sweep(
                 done.append(result)
                 if writer is not None:
                     writer.write(result)
+        if writer is not None and not writer.still_there():
+            raise OutputError(
+                f"--out {out}: the results file was removed or replaced during the run; "
+                f"the {len(done)} {head['unit']}s written to it are lost: run again with another --out"
+            )
     finally:
         if writer is not None:
             writer.close()
         runs_on.close()
     return done
+
+
+def check_results(path: Path, content: ResultsContent) -> None:
+    """Every line of a results file read back as its command's records (``summarize``,
+    ``--resume``): a :class:`ResultsFileError` naming the first line that is not one, before any work."""
+    from beliefloc.files.results_file import ResultsFileError, check_lines
+
+    command = content.header["command"]
+    if command == "simulate":
+        from beliefloc.simulation.episode import records_from_results
+
+        check_lines(path, content, lambda line: records_from_results([line]))
+    elif command == "search simulate":
+        from beliefloc.object_search.experiment import TrialRecord
+
+        check_lines(path, content, TrialRecord.from_json)
+    else:
+        raise ResultsFileError(
+            f"{path}: written by '{escape_controls(str(command))[:60]}', which this beliefloc cannot read"
+        )
+
+
+def escape_controls(text: str) -> str:
+    """``text`` with control characters written as escapes (``ESC[2J`` as ``\\x1b[2J``): what a
+    file holds is shown, never obeyed by the terminal."""
+    return "".join(c if c.isprintable() or c in "\n\t" else c.encode("unicode_escape").decode("ascii") for c in text)
 
 
 def _counting(

@@ -6,6 +6,8 @@ import contextlib
 import json
 import os
 import sys
+import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
@@ -54,6 +56,46 @@ MapArgument = Annotated[
 ]
 
 
+DEFAULT_REPLY_TIMEOUT = 300.0
+"""``--reply-timeout``: seconds to wait for one reply; long enough for a slow robot's move and scan."""
+
+
+def _timed_reader(seconds: float) -> Callable[[int], str]:
+    """``readline(limit)`` on stdin that raises :class:`TimeoutError` when no whole line came within
+    ``seconds``: reads the file descriptor itself (select, then os.read) so that nothing waits in a
+    buffer select cannot see. Without a file descriptor (a test's stdin): ``sys.stdin.readline``."""
+    import select
+
+    try:
+        fd = sys.stdin.fileno()
+    except (AttributeError, OSError, ValueError):
+        return sys.stdin.readline
+    pending = bytearray()
+    ended = False
+
+    def read_line(limit: int) -> str:
+        nonlocal ended
+        deadline = time.monotonic() + seconds
+        while b"\n" not in pending and len(pending) <= 4 * limit and not ended:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0 or not select.select([fd], [], [], remaining)[0]:
+                raise TimeoutError(f"within {seconds:g} s (--reply-timeout)")
+            chunk = os.read(fd, 65536)
+            if chunk:
+                pending.extend(chunk)
+            else:
+                ended = True
+        end = pending.find(b"\n")
+        size = end + 1 if end >= 0 else len(pending)
+        line = bytes(pending[:size])
+        del pending[:size]
+        if len(line) > 4 * limit:
+            return line[: 4 * limit].decode("utf-8", "replace")  # too long, whatever it holds
+        return line.decode("utf-8")
+
+    return read_line
+
+
 @boundary
 def localize(
     map_file: MapArgument,
@@ -68,6 +110,16 @@ def localize(
         int, typer.Option("--max-steps", parser=whole(low=1), metavar="N", help="Stop after this many actions.")
     ] = DEFAULT_MAX_STEPS,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
+    reply_timeout: Annotated[
+        float,
+        typer.Option(
+            "--reply-timeout",
+            metavar="SECONDS",
+            min=0.001,
+            max=1e6,
+            help="Give up (exit 2, naming the action) when the robot has not answered an action within this time.",
+        ),
+    ] = DEFAULT_REPLY_TIMEOUT,
     belief_out: Annotated[
         Path | None,
         typer.Option(
@@ -114,7 +166,7 @@ def localize(
     binner = ReadingBinner(smap, model)
     start = initial_belief(model, belief, smap)
     settings = PlannerSettings(threshold, chosen, max_expansions, time_limit, weight=h_weight)
-    robot = LineRobot(binner, sys.stdin.readline, _write_line, source="stdin")
+    robot = LineRobot(binner, _timed_reader(reply_timeout), _write_line, source="stdin")
     err = stderr_console()
 
     def on_step(step: LocalizeStep) -> None:

@@ -54,19 +54,19 @@ def number(
     return parse
 
 
-def whole(*, low: int = 0) -> Callable[[str | int], int]:
-    """A parser for an integer option (typer's ``parser=``) of at least ``low``."""
+def whole(*, low: int = 0, high: int | None = None) -> Callable[[str | int], int]:
+    """A parser for an integer option (typer's ``parser=``) from ``low`` to ``high`` (by default the
+    largest count beliefloc takes from outside), read by :func:`beliefloc.source.limits.read_count`:
+    ASCII digits only, range checked before ``int`` sees a long string."""
+    from beliefloc.source.limits import LARGEST_COUNT, read_count
 
     def parse(text: str | int) -> int:
         if isinstance(text, int):
             return text  # the default, given by the code
         try:
-            value = int(text.strip().replace("_", ""))
-        except ValueError:
-            value = low - 1
-        if value < low:
-            raise typer.BadParameter(f"must be a whole number of {low} or more, got {text!r}")
-        return value
+            return read_count(text, "the value", lowest=low, highest=LARGEST_COUNT if high is None else high)
+        except ValueError as exc:
+            raise typer.BadParameter(str(exc).removeprefix("the value: ")) from None
 
     return parse
 

@@ -72,12 +72,22 @@ if TYPE_CHECKING:
 
 """``--record-frames``: a GIF of 200 frames at 0.6 s a frame lasts two minutes."""
 
+MAX_EPISODES = 100_000_000
+"""The most episodes ``-n`` takes: far more than a sweep of a day, far fewer than ``2**200``."""
+
 
 @boundary
 def simulate(
     map_file: ModelArgument,
     episodes: Annotated[
-        int, typer.Option("--episodes", "-n", parser=whole(low=1), metavar="N", help="How many episodes.")
+        int,
+        typer.Option(
+            "--episodes",
+            "-n",
+            parser=whole(low=1, high=MAX_EPISODES),
+            metavar="N",
+            help=f"How many episodes (at most {MAX_EPISODES:,}).",
+        ),
     ] = 1,
     seed: SeedOption = 0,
     start: Annotated[

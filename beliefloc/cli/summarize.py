@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import boundary, print_json
+from beliefloc.cli.common import boundary, check_results, escape_controls, print_json
 from beliefloc.cli.options import JsonOption
 from beliefloc.errors import UsageError
 from beliefloc.render import stderr_console, stdout_console
@@ -53,7 +53,9 @@ def summarize(
     content = read_results(results_file)
     command = str(content.header["command"])
     if command not in _SUMMARIES:
-        raise UsageError(f"{results_file}: written by '{command}', which this beliefloc cannot summarize")
+        shown = escape_controls(command)[:60]
+        raise UsageError(f"{results_file}: written by '{shown}', which this beliefloc cannot summarize")
+    check_results(results_file, content)
     try:
         summary, table = _SUMMARIES[command](content)
     except (KeyError, TypeError, ValueError, AttributeError) as exc:

@@ -25,7 +25,7 @@ from beliefloc.source import Source, read_source, validate_source
 _SUM_TOLERANCE = 1e-6
 
 
-class _BeliefMapping(RootModel[dict[str, Annotated[float, Field(ge=0.0, allow_inf_nan=False)]]]):
+class _BeliefMapping(RootModel[dict[str, Annotated[float, Field(ge=0.0, allow_inf_nan=False, strict=True)]]]):
     pass
 
 

@@ -16,14 +16,14 @@ Appending to a file is not atomic, by design: what was written stays, whatever h
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
 from beliefloc import __version__
 from beliefloc.errors import InputFileError
-from beliefloc.source.limits import INPUT_BYTES
+from beliefloc.source.limits import INPUT_BYTES, LARGEST_COUNT
 
 FORMAT = "beliefloc-results"
 FORMAT_VERSION = 1
@@ -106,6 +106,7 @@ def read_results(path: Path) -> ResultsContent:
     for key in ("command", "unit", "total", "settings"):
         if key not in head:
             raise ResultsFileError(f"{path}: the header has no {key!r}")
+    _check_header(path, head)
     unit = str(head["unit"])
     kept = len(complete[0]) + 1
     results: list[dict[str, Any]] = []
@@ -127,6 +128,37 @@ def read_results(path: Path) -> ResultsContent:
     if len(results) > int(head["total"]):
         raise ResultsFileError(f"{path}: holds {len(results)} {unit}s, more than the {head['total']} of its header")
     return ResultsContent(head, results, kept, torn)
+
+
+def _check_header(path: Path, head: dict[str, Any]) -> None:
+    """The header's fields have the types a sweep writes: checked before any line is used."""
+    total = head["total"]
+    if isinstance(total, bool) or not isinstance(total, int) or not 0 <= total <= LARGEST_COUNT:
+        shown = json.dumps(total)[:40] if not isinstance(total, int) else f"a {len(str(total))}-digit number"
+        raise ResultsFileError(f"{path}: the header's 'total' is {shown}; it must be a whole number of units")
+    for key in ("command", "unit"):
+        if not isinstance(head[key], str):
+            raise ResultsFileError(f"{path}: the header's {key!r} is {json.dumps(head[key])[:40]}, not a string")
+    if not isinstance(head["settings"], dict):
+        raise ResultsFileError(f"{path}: the header's 'settings' is not a JSON object")
+
+
+def check_lines(path: Path, content: ResultsContent, decode: Callable[[dict[str, Any]], object]) -> None:
+    """Every result line decoded by ``decode`` (the command's record reader) before any work is
+    done with the file: a :class:`ResultsFileError` naming the first line it refuses."""
+    for number, line in enumerate(content.results, start=2):
+        try:
+            decode(line)
+        except (KeyError, TypeError, ValueError, AttributeError, OverflowError) as exc:
+            what = f"no {exc.args[0]!r}" if isinstance(exc, KeyError) else str(exc)
+            raise ResultsFileError(
+                f"{path}:{number}: not a {content.header['command']!r} result ({_printable(what)}): the file is damaged"
+            ) from None
+
+
+def _printable(text: str) -> str:
+    """``text`` with control characters escaped (a terminal escape in a file stays inert)."""
+    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text)
 
 
 def _parse(raw: bytes) -> Any:
@@ -169,21 +201,68 @@ def _shown(value: Any) -> str:
     return "absent" if value is _MISSING else json.dumps(value)
 
 
+def open_locked(path: Path) -> IO[bytes]:
+    """``path`` opened for writing (created when missing, never truncated here) and locked with
+    ``flock``: a second sweep on the same file is refused naming the first one's pid, instead of
+    both writing it."""
+    import fcntl
+    import os
+
+    file = os.fdopen(os.open(path, os.O_RDWR | os.O_CREAT, 0o666), "r+b")
+    try:
+        fcntl.flock(file.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        holder = _lock_holder(os.fstat(file.fileno()).st_ino)
+        file.close()
+        who = f"another beliefloc (pid {holder})" if holder else "another process"
+        raise ResultsFileError(
+            f"{path}: {who} is writing this results file; wait for it to end, or give another --out"
+        ) from None
+    return file
+
+
+def _lock_holder(inode: int) -> int | None:
+    """The pid holding a ``flock`` on the file of ``inode`` (Linux's /proc/locks), or None."""
+    try:
+        lines = Path("/proc/locks").read_text().splitlines()
+    except OSError:
+        return None
+    for line in lines:
+        fields = line.split()
+        if len(fields) > 5 and fields[1] == "FLOCK" and fields[5].rsplit(":", 1)[-1] == str(inode):
+            return int(fields[4]) if fields[4].isascii() and fields[4].isdigit() else None
+    return None
+
+
 class ResultsWriter:
     """Writes a results file line by line, each flushed as it is written. A new file gets
     ``head`` first; a resumed one (``resume``: what :func:`read_results` found) is cut back to its
-    whole lines and continued."""
+    whole lines and continued. ``file``: the file :func:`open_locked` opened (else it is opened
+    and locked here)."""
 
-    def __init__(self, path: Path, head: Mapping[str, Any], resume: ResultsContent | None = None) -> None:
+    def __init__(
+        self,
+        path: Path,
+        head: Mapping[str, Any],
+        resume: ResultsContent | None = None,
+        file: IO[bytes] | None = None,
+    ) -> None:
         self.path = path
-        self._file: IO[bytes]
+        self._file: IO[bytes] = file if file is not None else open_locked(path)
+        kept = 0 if resume is None else resume.kept_bytes
+        self._file.truncate(kept)
+        self._file.seek(kept)
         if resume is None:
-            self._file = path.open("wb")
             self.write(head)
-        else:
-            self._file = path.open("r+b")
-            self._file.truncate(resume.kept_bytes)
-            self._file.seek(resume.kept_bytes)
+
+    def still_there(self) -> bool:
+        """Whether the file written is still at :attr:`path` (not removed or replaced meanwhile)."""
+        import os
+
+        try:
+            return os.stat(self.path).st_ino == os.fstat(self._file.fileno()).st_ino
+        except OSError:
+            return False
 
     def write(self, data: Any) -> None:
         self._file.write((dumps(data) + "\n").encode("utf-8"))

@@ -70,6 +70,8 @@ def tokenise(text: str, path: str) -> Iterator[Statement | Comment]:
     and a stray token is refused only after every earlier comment was seen.
     """
     pending: list[tuple[list[str], int]] = []
+    if "\r" in text:  # CR LF (Windows) and CR alone (classic Mac OS) end lines too
+        text = text.replace("\r\n", "\n").replace("\r", "\n")
     for lineno, raw_line in enumerate(text.split("\n"), 1):
         line = raw_line
         cut = line.find("#")

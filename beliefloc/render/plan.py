@@ -79,7 +79,7 @@ def summary_table(summary: dict[str, StrategySummary], threshold: float) -> Tabl
         table.add_column(column, justify="left" if column == "strategy" else "right", no_wrap=True)
     for name, s in summary.items():
         table.add_row(
-            name,
+            escape(str(name)),  # from a results file: never markup
             str(s.localized),
             str(s.correct),
             _num(s.mean_plan_seconds, "{:.4f}"),
@@ -93,7 +93,7 @@ def summary_table(summary: dict[str, StrategySummary], threshold: float) -> Tabl
         for name, s in summary.items()
         if s.failures
     ]
-    table.caption = "not localized: " + "; ".join(failures) if failures else "every episode localized"
+    table.caption = escape("not localized: " + "; ".join(failures)) if failures else "every episode localized"
     table.caption_justify = "left"
     return table
 

@@ -110,6 +110,14 @@ def _constant(name: str) -> float:
     return math.inf if name == "Infinity" else -math.inf
 
 
+def _integer(text: str) -> int:
+    """A JSON integer in a reply: at most 18 digits (a 311-digit range is no reading; as a float it
+    would overflow)."""
+    if len(text.lstrip("-")) > 18:
+        raise ValueError(f"a {len(text.lstrip('-'))}-digit integer is out of range for any reading")
+    return int(text)
+
+
 class LineRobot:
     """A robot on the other end of two line streams (see the module)."""
 
@@ -146,6 +154,8 @@ class LineRobot:
             raise ReplyError(
                 f"{self.source} line {self.lines_read + 1}, {what}: not UTF-8 text ({exc.reason})"
             ) from None
+        except TimeoutError as exc:  # the reader's --reply-timeout: exc says how long it waited
+            raise ReplyError(f"{self.source}: no reply to action {command.seq} ({command.action.name}) {exc}") from None
         if line == "":
             raise ReplyError(f"{self.source} ended before {what}")
         self.lines_read += 1
@@ -157,7 +167,7 @@ class LineRobot:
         if not text:
             raise ReplyError(f"{where}: an empty line; expected one JSON object such as {example}")
         try:
-            data = json.loads(text, parse_constant=_constant)
+            data = json.loads(text, parse_constant=_constant, parse_int=_integer)
         except ValueError as exc:
             raise ReplyError(f"{where}: not JSON ({exc}); expected one JSON object such as {example}") from None
         except RecursionError:

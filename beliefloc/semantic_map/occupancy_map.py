@@ -117,6 +117,11 @@ class Occupancy(enum.IntEnum):
     UNKNOWN = 2
 
 
+MAX_RESOLUTION = 1000.0
+"""Metres per pixel at most (a kilometre): ``resolution: 1e300`` is refused on its own line, not
+blamed on ``grid.cell_size`` with two 300-digit numbers."""
+
+
 class MapMode(str, enum.Enum):
     """Nav2's ``mode``: how a pixel's shade becomes an occupancy."""
 
@@ -163,7 +168,7 @@ class MapYaml(BaseModel):
     model_config = ConfigDict(frozen=True, extra="ignore")
 
     image: str
-    resolution: Annotated[float, BeforeValidator(_no_bool), Field(gt=0.0, allow_inf_nan=False)]
+    resolution: Annotated[float, BeforeValidator(_no_bool), Field(gt=0.0, le=MAX_RESOLUTION, allow_inf_nan=False)]
     origin: tuple[_Finite, _Finite, _Yaw]
     negate: Annotated[int, BeforeValidator(_negate)]
     occupied_thresh: _Threshold

@@ -97,7 +97,8 @@ def _check_room_mask(smap: RoomsOfAMap) -> None:
             raise FieldError(
                 ("rooms", "labels", value),
                 f"no cell of the map has its centre on a pixel of value {value} in {spec.mask}: room {name!r} "
-                "would be empty",
+                "would be empty (the mask's values are what Nav2 publishes for it: its YAML must say mode: raw "
+                "for a pixel painted grey k to be value k)",
             )
 
 

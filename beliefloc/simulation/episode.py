@@ -73,20 +73,55 @@ class EpisodeRecord:
         """The record :meth:`as_json` gave ``data``, for statistics (:func:`summarize`): without its
         trace and its ``pose`` (a pose needs the model), and with ``plan_seconds`` empty when the
         JSON has no clock values."""
+        seconds = data["plan_seconds"]
+        if seconds is not None and not isinstance(seconds, list):
+            raise ValueError(f"plan_seconds: {seconds!r} is not a list of numbers")
         return cls(
-            strategy=data["strategy"],
-            episode=int(data["episode"]),
-            start=data["start"],
-            final=data["final"],
-            true_final=data["true_final"],
-            correct=bool(data["correct"]),
-            status=EpisodeStatus(data["status"]),
-            cost=float(data["cost"]),
-            steps=int(data["steps"]),
-            replans=int(data["replans"]),
-            plan_seconds=[float(x) for x in data["plan_seconds"] or []],
-            max_belief=float(data["max_belief"]),
+            strategy=_text(data, "strategy"),
+            episode=_whole(data, "episode"),
+            start=_text(data, "start"),
+            final=_text(data, "final"),
+            true_final=_text(data, "true_final"),
+            correct=_flag(data, "correct"),
+            status=EpisodeStatus(_text(data, "status")),
+            cost=_number(data, "cost"),
+            steps=_whole(data, "steps"),
+            replans=_whole(data, "replans"),
+            plan_seconds=[_number({"plan_seconds": x}, "plan_seconds") for x in seconds or []],
+            max_belief=_number(data, "max_belief"),
         )
+
+
+def _text(data: dict[str, Any], key: str) -> str:
+    """A string field of a record read back from a file: a number or a list is no name."""
+    value = data[key]
+    if not isinstance(value, str):
+        raise ValueError(f"{key}: {value!r} is not a string")
+    return value
+
+
+def _whole(data: dict[str, Any], key: str) -> int:
+    value = data[key]
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 2**62:
+        raise ValueError(f"{key}: {str(value)[:40]!r} is not a whole number from 0 to 2**62")
+    return value
+
+
+def _number(data: dict[str, Any], key: str) -> float:
+    value = data[key]
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise ValueError(f"{key}: {str(value)[:40]!r} is not a number")
+    number = float(value)  # an int of 400 digits: OverflowError, caught by the reader
+    if number != number or number in (float("inf"), float("-inf")):
+        raise ValueError(f"{key}: {value!r} is not a finite number")
+    return number
+
+
+def _flag(data: dict[str, Any], key: str) -> bool:
+    value = data[key]
+    if not isinstance(value, bool):
+        raise ValueError(f"{key}: {value!r} is not true or false")
+    return value
 
 
 OnStep = Callable[[EpisodeRecord, StepRecord, np.ndarray], None]
@@ -303,7 +338,13 @@ class EpisodeSweep:
 
 def records_from_results(results: Sequence[dict[str, Any]]) -> list[EpisodeRecord]:
     """The records of :class:`EpisodeSweep` results, in order (:meth:`EpisodeRecord.from_json`)."""
-    return [EpisodeRecord.from_json(data) for result in results for data in result["records"]]
+    out: list[EpisodeRecord] = []
+    for result in results:
+        records = result["records"]
+        if not isinstance(records, list) or not records:
+            raise ValueError(f"records: {str(records)[:40]!r} is not a list of episode records")
+        out.extend(EpisodeRecord.from_json(data) for data in records)
+    return out
 
 
 @dataclass(frozen=True)

@@ -23,6 +23,7 @@ peak memory with each chunk (:attr:`Backend.peak_rss`).
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 import sys
@@ -165,7 +166,20 @@ _POOL_SWEEP: list[Sweep] = []
 """The sweep a pool worker's initializer received (one per worker process)."""
 
 
-def _pool_initializer(sweep: Sweep) -> None:
+def _pool_initializer(sweep: Sweep, parent: int = 0) -> None:
+    """A pool worker's start: it keeps the sweep, and dies with its parent. On Linux the kernel
+    kills it when the parent ends, by whatever signal (``PR_SET_PDEATHSIG``); a worker whose parent
+    is already gone (it was re-parented) exits at once."""
+    import signal
+
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # not the parent's handler, forked with it
+    if sys.platform == "linux":
+        import ctypes
+
+        with contextlib.suppress(OSError, AttributeError):
+            ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGKILL))  # 1: PR_SET_PDEATHSIG
+    if parent and os.getppid() != parent:
+        os._exit(1)
     _POOL_SWEEP[:] = [sweep]
 
 
@@ -207,6 +221,7 @@ class PoolBackend:
     peak_rss: dict[str, int] = field(default_factory=dict)
     context: str | None = None
     _pool: Any = None
+    _handlers: dict[int, Any] = field(default_factory=dict)
 
     def start_method(self) -> str:
         """``context``, else "fork" when it is safe now, else "spawn"."""
@@ -226,12 +241,38 @@ class PoolBackend:
             max_workers=self.workers,
             mp_context=multiprocessing.get_context(self.start_method()),
             initializer=_pool_initializer,
-            initargs=(sweep,),
+            initargs=(sweep, os.getpid()),
         )
         self._pool = pool
         self.peak_rss = {}
         pending = {pool.submit(_pool_chunk, __version__, chunk) for chunk in chunks(indices, self.workers)}
+        self._stop_on_signals(pool)
         return self._results(pool, pending)
+
+    def _stop_on_signals(self, pool: Any) -> None:
+        """SIGTERM and SIGHUP (when nothing else handles them) end the workers, then this process,
+        as Ctrl-C does: a pool never outlives the command that started it."""
+        import signal
+
+        if threading.current_thread() is not threading.main_thread():
+            return
+
+        def stop(signum: int, _frame: object) -> None:
+            for process in list(getattr(pool, "_processes", {}).values()):
+                with contextlib.suppress(OSError, ValueError):
+                    process.kill()
+            raise SystemExit(128 + signum)
+
+        for signum in (signal.SIGTERM, signal.SIGHUP):
+            if signal.getsignal(signum) == signal.SIG_DFL:
+                self._handlers[signum] = signal.signal(signum, stop)
+
+    def _restore_signals(self) -> None:
+        import signal
+
+        for signum, handler in self._handlers.items():
+            signal.signal(signum, handler)
+        self._handlers.clear()
 
     def _results(self, pool: Any, pending: set[Any]) -> Iterator[tuple[int, Result]]:
         from concurrent.futures import FIRST_COMPLETED, wait
@@ -245,9 +286,11 @@ class PoolBackend:
                     yield from chunk.results
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
+            self._restore_signals()
 
     def close(self) -> None:
         """Stops the pool of the last :meth:`run` (its chunks not started are dropped)."""
+        self._restore_signals()
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
@@ -340,15 +383,23 @@ def _reachable(address: str, timeout: float) -> None:
     import socket
     from urllib.parse import urlsplit
 
-    parts = urlsplit(address if "://" in address else f"tcp://{address}")
     try:
+        parts = urlsplit(address if "://" in address else f"tcp://{address}")
         host, port = parts.hostname, parts.port
-    except ValueError:
+    except ValueError:  # 'tcp://[::1:8786': an unclosed IPv6 bracket, a port out of range
         host, port = None, None
     if not host or port is None:
-        raise SweepError(f"{address}: not a scheduler address; write tcp://HOST:PORT")
+        raise SweepError(
+            f"{address}: not a scheduler address; write tcp://HOST:PORT (an IPv6 host in brackets: tcp://[::1]:8786)"
+        )
     try:
-        socket.create_connection((host, port), timeout=timeout).close()
+        with socket.create_connection((host, port), timeout=timeout) as connection:
+            _handshake(connection, address, timeout)
+    except TimeoutError:
+        raise SweepError(
+            f"the Dask scheduler at {address} accepted the connection but said nothing within {timeout:g} s: "
+            "is a Dask scheduler listening there?"
+        ) from None
     except OSError as exc:
         raise SweepError(
             f"cannot reach the Dask scheduler at {address} ({_reason(exc)}); is it running, and is the address "
@@ -356,18 +407,75 @@ def _reachable(address: str, timeout: float) -> None:
         ) from None
 
 
+MAX_HANDSHAKE_FRAME = 64 * 1024 * 1024
+"""The largest first message a scheduler may announce (a real handshake is a few hundred bytes)."""
+
+
+def _handshake(connection: Any, address: str, timeout: float) -> None:
+    """A Dask scheduler speaks first: its handshake message, framed as a count of frames and each
+    frame's length (little-endian 64-bit). Within ``timeout`` (:class:`TimeoutError` otherwise),
+    and announcing no frame larger than :data:`MAX_HANDSHAKE_FRAME`."""
+    import struct
+    import time
+
+    deadline = time.monotonic() + timeout
+    received = b""
+    while len(received) < 24:  # the total length, the frame count, the first frame's length
+        connection.settimeout(max(0.001, deadline - time.monotonic()))
+        chunk = connection.recv(24 - len(received))
+        if not chunk:
+            raise SweepError(f"{address} closed the connection without a Dask handshake")
+        received += chunk
+    total, count, first = struct.unpack("<QQQ", received)
+    if not 1 <= count <= 1_000 or max(total, first) > MAX_HANDSHAKE_FRAME:
+        raise SweepError(
+            f"{address} announced a first message of {max(total, first):,} bytes in {count:,} frames; a Dask "
+            "scheduler's handshake is a few hundred bytes: is a Dask scheduler listening there?"
+        )
+
+
 def _reason(exc: BaseException) -> str:
     text = str(exc).strip().splitlines()
     return text[0] if text else type(exc).__name__
 
 
-def backend(workers: int = 1, scheduler: str | None = None, *, start: Callable[[], Runner] | None = None) -> Backend:
-    """The backend for ``workers`` processes (0: one per core; 1: this process) or a Dask scheduler's
-    address; ``start``: the serial backend's runner (:class:`SerialBackend`)."""
+WORKERS_PER_CORE = 4
+"""A pool has at most this many processes per core (``--workers`` above it is capped with a note)."""
+
+
+def pool_size(workers: int, units: int | None = None) -> tuple[int, str | None]:
+    """The processes for ``--workers`` (0: one per core) and ``units`` of work: never more than the
+    units, nor than :data:`WORKERS_PER_CORE` × the cores; with a note when ``workers`` was capped."""
+    available = cores()
+    wanted = available if workers == 0 else workers
+    size = min(wanted, WORKERS_PER_CORE * available)
+    note = None
+    if size < wanted:
+        note = (
+            f"--workers {workers:,}: capped at {size} processes "
+            f"({WORKERS_PER_CORE} per core of the {available} this process may use)"
+        )
+    if units is not None:
+        size = min(size, max(1, units))
+    return max(1, size), note
+
+
+def backend(
+    workers: int = 1,
+    scheduler: str | None = None,
+    *,
+    start: Callable[[], Runner] | None = None,
+    units: int | None = None,
+    on_note: Callable[[str], None] | None = None,
+) -> Backend:
+    """The backend for ``workers`` processes (0: one per core; 1: this process; see
+    :func:`pool_size` for the cap, ``units``: the units to run, and ``on_note``: told of a cap) or a
+    Dask scheduler's address; ``start``: the serial backend's runner (:class:`SerialBackend`)."""
     if scheduler is not None:
         return DaskBackend(scheduler)
-    if workers == 0:
-        workers = cores()
+    workers, note = pool_size(workers, units)
+    if note is not None and on_note is not None:
+        on_note(note)
     if workers == 1:
         return SerialBackend(start)
     return PoolBackend(workers)

@@ -14,6 +14,32 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
+LARGEST_COUNT = 2**62
+"""The largest count any outside integer may give: it fits a C ``long`` (``setrlimit``, numpy)."""
+
+
+def read_count(text: str, name: str, *, lowest: int = 0, highest: int = LARGEST_COUNT) -> int:
+    """The one reader for an integer from outside (an environment variable, a JSON reply, a
+    command-line count): ASCII digits only, with ``_`` between digits allowed, from ``lowest`` to
+    ``highest``; anything else raises :class:`ValueError` naming ``name`` and what it accepts.
+
+    ``str.isdigit`` and ``int`` accept superscripts and other scripts' digits (``²``, ``١``) and
+    ``int`` would spend quadratic time on a 10^6-digit string: the length is checked first.
+    """
+    accepts = f"it accepts a whole number from {lowest:,} to {highest:,} written in the digits 0-9"
+    stripped = text.strip()
+    digits = stripped.replace("_", "")
+    grouped = not (stripped.startswith("_") or stripped.endswith("_") or "__" in stripped)
+    if not (digits.isascii() and digits.isdigit() and grouped):
+        shown = stripped[:40].encode("unicode_escape").decode("ascii")
+        raise ValueError(f"{name}: '{shown}' is not a whole number; {accepts}")
+    if len(digits.lstrip("0")) > len(str(highest)):
+        raise ValueError(f"{name}: a {len(digits):,}-digit number is out of range; {accepts}")
+    value = int(digits)
+    if not lowest <= value <= highest:
+        raise ValueError(f"{name}: {value:,} is out of range; {accepts}")
+    return value
+
 
 @dataclass(frozen=True)
 class Limit:
@@ -23,14 +49,25 @@ class Limit:
     """What is counted, for messages: ``"bytes in an input file"``."""
     default: int
     variable: str
+    highest: int = LARGEST_COUNT
+    """The largest value the variable may take (what the system call it ends in accepts)."""
 
     @property
     def value(self) -> int:
-        """The bound in force: the environment variable when it is set to a positive integer."""
-        text = os.environ.get(self.variable, "").strip().replace("_", "")
-        if text.isdigit() and int(text) > 0:
-            return int(text)
-        return self.default
+        """The bound in force: the environment variable when it is set, else the default.
+
+        A value that is not a whole number from 1 to :attr:`highest` in ASCII digits (``²``,
+        ``1kB``, ``1e3``, ``-1``, ``0``) is refused with a :class:`~beliefloc.errors.LimitError`
+        naming the variable, never replaced by the default: a user who lowers a bound must get it."""
+        text = os.environ.get(self.variable)
+        if text is None or not text.strip():
+            return self.default
+        from beliefloc.errors import LimitError
+
+        try:
+            return read_count(text, f"the environment variable {self.variable}", lowest=1, highest=self.highest)
+        except ValueError as exc:
+            raise LimitError(f"{exc}; it bounds the {self.what} (default {self.default:,})") from None
 
     def check(self, count: int, where: str) -> None:
         """Raise :class:`~beliefloc.errors.LimitError` when ``count`` is above the bound."""

@@ -39,7 +39,49 @@ except ImportError:  # pragma: no cover - pyyaml built without libyaml; its Pyth
 def read_source(path: str | FilePath, error_cls: type[InputFileError]) -> Source:
     """Read and parse a YAML (or JSON) file, keeping the marks of every key and value."""
     text, raw = read_text(path, error_cls)
-    return parse_source(text, FilePath(path), error_cls, sha256=hashlib.sha256(raw).hexdigest())
+    digest = hashlib.sha256(raw).hexdigest()
+    try:
+        return parse_source(text, FilePath(path), error_cls, sha256=digest)
+    except error_cls:
+        if FilePath(path).suffix.lower() != ".json":
+            raise
+        data = _plain_json(text)  # what YAML cannot read but JSON can: a key of over 1,024 characters
+        if data is _NOT_JSON:
+            raise
+        return Source(FilePath(path), data, digest)
+
+
+_NOT_JSON = object()
+
+
+def _plain_json(text: str) -> Any:
+    """``text`` read by :mod:`json` (a JSON file YAML refused: PyYAML takes no key longer than 1,024
+    characters), or ``_NOT_JSON`` when it is not JSON either, repeats a key, holds NaN or nests deeper
+    than :data:`~beliefloc.source.limits.NESTING`. Without marks: an error names the key's path."""
+    import json
+
+    def pairs(items: list[tuple[str, Any]]) -> dict[str, Any]:
+        out = dict(items)
+        if len(out) != len(items):
+            raise ValueError("a repeated key")
+        return out
+
+    def constant(name: str) -> Any:
+        raise ValueError(f"{name} is not JSON")
+
+    try:
+        data = json.loads(text, object_pairs_hook=pairs, parse_constant=constant)
+    except (ValueError, RecursionError):
+        return _NOT_JSON
+    depth, level = 0, [(data, 1)]
+    while level:
+        value, here = level.pop()
+        depth = max(depth, here)
+        if isinstance(value, dict):
+            level.extend((v, here + 1) for v in value.values())
+        elif isinstance(value, list):
+            level.extend((v, here + 1) for v in value)
+    return _NOT_JSON if depth > limits.NESTING.value else data
 
 
 def parse_source(text: str, path: FilePath, error_cls: type[InputFileError], *, sha256: str | None = None) -> Source:
