@@ -434,5 +434,5 @@ def test_an_absurd_occupancy_resolution_is_named_on_its_line(tmp_path: Path) -> 
 
 
 def test_a_pomdp_file_with_cr_only_line_endings_is_read() -> None:
-    result = _run("inspect", str(FUZZ / "pomdp" / "cr-only-line-endings.pomdp"), "--json")
+    result = _run("inspect", str(ROOT / "tests" / "data" / "pomdp" / "cr-only-line-endings.pomdp"), "--json")
     assert result.returncode == 0, result.stderr
