@@ -430,18 +430,7 @@ def run_trial(
     from beliefloc.knowledge import KnowledgeBase
 
     started = time.perf_counter()
-    world_rng = trial_rng(seed, index, Stream.WORLD)
-    absent = bool(world_rng.random() < settings.absent_fraction)
-    world = sample_world(
-        domain,
-        space,
-        typical,
-        world_rng,
-        target_class=settings.target,
-        absent=absent,
-        p_typical=settings.p_typical,
-        correlation=settings.correlation,
-    )
+    world = trial_world(domain, space, typical, index=index, seed=seed, settings=settings)
     known = sample_known(domain, world, settings.knowledge, trial_rng(seed, index, Stream.KNOWLEDGE))
     robot = robot_domain(domain, world, known)
 
@@ -635,7 +624,7 @@ def trial_world(
     domain: Domain, space: SearchSpace, typical: dict[str, str], *, index: int, seed: int, settings: TrialSettings
 ) -> World:
     """The ground truth of trial ``index`` of a run seeded ``seed``: the world :func:`run_trial` builds
-    (the same stream and draws), to check records against it -- e.g. whether a dynamic arm's commits
+    (it calls this), to check records against it -- e.g. whether a dynamic arm's commits
     were right. ``typical``: :func:`typical_rooms`."""
     world_rng = trial_rng(seed, index, Stream.WORLD)
     absent = bool(world_rng.random() < settings.absent_fraction)
