@@ -60,15 +60,21 @@ def update(
     :class:`ImpossibleObservationError` (Bayes' rule would divide 0 by 0).
     """
     act = model.action(action) if isinstance(action, str) else action
-    predicted = predict(act, belief)
+    return correct(act, predict(act, belief), observation)
+
+
+def correct(action: Action, predicted: np.ndarray, observation: str | int | None) -> tuple[np.ndarray, float]:
+    """Bayes' rule with ``O_a`` on a belief already predicted (``T_aᵀ b``, or a prediction from
+    measured odometry): ``b' ∝ predicted ⊙ O_a[:, o]``; returns ``(posterior, p(o | a, b))``, or
+    the prediction with probability 1 when ``observation`` is None. See :func:`update`."""
     if observation is None:
         return predicted, 1.0
-    o = act.observation.index(observation) if isinstance(observation, str) else observation
-    weighted = predicted * act.observation.likelihood(o)
+    o = action.observation.index(observation) if isinstance(observation, str) else observation
+    weighted = predicted * action.observation.likelihood(o)
     total = float(weighted.sum())
     if not total > 0.0:
         raise ImpossibleObservationError(
-            f"observation {act.observation.name(o)!r} after {act.name!r} has probability 0 under the "
+            f"observation {action.observation.name(o)!r} after {action.name!r} has probability 0 under the "
             "current belief: no state the robot may be in can produce it. Either the log is wrong, or "
             "the map's observations are noise-free where the sensor is not (give the sensor a small "
             "false_positive/false_negative or error rate)."

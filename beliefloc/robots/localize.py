@@ -32,7 +32,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from beliefloc.belief import most_likely
+from beliefloc.belief import correct, most_likely
 from beliefloc.errors import ImpossibleObservationError, InvalidValueError, ReplyError
 from beliefloc.model import Action, Model
 from beliefloc.planning.best_first import PlanResult
@@ -186,7 +186,7 @@ def localize(
             raise ReplyError(f"the reply to action {command.seq} ({action.name}): {exc}") from None
         expected = action.observation.probabilities(predicted) if observation is not None else None
         try:
-            belief, probability = _perceive(action, predicted, observation)
+            belief, probability = correct(action, predicted, observation)
         except ImpossibleObservationError as exc:
             status, reason = EpisodeStatus.IMPOSSIBLE_OBSERVATION, f"action {command.seq}: {exc}"
             break
@@ -224,21 +224,6 @@ def localize(
         check.confidence,
         recovered,
     )
-
-
-def _perceive(action: Action, predicted: np.ndarray, observation: int | None) -> tuple[np.ndarray, float]:
-    """:func:`beliefloc.belief.update` after the prediction: Bayes' rule with ``O_a``."""
-    if observation is None:
-        return predicted, 1.0
-    weighted = predicted * action.observation.likelihood(observation)
-    total = float(weighted.sum())
-    if not total > 0.0:
-        raise ImpossibleObservationError(
-            f"observation {action.observation.name(observation)!r} after {action.name!r} has probability 0 under "
-            "the current belief: no state the robot may be in can produce it"
-        )
-    weighted /= total
-    return weighted, total
 
 
 class SimulatedReadingRobot:
