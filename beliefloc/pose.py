@@ -7,7 +7,7 @@ yaw in the map frame (ROS ``map``, yaw counter-clockwise from +x), given by
 
 A belief becomes a :class:`PoseEstimate`: the pose of its most likely state and a covariance in the
 layout of ROS's ``geometry_msgs/PoseWithCovariance`` — what Nav2's AMCL takes on ``/initialpose``
-(:func:`pose_with_covariance_stamped`).
+(:func:`beliefloc.ros.messages.pose_with_covariance_stamped`).
 """
 
 from __future__ import annotations
@@ -164,37 +164,3 @@ def pose_json(model: Model, belief: np.ndarray) -> dict[str, object] | None:
     """The ``"pose"`` value of every ``--json`` that reports a most likely state:
     ``belief_pose(model, belief).as_json()``, or None (JSON ``null``) when the model has no grid."""
     return None if model.grid is None else belief_pose(model, belief).as_json()
-
-
-def yaw_quaternion(yaw: float) -> dict[str, float]:
-    """The unit quaternion of a rotation by ``yaw`` about +z: ``(0, 0, sin(yaw/2), cos(yaw/2))``."""
-    return {"x": 0.0, "y": 0.0, "z": math.sin(yaw / 2), "w": math.cos(yaw / 2)}
-
-
-def pose_with_covariance_stamped(estimate: PoseEstimate, frame_id: str = "map") -> dict[str, object]:
-    """The body of a ROS 2 ``geometry_msgs/msg/PoseWithCovarianceStamped`` (what Nav2's AMCL reads
-    on ``/initialpose``), as plain data for ``ros2 topic pub``.
-
-    The stamp is zero, which tf2 reads as "the latest transform available".
-    """
-    # Field names from the ROS 2 message definitions (ros2/common_interfaces, ros2/rcl_interfaces):
-    #   geometry_msgs/msg/PoseWithCovarianceStamped.msg: std_msgs/Header header; PoseWithCovariance pose
-    #   geometry_msgs/msg/PoseWithCovariance.msg: Pose pose; float64[36] covariance, "Row-major
-    #     representation of the 6x6 covariance matrix ... (x, y, z, rotation about X axis, rotation
-    #     about Y axis, rotation about Z axis)" (older ros/common_msgs comments listed the rotations
-    #     Z, Y, X; AMCL reads the yaw variance at index 6*5+5, as here)
-    #   geometry_msgs/msg/Pose.msg: Point position; Quaternion orientation
-    #   geometry_msgs/msg/Point.msg: float64 x, y, z;  Quaternion.msg: float64 x, y, z, w
-    #   std_msgs/msg/Header.msg: builtin_interfaces/Time stamp; string frame_id
-    #   builtin_interfaces/msg/Time.msg: int32 sec; uint32 nanosec
-    pose = estimate.pose
-    return {
-        "header": {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": frame_id},
-        "pose": {
-            "pose": {
-                "position": {"x": pose.x, "y": pose.y, "z": 0.0},
-                "orientation": yaw_quaternion(pose.yaw),
-            },
-            "covariance": list(estimate.covariance),
-        },
-    }

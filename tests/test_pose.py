@@ -23,9 +23,9 @@ from beliefloc.pose import (
     PoseEstimate,
     belief_pose,
     pose_json,
-    pose_with_covariance_stamped,
     state_pose,
 )
+from beliefloc.ros.messages import pose_with_covariance_stamped
 
 from .conftest import DATA, MAPS
 

@@ -59,7 +59,8 @@ def pose_command(
     """
     import yaml
 
-    from beliefloc.pose import belief_pose, pose_with_covariance_stamped
+    from beliefloc.pose import belief_pose
+    from beliefloc.ros.messages import pose_with_covariance_stamped
 
     model = open_model(source)
     start = initial_belief(model, belief)
