@@ -113,6 +113,32 @@ def test_anytime_answer_is_the_first_step_of_the_node_searched_next(
     np.testing.assert_allclose(reached, expanded[-1], atol=1e-12)
 
 
+def test_a_search_out_of_time_stops_at_the_next_pop_even_on_a_duplicate(monkeypatch: pytest.MonkeyPatch):
+    """The clock is read at every pop: once the budget is spent, one more node is popped (a
+    duplicate or not) and the search ends with the best partial plan, however many duplicates wait."""
+    import gc
+    import types
+
+    from beliefloc.planning import best_first
+
+    model = compile_model(load_map(MAPS / "kitchen.yaml"))
+    reads = {"n": 0, "late": 40}
+    keys: list[int] = []
+
+    def clock() -> float:
+        reads["n"] += 1
+        return 0.0 if reads["n"] < reads["late"] else 10.0
+
+    original_key = best_first.belief_key
+    monkeypatch.setattr(best_first, "time", types.SimpleNamespace(perf_counter=clock))
+    monkeypatch.setattr(best_first, "belief_key", lambda b: keys.append(reads["n"]) or original_key(b))
+    result = plan(model, uniform(model.n_states), time_limit=1.0)
+    assert result.status is PlanStatus.BUDGET_EXCEEDED and result.partial
+    assert model.actions[result.steps[0].action_index].name == result.steps[0].action
+    assert sum(n >= reads["late"] for n in keys) == 1  # the pop that saw the clock run out, no more
+    assert gc.isenabled()  # the collector paused during the search is back on
+
+
 def test_anytime_answer_before_any_expansion_is_the_start_best_child():
     model = compile_model(load_map(MAPS / "kitchen.yaml"))
     start = uniform(model.n_states)
