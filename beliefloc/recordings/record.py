@@ -501,6 +501,11 @@ class EpisodeRecorder:
         out.write(MAP_TOPIC, OCCUPANCY_GRID, body, STEP_NS)
 
     @property
+    def recorded(self) -> bool:
+        """The episode ran (its start, at least, is recorded)."""
+        return self._start is not None
+
+    @property
     def reads_scans(self) -> bool:
         """The map has a Scan sensor whose readings go to ``/scan``."""
         return bool(self._beams)
