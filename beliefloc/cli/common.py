@@ -304,6 +304,10 @@ def check_record(option: str, path: Path, inputs: tuple[Path, ...] = ()) -> bool
     return False
 
 
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+"""The first bytes of an MCAP file (an existing one is replaced, anything else refused)."""
+
+
 def check_ros_recording(option: str, path: Path, inputs: tuple[Path, ...] = (), *, folder: bool = True) -> None:
     """A ROS recording a command is about to write (:mod:`beliefloc.recordings.record`), checked before
     any work: ``OUT.mcap`` as :func:`check_output` checks a file (an existing MCAP file is replaced,
@@ -319,6 +323,10 @@ def check_ros_recording(option: str, path: Path, inputs: tuple[Path, ...] = (), 
             raise UsageError(f"{option} {path}: is inside {source}, an input of the command; name another place")
     if path.suffix.lower() == ".mcap":
         check_output(option, path, (".mcap",), inputs, RECORDING)
+        if path.is_file() and path.stat().st_size > 0:
+            with path.open("rb") as handle:
+                if handle.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
+                    raise UsageError(f"{option} {path}: the file exists and is not an MCAP file; name another file")
         return
     if not folder:
         raise UsageError(f"{option} {path}: unknown kind of file; expected FILE.mcap")

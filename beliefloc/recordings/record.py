@@ -443,7 +443,7 @@ class _ScanBeam:
     slot: int
     """Its index in the topic's LaserScan."""
     edges: tuple[float, ...]
-    """``(0, *bins)``: reading ``w`` is a wall in ``[edges[w], edges[w + 1])``, the last no wall."""
+    """``(0, *bins)``: reading ``w`` is a wall in ``(edges[w], edges[w + 1]]``, the last no wall."""
 
 
 @dataclass(frozen=True)
