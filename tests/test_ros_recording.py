@@ -448,3 +448,25 @@ def test_the_recording_builders_fit_the_message_definitions() -> None:
         store, "tf2_msgs/msg/TFMessage", messages.tf_message([bodies["geometry_msgs/msg/TransformStamped"]])
     )
     assert tf.transforms[0].transform.rotation.z == pytest.approx(math.sin(0.25))
+
+
+def test_sigterm_while_recording_leaves_nothing(tmp_path: Path) -> None:
+    """A run killed by SIGTERM (a scheduler's stop) mid-recording leaves no staging folder."""
+    import os
+    import signal
+    import subprocess
+    import sys
+
+    script = (
+        "import os, signal, sys\n"
+        "from pathlib import Path\n"
+        "from beliefloc.recordings.record import open_recording\n"
+        "from beliefloc.ros import messages\n"
+        "with open_recording(Path(sys.argv[1])) as out:\n"
+        "    out.write('/b', 'geometry_msgs/msg/PoseArray', messages.pose_array([], 'map', 1), 1)\n"
+        "    os.kill(os.getpid(), signal.SIGTERM)\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parent.parent)}
+    done = subprocess.run([sys.executable, "-c", script, str(tmp_path / "run.mcap")], env=env, check=False)
+    assert done.returncode == -signal.SIGTERM
+    assert list(tmp_path.iterdir()) == []
