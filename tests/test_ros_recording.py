@@ -470,3 +470,40 @@ def test_sigterm_while_recording_leaves_nothing(tmp_path: Path) -> None:
     done = subprocess.run([sys.executable, "-c", script, str(tmp_path / "run.mcap")], env=env, check=False)
     assert done.returncode == -signal.SIGTERM
     assert list(tmp_path.iterdir()) == []
+
+
+def test_likely_states_most_probable_first_and_a_spread_sample_of_a_flat_belief() -> None:
+    from beliefloc.recordings.record import likely_states
+
+    assert likely_states(np.array([0.5, 0.001, 0.3, 0.199])).tolist() == [0, 2, 3]  # 0.001 < 1 % of 0.5
+    assert likely_states(np.array([0.25, 0.25, 0.5])).tolist() == [2, 0, 1]  # ties in index order
+    flat = np.full(10_000, 1.0)
+    flat[7] = 50.0  # one state far more likely than the rest
+    picked = likely_states(flat, limit=200)
+    assert 0 < picked.size <= 200 and len(set(picked.tolist())) == picked.size
+    assert picked[0] == 7
+    assert picked.min() < 1000 and picked.max() > 9000  # spread over the whole belief, not its first states
+    assert likely_states(flat, limit=200).tolist() == picked.tolist()  # the same belief, the same poses
+
+
+def test_shading_keeps_the_whole_belief_drawn_within_the_limit() -> None:
+    from beliefloc.recordings.record import BeliefStates, shading
+
+    gx, gy = np.meshgrid(np.arange(100) * 0.1 + 0.05, np.arange(60) * 0.1 + 0.05)
+    n = gx.size
+    mass = np.full(n, 1.0 / n)
+
+    def states(m: np.ndarray) -> BeliefStates:
+        return BeliefStates(gx.ravel(), gy.ravel(), np.zeros(n), m, gx.ravel(), gy.ravel(), m, 0.1)
+
+    coarse = shading(states(mass), limit=2000)  # 6000 cells: 2 x 2 blocks (1500 squares)
+    assert coarse.side == pytest.approx(0.2) and coarse.x.size == 1500
+    assert coarse.mass.sum() == pytest.approx(1.0)
+    assert (coarse.x.min(), coarse.x.max()) == pytest.approx((0.1, 9.9))
+    assert (coarse.y.min(), coarse.y.max()) == pytest.approx((0.1, 5.9))
+    peaked = mass * 1e-6
+    peaked[[5, 17, 900]] = [0.5, 0.3, 0.2]
+    fine = shading(states(peaked), limit=2000)  # three cells hold nearly all: the cells themselves
+    assert fine.side == pytest.approx(0.1)
+    assert fine.x.tolist() == pytest.approx(gx.ravel()[[5, 17, 900]].tolist())
+    assert fine.mass.tolist() == pytest.approx([0.5, 0.3, 0.2])

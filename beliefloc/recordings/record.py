@@ -29,13 +29,16 @@ gives one cell per grid cell (free 0, blocked 100) inside a border of occupied c
 edge, which is a wall to moves and scans. Its QoS is transient local (depth 1, reliable), as Nav2's
 map server offers it, so that a player re-publishes it latched and RViz's Map display shows it.
 
-**The belief** (:func:`belief_messages`): the PoseArray holds up to :data:`MAX_POSES` states whose
-probability is at least :data:`LIKELY_SHARE` of the most likely one's (each state's pose: its cell's
-centre and its heading's yaw); the marker is one ``CUBE_LIST`` (namespace ``belief``, id 0,
-replaced at every update) with a flat square per cell whose mass (summed over headings) is at least
-:data:`SHADE_SHARE` of the largest cell's, up to :data:`MAX_CELLS` cells, orange with an opacity
-proportional to the mass; the pose is :func:`beliefloc.pose.belief_pose` (a grid model) or the grid
-filter's refined pose and covariance (``track --bag``).
+**The belief** (:func:`belief_messages`): the PoseArray holds the states whose probability is at
+least :data:`LIKELY_SHARE` of the most likely one's, most likely first -- up to :data:`MAX_POSES`;
+when more qualify, a stratified sample of them by probability (:func:`likely_states`), so a flat
+belief shows spread over the map (each state's pose: its cell's centre and its heading's yaw). The
+marker is one ``CUBE_LIST`` (namespace ``belief``, id 0, replaced at every update): a flat orange
+square per cell whose mass (summed over headings) is at least :data:`SHADE_SHARE` of the largest
+cell's, its opacity the cell's mass over the largest; when more than :data:`MAX_CELLS` cells
+qualify, squares of 2 x 2, 4 x 4... cells, each with their summed mass (:func:`shading`), so the
+whole belief is drawn, more coarsely. The pose is :func:`beliefloc.pose.belief_pose` (a grid
+model) or the grid filter's refined pose and covariance (``track --bag``).
 
 Pure message building here; the writing is :class:`RecordingWriter`.
 """
@@ -92,10 +95,13 @@ LATCHED_TOPICS = (MAP_TOPIC, TF_STATIC_TOPIC)
 broadcaster offer them."""
 MAX_POSES = 200
 """The most states in a ``/beliefloc/belief`` PoseArray."""
+SAMPLE_SEED = 0
+"""Seeds the stratified sample of :func:`likely_states` (a recording is the same for the same run)."""
 LIKELY_SHARE = 0.01
 """A state is in the PoseArray when its probability is at least this share of the largest."""
-MAX_CELLS = 5000
-"""The most cells in the belief's marker."""
+MAX_CELLS = 2500
+"""The most squares in the belief's marker (a Python object per square: about 0.1 s per update at
+this size); more qualifying cells are drawn as blocks of cells (:func:`shading`)."""
 SHADE_SHARE = 1e-3
 """A cell is drawn when its mass is at least this share of the largest cell's (fainter is invisible)."""
 BELIEF_COLOUR = (1.0, 0.45, 0.0)
@@ -185,29 +191,78 @@ def filter_belief_states(
     )
 
 
-def _strongest(values: np.ndarray, share: float, limit: int) -> np.ndarray:
-    """Indices of ``values`` at least ``share`` of the largest, the largest first, at most ``limit``
-    (ties in index order)."""
-    if values.size == 0:
+def likely_states(probability: np.ndarray, share: float = LIKELY_SHARE, limit: int = MAX_POSES) -> np.ndarray:
+    """Indices of the states whose probability is at least ``share`` of the largest, most probable
+    first (ties in index order). When more than ``limit`` qualify, a stratified sample of them by
+    probability, as a particle filter resamples (each state once; the strata's offsets drawn from a
+    generator seeded :data:`SAMPLE_SEED`, so the same belief gives the same poses): a flat belief
+    then shows spread over every place it holds, not the first ``limit`` states of one corner."""
+    p = np.asarray(probability, dtype=np.float64)
+    if p.size == 0 or not float(p.max()) > 0:
         return np.zeros(0, dtype=np.int64)
-    top = float(values.max())
-    kept = np.flatnonzero(values >= share * top) if top > 0 else np.zeros(0, dtype=np.int64)
-    order = kept[np.argsort(-values[kept], kind="stable")]
-    return order[:limit]
+    kept = np.flatnonzero(p >= share * float(p.max()))
+    if kept.size > limit:
+        cumulative = np.cumsum(p[kept])
+        jitter = np.random.default_rng(SAMPLE_SEED).random(limit)  # stratified: no aliasing with the lattice
+        marks = (np.arange(limit) + jitter) * (cumulative[-1] / limit)
+        kept = np.unique(kept[np.minimum(np.searchsorted(cumulative, marks), kept.size - 1)])
+    order: np.ndarray = kept[np.argsort(-p[kept], kind="stable")]
+    return order
+
+
+@dataclass(frozen=True)
+class Shading:
+    """The squares of the belief's marker: centres, side and mass (the largest first)."""
+
+    x: np.ndarray
+    y: np.ndarray
+    mass: np.ndarray
+    side: float
+
+
+def shading(states: BeliefStates, share: float = SHADE_SHARE, limit: int = MAX_CELLS) -> Shading:
+    """The cells whose mass is at least ``share`` of the largest cell's, as squares of one cell --
+    or, when more than ``limit`` qualify, of 2 x 2, 4 x 4... cells (the smallest block that keeps
+    ``limit`` squares or fewer), each square holding its cells' summed mass: the whole belief stays
+    drawn, more coarsely. Blocks are taken on the cells' lattice in the map frame."""
+    mass, s = states.cell_mass, states.cell_size
+    if mass.size == 0 or not float(mass.max()) > 0:
+        empty = np.zeros(0)
+        return Shading(empty, empty, empty, s)
+    cells = np.flatnonzero(mass >= share * float(mass.max()))
+    if cells.size <= limit:  # the cells themselves, at their own centres
+        cells = cells[np.argsort(-mass[cells], kind="stable")]
+        return Shading(states.cell_x[cells], states.cell_y[cells], mass[cells], s)
+    x0, y0 = float(states.cell_x.min()), float(states.cell_y.min())
+    i = np.rint((states.cell_x - x0) / s).astype(np.int64)
+    j = np.rint((states.cell_y - y0) / s).astype(np.int64)
+    block = 1
+    while True:
+        block *= 2
+        rows = int(j.max()) // block + 1
+        unique, inverse = np.unique((i // block) * rows + j // block, return_inverse=True)
+        summed = np.bincount(inverse.ravel(), weights=mass, minlength=unique.size)
+        kept = np.flatnonzero(summed >= share * float(summed.max()))
+        if kept.size <= limit:
+            break
+    kept = kept[np.argsort(-summed[kept], kind="stable")]
+    bi, bj = unique[kept] // rows, unique[kept] % rows
+    centre_x = x0 + (bi * block + (block - 1) / 2) * s
+    centre_y = y0 + (bj * block + (block - 1) / 2) * s
+    return Shading(centre_x, centre_y, summed[kept], block * s)
 
 
 def belief_messages(states: BeliefStates, ns: int) -> tuple[ros.Message, ros.Message]:
     """``(PoseArray, MarkerArray)`` of a belief; see the module's docstring for what they hold."""
-    likely = _strongest(states.probability, LIKELY_SHARE, MAX_POSES)
+    likely = likely_states(states.probability)
     poses = [Pose(float(states.x[i]), float(states.y[i]), float(states.yaw[i])) for i in likely]
-    cells = _strongest(states.cell_mass, SHADE_SHARE, MAX_CELLS)
-    top = float(states.cell_mass[cells[0]]) if cells.size else 1.0
+    squares = shading(states)
     r, g, b = BELIEF_COLOUR
-    alpha = states.cell_mass[cells] / top
+    alpha = squares.mass / float(squares.mass[0]) if squares.mass.size else squares.mass
     marker = ros.cube_list_marker(
-        zip(states.cell_x[cells].tolist(), states.cell_y[cells].tolist(), strict=True),
+        zip(squares.x.tolist(), squares.y.tolist(), strict=True),
         ((r, g, b, float(a)) for a in alpha),
-        states.cell_size,
+        squares.side,
         namespace="belief",
         ns=ns,
     )
