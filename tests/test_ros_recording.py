@@ -507,3 +507,22 @@ def test_shading_keeps_the_whole_belief_drawn_within_the_limit() -> None:
     assert fine.side == pytest.approx(0.1)
     assert fine.x.tolist() == pytest.approx(gx.ravel()[[5, 17, 900]].tolist())
     assert fine.mass.tolist() == pytest.approx([0.5, 0.3, 0.2])
+
+
+def test_a_recorded_folder_tracks_to_the_same_answer(
+    tmp_path: Path, runner: CliRunner, tracked: tuple[Recorded, dict[str, Any], Path]
+) -> None:
+    """The rosbag2 folder ``--record DIR`` writes is a recording ``track --bag`` reads: the same scans,
+    odometry and laser mount give the same run."""
+    _, answer, _ = tracked
+    folder = tmp_path / "again"
+    first = runner.invoke(app, ["track", str(DEPOT_YAML), "--bag", str(BAG), *FAST, "--record", str(folder)])
+    assert first.exit_code in (0, 1), first.output
+    assert (folder / "metadata.yaml").is_file() and (folder / "again.mcap").is_file()
+    second = runner.invoke(app, ["track", str(DEPOT_YAML), "--bag", str(folder), *FAST, "--json"])
+    assert second.exit_code in (0, 1), second.output
+    replayed = json.loads(second.stdout)
+    assert replayed["localized"] == answer["localized"]
+    assert replayed["pose"]["x"] == pytest.approx(answer["pose"]["x"], abs=1e-6)
+    assert replayed["pose"]["y"] == pytest.approx(answer["pose"]["y"], abs=1e-6)
+    assert [u["stamp"] for u in replayed["timeline"]] == [u["stamp"] for u in answer["timeline"]]
