@@ -3,17 +3,13 @@
 ``track MAP --bag RUN --record OUT`` and ``simulate MAP --record OUT.mcap`` write, as ROS 2 messages
 (:mod:`beliefloc.ros.messages`, serialized with ``rosbags``, rosbag2 metadata version 8):
 
-======================== ================================== =====================================
-topic                    type                               what
-======================== ================================== =====================================
-``/map``                 ``nav_msgs/msg/OccupancyGrid``     the map, once, QoS transient local
-``/scan``                ``sensor_msgs/msg/LaserScan``      the laser's readings (see below)
-``/odom``                ``nav_msgs/msg/Odometry``          the base's pose in ``odom``
-``/tf``, ``/tf_static``  ``tf2_msgs/msg/TFMessage``         the frames (see below)
-``/beliefloc/belief``    ``geometry_msgs/msg/PoseArray``    the likely states, most likely first
-``/beliefloc/belief_cells`` ``visualization_msgs/msg/MarkerArray`` the cells shaded by probability
-``/beliefloc/pose``      ``geometry_msgs/msg/PoseWithCovarianceStamped`` the belief as a pose
-======================== ================================== =====================================
+- ``/map`` ``nav_msgs/msg/OccupancyGrid``: the map, once, QoS transient local;
+- ``/scan`` ``sensor_msgs/msg/LaserScan``: the laser's readings (see the recorders);
+- ``/odom`` ``nav_msgs/msg/Odometry``: the base's pose in ``odom``;
+- ``/tf``, ``/tf_static`` ``tf2_msgs/msg/TFMessage``: the frames (see the recorders);
+- ``/beliefloc/belief`` ``geometry_msgs/msg/PoseArray``: the likely states, most likely first;
+- ``/beliefloc/belief_cells`` ``visualization_msgs/msg/MarkerArray``: the cells shaded by probability;
+- ``/beliefloc/pose`` ``geometry_msgs/msg/PoseWithCovarianceStamped``: the belief as a pose.
 
 (A ROS 2 topic has one type, so the PoseArray and the MarkerArray of the belief are two topics.)
 
@@ -40,7 +36,10 @@ qualify, squares of 2 x 2, 4 x 4... cells, each with their summed mass (:func:`s
 whole belief is drawn, more coarsely. The pose is :func:`beliefloc.pose.belief_pose` (a grid
 model) or the grid filter's refined pose and covariance (``track --bag``).
 
-Pure message building here; the writing is :class:`RecordingWriter`.
+The message bodies come from pure functions (:func:`map_from_occupancy`, :func:`belief_messages`,
+...); :class:`RecordingWriter` and :func:`open_recording` write them; :class:`TrackRecorder`
+(``track --bag``) and :class:`EpisodeRecorder` (``simulate``) follow a run and say what each topic
+holds there. docs/ros-recordings.md is the user's page.
 """
 
 from __future__ import annotations
