@@ -14,7 +14,7 @@
 (A ROS 2 topic has one type, so the PoseArray and the MarkerArray of the belief are two topics.)
 
 **Where it is written.** ``OUT.mcap`` is one MCAP file (it holds the rosbag2 metadata too, so
-``ros2 bag play OUT.mcap`` plays it; Humble needs ``-s mcap``); any other ``OUT`` is a rosbag2
+``ros2 bag play OUT.mcap`` plays it; older Humble releases need ``-s mcap``); any other ``OUT`` is a rosbag2
 folder (``OUT/metadata.yaml`` and ``OUT/OUT.mcap``). The recording is built in a temporary folder
 beside ``OUT`` and renamed into place when whole: an error or Ctrl-C leaves nothing.
 
