@@ -304,6 +304,43 @@ def check_record(option: str, path: Path, inputs: tuple[Path, ...] = ()) -> bool
     return False
 
 
+MCAP_MAGIC = b"\x89MCAP0\r\n"
+"""The first bytes of an MCAP file (an existing one is replaced, anything else refused)."""
+
+
+def check_ros_recording(option: str, path: Path, inputs: tuple[Path, ...] = (), *, folder: bool = True) -> None:
+    """A ROS recording a command is about to write (:mod:`beliefloc.recordings.record`), checked before
+    any work: ``OUT.mcap`` as :func:`check_output` checks a file (an existing MCAP file is replaced,
+    anything else refused); any other ``OUT`` (when ``folder``) a rosbag2 folder, which must not
+    exist yet (as ``ros2 bag record -o`` wants it). Neither may lie inside an input (a bag folder)."""
+    import os
+
+    from beliefloc.source.file_kinds import RECORDING
+
+    resolved = path.resolve()
+    for source in inputs:
+        if source.is_dir() and resolved.is_relative_to(source.resolve()):
+            raise UsageError(f"{option} {path}: is inside {source}, an input of the command; name another place")
+    if path.suffix.lower() == ".mcap":
+        check_output(option, path, (".mcap",), inputs, RECORDING)
+        if path.is_file() and path.stat().st_size > 0:
+            with path.open("rb") as handle:
+                if handle.read(len(MCAP_MAGIC)) != MCAP_MAGIC:
+                    raise UsageError(f"{option} {path}: the file exists and is not an MCAP file; name another file")
+        return
+    if not folder:
+        raise UsageError(f"{option} {path}: unknown kind of file; expected FILE.mcap")
+    if path.exists() or path.is_symlink():
+        raise UsageError(
+            f"{option} {path}: exists; a rosbag2 folder is written new (remove it first), or name FILE.mcap"
+        )
+    parent = path.parent
+    if not parent.is_dir():
+        raise UsageError(f"{option} {path}: the folder {parent} does not exist")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise UsageError(f"{option} {path}: cannot write in the folder {parent} (permission denied)")
+
+
 def belief_inputs(belief_spec: str) -> tuple[Path, ...]:
     """The files ``--belief`` reads (which ``-o`` must not overwrite)."""
     if belief_spec == "uniform":

@@ -13,6 +13,7 @@ from beliefloc.cli.common import (
     belief_inputs,
     boundary,
     check_record,
+    check_ros_recording,
     check_sweep_options,
     initial_belief,
     open_model,
@@ -66,7 +67,8 @@ if TYPE_CHECKING:
     from rich.console import Console
 
     from beliefloc.model import Model
-    from beliefloc.render.picture_episode import EpisodeTrace
+    from beliefloc.recordings.record import EpisodeRecorder
+    from beliefloc.render.picture_episode import TraceRecorder
     from beliefloc.semantic_map import SemanticMap
     from beliefloc.simulation.episode import EpisodeRecord, EpisodeSweep, StepRecord
 
@@ -143,10 +145,12 @@ def simulate(
         Path | None,
         typer.Option(
             "--record",
-            metavar="FILE.gif|DIR",
+            metavar="FILE.gif|DIR|FILE.mcap",
             help="Animate one episode (the first strategy's): the belief after every step, the true pose and "
             "path, the action and observation as each frame's title; an animated GIF, or numbered PNG frames "
-            "(frame-000.png, …) in the folder DIR (created; an existing DIR must hold nothing but frames).",
+            "(frame-000.png, …) in the folder DIR (created; an existing DIR must hold nothing but frames). "
+            "FILE.mcap: the episode as ROS 2 messages for Foxglove, RViz or 'ros2 bag play' instead "
+            "(docs/ros-recordings.md).",
             show_default=False,
         ),
     ] = None,
@@ -234,8 +238,10 @@ def simulate(
         prune_below=prune_below,
     )
 
-    recorder = None
-    if recording is not None:
+    recorder: TraceRecorder | EpisodeRecorder | None = None
+    if recording is not None and recording.ros:
+        recorder = _ros_recorder(model, smap, names[0].value, recording, start_belief)
+    elif recording is not None:
         from beliefloc.render.figures import pyplot
         from beliefloc.render.picture_episode import TraceRecorder
 
@@ -319,8 +325,8 @@ def simulate(
             for r in records:
                 out.print(_episode_line(r))
         out.print(summary_table(summary, threshold))
-    if recording is not None and recorder is not None and recorder.trace is not None:
-        _write_recording(model, smap, recorder.trace, recording, stderr_console() if json_output else out)
+    if recording is not None and recorder is not None:
+        _write_recording(model, smap, recorder, recording, stderr_console() if json_output else out)
     if any(r.status is not EpisodeStatus.LOCALIZED for r in records):
         raise typer.Exit(EXIT_NEGATIVE)
 
@@ -397,6 +403,8 @@ class _Recording:
     episode: int
     """0-based."""
     frames: int
+    ros: bool = False
+    """A ROS recording (FILE.mcap), not pictures."""
 
 
 def _recording(
@@ -415,15 +423,54 @@ def _recording(
         raise UsageError(
             f"--record-episode {k}: the run has {episodes} episode{'' if episodes == 1 else 's'} (--episodes)"
         )
+    if path.suffix.lower() == ".mcap":
+        if frames is not None:
+            raise UsageError(f"--record-frames {frames}: is for pictures; a ROS recording ({path}) keeps every step")
+        check_ros_recording("--record", path, tuple(inputs), folder=False)
+        return _Recording(path, False, k - 1, limit, ros=True)
     return _Recording(path, check_record("--record", path, tuple(inputs)), k - 1, limit)
 
 
+def _ros_recorder(
+    model: Model, smap: SemanticMap | None, strategy: str, recording: _Recording, start_belief: np.ndarray
+) -> EpisodeRecorder:
+    """``--record FILE.mcap``: the episode's recorder, keeping the messages until the run ends."""
+    from beliefloc.recordings.record import EpisodeRecorder, RecordingWriter
+
+    if model.grid is None:
+        raise UsageError(f"--record {recording.path}: model {model.name} has no grid: its states have no pose")
+    recorder = EpisodeRecorder(RecordingWriter(), model, strategy, recording.episode, start_belief, smap)
+    if not recorder.reads_scans:
+        why = "its map has no Scan sensor" if smap is not None else "the model's map is not at hand"
+        warn(f"--record {recording.path}: no /scan topic: {why}")
+    return recorder
+
+
 def _write_recording(
-    model: Model, smap: SemanticMap | None, trace: EpisodeTrace, recording: _Recording, console: Console
+    model: Model,
+    smap: SemanticMap | None,
+    recorder: TraceRecorder | EpisodeRecorder,
+    recording: _Recording,
+    console: Console,
 ) -> None:
+    from beliefloc.recordings.record import EpisodeRecorder, write_recording
+
+    if isinstance(recorder, EpisodeRecorder):
+        if recorder.recorded:
+            write_recording(recording.path, recorder.out)
+            console.print(
+                escape(
+                    f"recorded {recorder.strategy}, episode {recorder.episode + 1} as ROS 2 messages → {recording.path}"
+                ),
+                soft_wrap=True,
+            )
+        return
     from beliefloc.render.figures import save_gif
     from beliefloc.render.picture_episode import episode_frames, save_frames
 
+    trace = recorder.trace
+    if trace is None:
+        return
     frames = episode_frames(model, trace, smap=smap)
     if recording.gif:
         save_gif(frames, recording.path)

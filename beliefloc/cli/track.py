@@ -110,6 +110,17 @@ def track(
             show_default=False,
         ),
     ] = None,
+    record: Annotated[
+        Path | None,
+        typer.Option(
+            "--record",
+            metavar="OUT.mcap|DIR",
+            help="--bag: write the run as ROS 2 messages (the map, the bag's scans and odometry, the belief and "
+            "pose at every update) for Foxglove, RViz or 'ros2 bag play': one MCAP file OUT.mcap (replaced if it "
+            "exists), or a new rosbag2 folder DIR (docs/ros-recordings.md).",
+            show_default=False,
+        ),
+    ] = None,
     cell_size: Annotated[
         float, typer.Option("--cell-size", metavar="M", help="--bag: the filter's cell side in metres.")
     ] = 0.1,
@@ -160,6 +171,7 @@ def track(
             cell_size,
             headings,
             robot_radius,
+            record,
         )
         return
     for name, value in (
@@ -168,6 +180,7 @@ def track(
         ("--laser-pose", laser_pose),
         ("--belief-out", belief_out),
         ("-o", output),
+        ("--record", record),
     ):
         if value is not None:
             raise UsageError(f"{name} goes with --bag RUN (a ROS recording)")
@@ -227,6 +240,7 @@ def _track_bag(
     cell_size: float,
     headings: int,
     robot_radius: float | None,
+    record: Path | None,
 ) -> None:
     from beliefloc.cli.track_bag import track_bag
     from beliefloc.continuous.grid_filter import FilterConfig
@@ -250,6 +264,7 @@ def _track_bag(
         json_output=json_output,
         config=config,
         robot_radius_given=robot_radius is not None,
+        record=record,
     )
 
 

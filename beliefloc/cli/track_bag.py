@@ -8,20 +8,24 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import typer
+from rich.markup import escape
 
-from beliefloc.cli.common import check_output, print_json, warn
+from beliefloc.cli.common import check_output, check_ros_recording, print_json, warn
 from beliefloc.errors import MapError, UsageError
 
 if TYPE_CHECKING:
     from rich.console import Console
 
-    from beliefloc.continuous.grid_filter import FilterConfig, GridFilter
+    from beliefloc.continuous.grid_filter import FilterConfig, GridFilter, Update
     from beliefloc.model import GridLayout
     from beliefloc.recordings.reader import Recording
+    from beliefloc.recordings.record import TrackRecorder
     from beliefloc.recordings.replay import TrackResult
     from beliefloc.semantic_map.occupancy_map import OccupancyMap
 
@@ -88,6 +92,7 @@ def track_bag(
     json_output: bool,
     config: FilterConfig,
     robot_radius_given: bool,
+    record: Path | None = None,
 ) -> None:
     """The command's body; raises BeliefLocError on bad input, typer.Exit(1) when not localized."""
     from dataclasses import replace
@@ -106,6 +111,8 @@ def track_bag(
         pyplot()  # matplotlib missing: say so before any work
     if belief_out is not None:
         check_output("--belief-out", belief_out, BELIEF_OUT_SUFFIXES, inputs=(map_path, bag), kind=file_kinds.BELIEF)
+    if record is not None:
+        check_ros_recording("--record", record, (map_path, bag))
     occupancy, layout, map_radius, is_beliefloc_map = read_map(map_path, layout=belief_out is not None)
     if belief_out is not None and not is_beliefloc_map:
         raise UsageError(
@@ -125,13 +132,19 @@ def track_bag(
     start, end = recording.start, recording.end
     total = max(1e-9, (end - start) / 1e9)
     progress = progress_bar(stderr_console())
-    with progress:
+    with progress, _recorder(record, recording, grid) as recorder:
         task = progress.add_task("bag time (s)", total=round(total, 1))
 
-        def advance(stamp: int, _update: object) -> None:
+        def advance(stamp: int, update: Update | None) -> None:
+            if recorder is not None:
+                recorder.on_scan(stamp, update)
             progress.update(task, completed=round((stamp - start) / 1e9, 1))
 
         result = track_recording(occupancy, recording, config, on_scan=advance, grid_filter=grid)
+        if recorder is not None:
+            recorder.finish(result)
+    if record is not None:
+        stderr_console().print(escape(f"recorded the run as ROS 2 messages → {record}"), soft_wrap=True)
 
     if output is not None:
         from beliefloc.render.picture_track import write_track_picture
@@ -153,6 +166,18 @@ def track_bag(
         _print_summary(stdout_console(), map_path, bag, recording, grid, result, start)
     if not result.localized:
         raise typer.Exit(1)
+
+
+@contextmanager
+def _recorder(record: Path | None, recording: Recording, grid: GridFilter) -> Iterator[TrackRecorder | None]:
+    """``--record``: the run's recorder, its recording moved into place when the run ends well."""
+    if record is None:
+        yield None
+        return
+    from beliefloc.recordings.record import TrackRecorder, open_recording
+
+    with open_recording(record) as out:
+        yield TrackRecorder(out, recording, grid)
 
 
 def _print_summary(

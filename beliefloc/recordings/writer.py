@@ -25,6 +25,8 @@ from typing import Any
 import numpy as np
 
 from beliefloc.continuous.world import Run
+from beliefloc.pose import Pose
+from beliefloc.ros import messages as ros
 
 STORAGES = ("sqlite3", "mcap", "ros1")
 """The kinds of recording :func:`write_run` writes."""
@@ -54,29 +56,10 @@ class FrameSpec:
         return (ax + c * bx - s * by, ay + s * bx + c * by, ayaw + byaw)
 
 
-def _stamp(typestore: Any, ns: int) -> Any:
-    time_type = typestore.types["builtin_interfaces/msg/Time"]
-    return time_type(sec=int(ns // 1_000_000_000), nanosec=int(ns % 1_000_000_000))
-
-
-def _header(typestore: Any, ns: int, frame: str, ros1: bool) -> Any:
-    header_type = typestore.types["std_msgs/msg/Header"]
-    if ros1:
-        return header_type(seq=0, stamp=_stamp(typestore, ns), frame_id=frame)
-    return header_type(stamp=_stamp(typestore, ns), frame_id=frame)
-
-
-def _transform(typestore: Any, ns: int, parent: str, child: str, pose: Sequence[float], ros1: bool) -> Any:
-    types = typestore.types
+def _transform(typestore: Any, ns: int, parent: str, child: str, pose: Sequence[float]) -> Any:
     x, y, yaw = (float(v) for v in pose)
-    return types["geometry_msgs/msg/TransformStamped"](
-        header=_header(typestore, ns, parent, ros1),
-        child_frame_id=child,
-        transform=types["geometry_msgs/msg/Transform"](
-            translation=types["geometry_msgs/msg/Vector3"](x=x, y=y, z=0.0),
-            rotation=types["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2)),
-        ),
-    )
+    body = ros.transform_stamped(parent, child, Pose(x, y, yaw), ns)
+    return ros.to_typed(typestore, "geometry_msgs/msg/TransformStamped", body)
 
 
 def write_run(
@@ -120,8 +103,8 @@ def write_run(
     laser = run.laser
     start = int(min(run.scan_stamps[0], run.odom_stamps[0]))
     statics = [
-        _transform(typestore, start, frames.base, frames.intermediate, frames.base_to_intermediate, ros1),
-        _transform(typestore, start, frames.intermediate, frames.laser, frames.intermediate_to_laser, ros1),
+        _transform(typestore, start, frames.base, frames.intermediate, frames.base_to_intermediate),
+        _transform(typestore, start, frames.intermediate, frames.laser, frames.intermediate_to_laser),
     ]
     for n in range(frames.extra_static):
         angle = 2 * math.pi * n / max(1, frames.extra_static)
@@ -132,7 +115,6 @@ def write_run(
                 frames.base,
                 f"static_part_{n}",
                 (0.1 * math.cos(angle), 0.1 * math.sin(angle), 0),
-                ros1,
             )
         )
     messages.append(
@@ -145,18 +127,19 @@ def write_run(
         angle_min, increment = laser.angle_max, -laser.angle_increment
     for stamp, ranges in zip(run.scan_stamps.tolist(), run.ranges, strict=True):
         values = ranges[::-1] if scan_angle_sign < 0 else ranges
-        msg = types["sensor_msgs/msg/LaserScan"](
-            header=_header(typestore, stamp, scan_frame or frames.laser, ros1),
+        body = ros.laser_scan(
+            scan_frame or frames.laser,
+            stamp,
             angle_min=angle_min,
-            angle_max=angle_min + increment * (laser.beams - 1),
             angle_increment=increment,
-            time_increment=laser.time_increment,
-            scan_time=laser.scan_time,
+            ranges=np.asarray(values, dtype=np.float32),
             range_min=laser.range_min,
             range_max=laser.range_max,
-            ranges=np.asarray(values, dtype=np.float32),
+            time_increment=laser.time_increment,
+            scan_time=laser.scan_time,
             intensities=np.zeros(0, dtype=np.float32),
         )
+        msg = ros.to_typed(typestore, "sensor_msgs/msg/LaserScan", body)
         messages.append((stamp + 3_000_000, scan_topic, "sensor_msgs/msg/LaserScan", msg))
 
     poses = run.odom_poses
@@ -169,39 +152,18 @@ def write_run(
         turn = float(math.remainder(poses[m + 1, 2] - poses[m, 2], 2 * math.pi) / dt[m]) if len(dt) else 0.0
         received = stamp + 1_000_000
         if odometry_topic:
-            pose_cov = types["geometry_msgs/msg/PoseWithCovariance"](
-                pose=types["geometry_msgs/msg/Pose"](
-                    position=types["geometry_msgs/msg/Point"](x=x, y=y, z=0.0),
-                    orientation=types["geometry_msgs/msg/Quaternion"](
-                        x=0.0, y=0.0, z=math.sin(yaw / 2), w=math.cos(yaw / 2)
-                    ),
-                ),
-                covariance=np.zeros(36),
+            body = ros.odometry(
+                Pose(x, y, yaw), stamp, forward=forward, turn=turn, frame_id=frames.odom, child_frame_id=frames.base
             )
-            twist = types["geometry_msgs/msg/TwistWithCovariance"](
-                twist=types["geometry_msgs/msg/Twist"](
-                    linear=types["geometry_msgs/msg/Vector3"](x=forward, y=0.0, z=0.0),
-                    angular=types["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=turn),
-                ),
-                covariance=np.zeros(36),
-            )
-            odom = types["nav_msgs/msg/Odometry"](
-                header=_header(typestore, stamp, frames.odom, ros1),
-                child_frame_id=frames.base,
-                pose=pose_cov,
-                twist=twist,
-            )
+            odom = ros.to_typed(typestore, "nav_msgs/msg/Odometry", body)
             messages.append((received, "/odom", "nav_msgs/msg/Odometry", odom))
         if tf_odometry:
             tf = types["tf2_msgs/msg/TFMessage"](
-                transforms=[_transform(typestore, stamp, frames.odom, frames.base, (x, y, yaw), ros1)]
+                transforms=[_transform(typestore, stamp, frames.odom, frames.base, (x, y, yaw))]
             )
             messages.append((received + 200_000, "/tf", "tf2_msgs/msg/TFMessage", tf))
         if n % 2 == 0:
-            cmd = types["geometry_msgs/msg/Twist"](
-                linear=types["geometry_msgs/msg/Vector3"](x=forward, y=0.0, z=0.0),
-                angular=types["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=turn),
-            )
+            cmd = ros.to_typed(typestore, "geometry_msgs/msg/Twist", ros.twist(forward, turn))
             messages.append((received - 20_000_000, "/cmd_vel", "geometry_msgs/msg/Twist", cmd))
 
     messages.sort(key=lambda item: item[0])

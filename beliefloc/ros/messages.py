@@ -108,3 +108,141 @@ def to_typed(typestore: Any, msgtype: str, body: Mapping[str, Any]) -> Any:
         return [value((inner_node, inner_detail), item) for item in items]
 
     return typestore.types[msgtype](**{name: value(desc, body.get(name)) for name, desc in fields})
+
+
+# --- recordings: the messages a run is written as (beliefloc.recordings) ---------------------------
+#
+# - ``geometry_msgs/msg/TransformStamped``: ``Header header; string child_frame_id; Transform transform``
+#   (``Vector3 translation; Quaternion rotation``); ``tf2_msgs/msg/TFMessage``: ``TransformStamped[] transforms``
+# - ``nav_msgs/msg/Odometry``: ``Header header; string child_frame_id; PoseWithCovariance pose;
+#   TwistWithCovariance twist`` (the twist in ``child_frame_id``)
+# - ``sensor_msgs/msg/LaserScan``: ``Header header; float32 angle_min, angle_max, angle_increment,
+#   time_increment, scan_time, range_min, range_max; float32[] ranges, intensities`` (REP 117 readings)
+# - ``nav_msgs/msg/OccupancyGrid``: ``Header header; MapMetaData info; int8[] data``, ``info`` being
+#   ``Time map_load_time; float32 resolution; uint32 width, height; Pose origin``; ``data`` row-major
+#   from the cell at ``origin`` (row 0 is the bottom of the map), 0 free, 100 occupied, -1 unknown
+# - ``visualization_msgs/msg/Marker``: type 6 ``CUBE_LIST`` draws a cube of ``scale`` at each of
+#   ``points`` in the colour of the same index of ``colors`` (``std_msgs/ColorRGBA``, 0..1)
+
+
+def transform_stamped(parent: str, child: str, p: Pose, ns: int = 0) -> Message:
+    """A ``geometry_msgs/msg/TransformStamped``: frame ``child`` at pose ``p`` in frame ``parent``."""
+    return {
+        "header": header(parent, ns),
+        "child_frame_id": child,
+        "transform": {"translation": {"x": p.x, "y": p.y, "z": 0.0}, "rotation": yaw_quaternion(p.yaw)},
+    }
+
+
+def tf_message(transforms: Iterable[Message]) -> Message:
+    """A ``tf2_msgs/msg/TFMessage`` (the body of ``/tf`` and ``/tf_static``)."""
+    return {"transforms": list(transforms)}
+
+
+def odometry(
+    p: Pose,
+    ns: int = 0,
+    *,
+    forward: float = 0.0,
+    turn: float = 0.0,
+    frame_id: str = "odom",
+    child_frame_id: str = "base_link",
+) -> Message:
+    """A ``nav_msgs/msg/Odometry``: the base's pose ``p`` in ``frame_id`` and its velocity
+    (:func:`twist`) in ``child_frame_id``; both covariances zero (unknown)."""
+    return {
+        "header": header(frame_id, ns),
+        "child_frame_id": child_frame_id,
+        "pose": {"pose": pose(p), "covariance": [0.0] * 36},
+        "twist": {"twist": twist(forward, turn), "covariance": [0.0] * 36},
+    }
+
+
+def laser_scan(
+    frame_id: str,
+    ns: int,
+    *,
+    angle_min: float,
+    angle_increment: float,
+    ranges: Any,
+    range_min: float,
+    range_max: float,
+    time_increment: float = 0.0,
+    scan_time: float = 0.0,
+    intensities: Any = (),
+) -> Message:
+    """A ``sensor_msgs/msg/LaserScan`` of ``len(ranges)`` beams from ``angle_min`` (radians,
+    counter-clockwise from the frame's +x) every ``angle_increment``; ``angle_max`` is the last
+    beam's angle. ``ranges`` (a sequence or a float array) follow REP 117: ``+inf`` no return
+    within ``range_max``, NaN no reading."""
+    count = len(ranges)
+    return {
+        "header": header(frame_id, ns),
+        "angle_min": angle_min,
+        "angle_max": angle_min + angle_increment * (count - 1),
+        "angle_increment": angle_increment,
+        "time_increment": time_increment,
+        "scan_time": scan_time,
+        "range_min": range_min,
+        "range_max": range_max,
+        "ranges": ranges,
+        "intensities": intensities,
+    }
+
+
+def occupancy_grid(
+    resolution: float, width: int, height: int, origin: Pose, data: Any, frame_id: str = "map", ns: int = 0
+) -> Message:
+    """A ``nav_msgs/msg/OccupancyGrid`` of ``width x height`` cells of side ``resolution`` (metres),
+    whose cell ``(0, 0)``'s outer corner is at ``origin``; ``data`` row-major from there (row 0 at
+    the bottom), each 0 (free) to 100 (occupied) or -1 (unknown)."""
+    return {
+        "header": header(frame_id, ns),
+        "info": {
+            "map_load_time": stamp(ns),
+            "resolution": resolution,
+            "width": width,
+            "height": height,
+            "origin": pose(origin),
+        },
+        "data": data,
+    }
+
+
+MARKER_CUBE_LIST = 6
+"""``visualization_msgs/msg/Marker.CUBE_LIST``."""
+MARKER_ADD = 0
+"""``visualization_msgs/msg/Marker.ADD`` (also "modify": a marker of the same ns and id is replaced)."""
+
+
+def cube_list_marker(
+    centres: Iterable[tuple[float, float]],
+    colours: Iterable[tuple[float, float, float, float]],
+    side: float,
+    *,
+    namespace: str,
+    marker_id: int = 0,
+    frame_id: str = "map",
+    ns: int = 0,
+    height: float = 0.01,
+) -> Message:
+    """A ``visualization_msgs/msg/Marker`` of type ``CUBE_LIST``: a flat square of ``side`` metres
+    at each ``(x, y)`` of ``centres`` (on the floor), coloured ``(r, g, b, a)`` in 0..1 from
+    ``colours``. It replaces the marker of the same ``namespace`` and ``marker_id``."""
+    return {
+        "header": header(frame_id, ns),
+        "ns": namespace,
+        "id": marker_id,
+        "type": MARKER_CUBE_LIST,
+        "action": MARKER_ADD,
+        "pose": pose(Pose(0.0, 0.0, 0.0)),
+        "scale": {"x": side, "y": side, "z": height},
+        "color": {"r": 1.0, "g": 1.0, "b": 1.0, "a": 1.0},
+        "points": [{"x": x, "y": y, "z": 0.0} for x, y in centres],
+        "colors": [{"r": r, "g": g, "b": b, "a": a} for r, g, b, a in colours],
+    }
+
+
+def marker_array(markers: Iterable[Message]) -> Message:
+    """A ``visualization_msgs/msg/MarkerArray``."""
+    return {"markers": list(markers)}

@@ -15,6 +15,7 @@ from __future__ import annotations
 import contextlib
 import os
 import re
+import shutil
 import signal
 import stat
 import tempfile
@@ -64,6 +65,42 @@ def write_atomically(path: Path, write: Any, *, binary: bool = True) -> None:
         except BaseException:
             temporary.unlink(missing_ok=True)
             raise
+
+
+@contextlib.contextmanager
+def staging_folder(path: Path) -> Iterator[Path]:
+    """A new empty folder beside output ``path`` (``.NAME.XXXXXXXX.tmp``) in which to build an output
+    made of several files -- a rosbag2 folder, a file a library writes by name --, for the caller to
+    rename into place before the block ends. The folder and whatever is left in it are removed when
+    the block ends, normally or by an error, Ctrl-C or SIGTERM/SIGHUP (as :func:`write_atomically`
+    does); a folder that cannot be made is an :class:`OutputError`."""
+    path = Path(path)
+    directory = path.parent if str(path.parent) else Path(".")
+    with _removed_on_signal() as temporaries:
+        try:
+            staging = Path(tempfile.mkdtemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory))
+        except OSError as exc:
+            raise _cannot_write(path, exc) from None
+        temporaries.append(staging)
+        try:
+            staging.chmod(0o777 & ~_umask())  # as mkdir would make it, not mkdtemp's private 0700
+            yield staging
+        finally:
+            _remove(staging)
+
+
+def _remove(temporary: Path) -> None:
+    """Remove a temporary file or folder; never raises."""
+    if temporary.is_dir() and not temporary.is_symlink():
+        shutil.rmtree(temporary, ignore_errors=True)
+    else:
+        temporary.unlink(missing_ok=True)
+
+
+def _umask() -> int:
+    umask = os.umask(0)
+    os.umask(umask)
+    return umask
 
 
 def _cannot_write(path: Path, exc: OSError) -> OutputError:
@@ -135,7 +172,7 @@ def _removed_on_signal() -> Iterator[list[Path]]:
         yield temporaries
     except _Terminated as stop:
         for temporary in temporaries:
-            temporary.unlink(missing_ok=True)
+            _remove(temporary)
         _restore(previous)
         old = previous.get(stop.signum)
         previous = {}

@@ -40,8 +40,10 @@ MODEL_OR_MACROS = "a compiled model or macro table (.npz)"
 POMDP = "a Cassandra .pomdp file"
 IMAGE = "an image"
 """A PGM, PNG, BMP, ... (an occupancy map's picture, or a picture ``beliefloc`` drew)."""
+RECORDING = "a ROS recording (MCAP)"
+"""An ``.mcap`` file: a recording ``track --bag`` reads, or ``--record`` writes."""
 
-KINDS = (MAP, DOMAIN, BELIEF, OCCUPANCY, KNOWLEDGE_BASE, MODEL, MACROS, MODEL_OR_MACROS, POMDP, IMAGE)
+KINDS = (MAP, DOMAIN, BELIEF, OCCUPANCY, KNOWLEDGE_BASE, MODEL, MACROS, MODEL_OR_MACROS, POMDP, IMAGE, RECORDING)
 
 _MAP_KEYS = frozenset(
     {"grid", "layout", "landmarks", "actions", "sensors", "annotations", "occupancy", "occupancy_rule"}
@@ -60,6 +62,7 @@ _SUFFIXES = {
     ".lp": KNOWLEDGE_BASE,
     ".npz": MODEL_OR_MACROS,
     ".pomdp": POMDP,
+    ".mcap": RECORDING,
     **dict.fromkeys((".pgm", ".png", ".bmp", ".jpg", ".jpeg", ".gif", ".tif", ".tiff", ".ppm", ".webp"), IMAGE),
 }
 
