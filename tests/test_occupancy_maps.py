@@ -187,7 +187,11 @@ def test_rooms_from_polygons(room: Path) -> None:
         ),
         ("landmarks:\n  - {class: box, x: 9.0, y: 1.0}\n", "room.yaml", r"landmarks\[0\]\.x: \(9, 1\) is off the map"),
         ("landmarks:\n  - {class: box, x: 1.0}\n", "room.yaml", r"landmarks\[0\]: has x but no y"),
-        ("occupancy_rule: ros\n", "room.yaml", r"occupancy_rule: should be one of: beliefloc, nav2, nav2-humble, nav2-jazzy; got 'ros'"),
+        (
+            "occupancy_rule: ros\n",
+            "room.yaml",
+            r"occupancy_rule: should be one of: beliefloc, nav2, nav2-humble, nav2-jazzy; got 'ros'",
+        ),
         ("rooms:\n  labels: {1: a}\n", "room.yaml", r"rooms: a region mask needs both mask and labels"),
         (
             "rooms:\n  polygons:\n    a: [[0, 0], [1, 0]]\n",
