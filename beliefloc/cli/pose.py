@@ -124,9 +124,12 @@ def pose_command(
     Examples:
 
     \b
-      beliefloc track maps/kitchen.yaml --json look=nothing > belief.json
+      echo '{"0,1,0": 0.97, "1,1,0": 0.03}' > belief.json
       beliefloc pose maps/kitchen.yaml --belief belief.json
       beliefloc pose maps/kitchen.yaml --belief belief.json --format ros > initialpose.yaml
+      beliefloc track maps/kitchen.yaml --json look=nothing > early.json
+      beliefloc pose maps/kitchen.yaml --belief early.json --format ros   # exits 1: two places
+      beliefloc pose maps/kitchen.yaml --belief early.json --format posearray
 
     Then, on a ROS 2 machine, set the robot's initial pose (Nav2's AMCL listens on /initialpose):
 
