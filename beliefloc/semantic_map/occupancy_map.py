@@ -151,7 +151,7 @@ class OccupancyRule(str, enum.Enum):
 
 NAV2_CURRENT = "nav2"
 """The rule name that means the current Nav2 LTS: ``OccupancyRule("nav2")`` is
-:attr:`OccupancyRule.NAV2_JAZZY` (it meant Humble's reading before both were named; see the README)."""
+:attr:`OccupancyRule.NAV2_JAZZY` (it meant Humble's reading before both were named; see docs/map-format.md)."""
 RULE_NAMES = (
     OccupancyRule.BELIEFLOC.value,
     NAV2_CURRENT,
