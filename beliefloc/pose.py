@@ -117,19 +117,10 @@ def belief_pose(model: Model, belief: np.ndarray) -> PoseEstimate:
     Raises :class:`InvalidValueError` when the model has no grid (its states have no pose) or the
     belief does not fit it.
     """
-    grid = model.grid
-    if grid is None:
-        raise InvalidValueError(f"model {model.name} has no grid, so its states have no pose")
-    b = np.asarray(belief, dtype=np.float64)
-    if b.shape != (model.n_states,):
-        raise InvalidValueError(f"a belief over {model.n_states} states was expected, got shape {b.shape}")
-    total = float(b.sum())
-    if not math.isfinite(total) or total <= 0.0 or np.any(b < 0.0):
-        raise InvalidValueError("the belief must be non-negative and finite with a positive sum")
-
-    mode = int(np.argmax(b))
-    support = np.flatnonzero(b > 0.0)
-    weight = b[support] / total
+    grid, normalised = _grid_and_weights(model, belief)
+    mode = int(np.argmax(normalised))
+    support = np.flatnonzero(normalised > 0.0)
+    weight = normalised[support]
     row, col, heading = grid.cell_heading(support)
     x, y = grid.cell_centre(row, col)
     mean_x, mean_y = float(weight @ x), float(weight @ y)
@@ -156,7 +147,7 @@ def belief_pose(model: Model, belief: np.ndarray) -> PoseEstimate:
         pose=mode_pose,
         covariance=tuple(float(v) + 0.0 for v in cov.ravel()),  # + 0.0: no -0.0 in the output
         state=mode,
-        probability=float(b[mode] / total),
+        probability=float(normalised[mode]),
     )
 
 
@@ -164,3 +155,163 @@ def pose_json(model: Model, belief: np.ndarray) -> dict[str, object] | None:
     """The ``"pose"`` value of every ``--json`` that reports a most likely state:
     ``belief_pose(model, belief).as_json()``, or None (JSON ``null``) when the model has no grid."""
     return None if model.grid is None else belief_pose(model, belief).as_json()
+
+
+# --- modes: the separate places a belief holds ------------------------------------------------------
+
+MODE_RADIUS_CELLS = 1.5
+"""A mode's reach in cells (metres over the cell size): 1.5 takes in the eight neighbouring cells
+(the diagonal ones are 1.41 cells away) and no cell beyond them."""
+MODE_MIN_PROBABILITY = 0.01
+"""Modes are listed until the mass left outside them is below this (1 %)."""
+MAX_MODES = 10
+"""Modes listed at most."""
+SECOND_MODE_SHARE = 0.05
+"""The share of the belief a second mode may hold in a localized belief: more than one robot in twenty
+somewhere else is a second place, not noise around the first (the planners' default goal, 0.95,
+leaves 0.05 unaccounted for too)."""
+
+
+@dataclass(frozen=True)
+class Mode:
+    """One place the belief holds: its best state, that state's pose, and the mode's mass."""
+
+    state: int
+    """The most likely state of the mode (its index)."""
+    pose: Pose
+    """That state's pose (:func:`state_pose`)."""
+    probability: float
+    """The mass of every state in the mode."""
+    states: int
+    """How many states (with probability > 0) the mode holds."""
+
+    def as_json(self) -> dict[str, object]:
+        return {**self.pose.as_json(), "probability": self.probability, "states": self.states}
+
+
+def belief_modes(
+    model: Model,
+    belief: np.ndarray,
+    *,
+    radius_cells: float = MODE_RADIUS_CELLS,
+    min_probability: float = MODE_MIN_PROBABILITY,
+    max_modes: int = MAX_MODES,
+) -> tuple[Mode, ...]:
+    """The belief's modes, the most probable (by mass) first: separate places a particle filter would be
+    seeded at.
+
+    Greedy, as :meth:`beliefloc.continuous.grid_filter.GridFilter.modes` finds them on a recording:
+    take the most likely state not yet in a mode (lowest index on ties); its mode is every state not
+    yet in a mode whose cell centre lies within ``radius_cells`` cell sizes of that state's
+    (:data:`MODE_RADIUS_CELLS`: the neighbouring cells) and whose heading is the same or a
+    neighbouring one (one heading sector either way; with one heading every heading); remove them
+    and repeat, until the mass outside every mode is below ``min_probability`` or ``max_modes`` are
+    found; then sort them by mass (the mode of the most likely state need not be the heaviest). So the
+    modes are disjoint, each mode's states lie near its best state (not chained
+    through a corridor of likely cells), and a belief split between two cells far apart has two
+    modes while one spread over neighbouring cells has one. The modes' masses sum to at most 1.
+
+    ``belief`` is normalised here (it needs a positive, finite sum). Raises
+    :class:`InvalidValueError` as :func:`belief_pose` does."""
+    grid, weights = _grid_and_weights(model, belief)
+    support = np.flatnonzero(weights > 0.0)
+    rest = weights[support]
+    row, col, heading = grid.cell_heading(support)
+    x, y = grid.cell_centre(row, col)
+    reach = radius_cells * grid.cell_size
+    found: list[Mode] = []
+    left = np.ones(support.size, dtype=bool)
+    while len(found) < max_modes and float(rest[left].sum()) >= min_probability:
+        best = int(np.flatnonzero(left)[np.argmax(rest[left])])
+        turn = np.abs(heading - heading[best]) % grid.headings
+        near_heading = np.minimum(turn, grid.headings - turn) <= 1
+        near = left & near_heading & (np.hypot(x - x[best], y - y[best]) <= reach)
+        state = int(support[best])
+        found.append(Mode(state, state_pose(grid, state), float(rest[near].sum()), int(near.sum())))
+        left &= ~near
+    return tuple(sorted(found, key=lambda m: -m.probability))  # stable: the greedy order on equal masses
+
+
+@dataclass(frozen=True)
+class Localization:
+    """Whether a belief is one place, sure enough to hand to a navigation stack as a single pose."""
+
+    localized: bool
+    reasons: tuple[str, ...]
+    """Why not, one sentence each (empty when localized)."""
+    probability: float
+    """The probability of the most likely state."""
+    modes: tuple[Mode, ...]
+
+    def as_json(self) -> dict[str, object]:
+        return {
+            "localized": self.localized,
+            "reasons": list(self.reasons),
+            "probability": self.probability,
+            "modes": [m.as_json() for m in self.modes],
+        }
+
+
+def localization(
+    model: Model, belief: np.ndarray, *, min_probability: float, second_mode_share: float = SECOND_MODE_SHARE
+) -> Localization:
+    """Is ``belief`` localized? Yes when its most likely state holds at least ``min_probability``
+    (the planners' goal: one state holds the threshold) AND no mode (:func:`belief_modes`) but the
+    one around that state holds more than ``second_mode_share`` (:data:`SECOND_MODE_SHARE`) of the
+    belief. The second test
+    matters when ``min_probability`` is low: a belief 60/40 between two rooms has one state at 0.6
+    and a second place a single Gaussian cannot describe."""
+    modes = belief_modes(model, belief)
+    _, weights = _grid_and_weights(model, belief)
+    best = int(np.argmax(weights))
+    probability = float(weights[best])
+    own = next((m.probability for m in modes if m.state == best), 0.0)
+    rival = max((m.probability for m in modes if m.state != best), default=0.0)
+    reasons: list[str] = []
+    if probability < min_probability:
+        reasons.append(
+            f"the most likely state {model.states.name(best)} holds {probability:.3g} of the belief, "
+            f"less than {min_probability:g}"
+        )
+    if rival > second_mode_share:
+        reasons.append(
+            f"a second place holds {rival:.3g} of the belief (the most likely state's place {own:.3g}), more than "
+            f"{second_mode_share:g}: a single pose with a covariance would put the robot between them"
+        )
+    return Localization(not reasons, tuple(reasons), probability, modes)
+
+
+def nonnegative_covariance(covariance: tuple[float, ...]) -> tuple[float, ...]:
+    """``covariance`` (36 floats, row-major 6x6) with no negative entry, for validators that refuse one
+    (Nav2 Rolling's AMCL, ros-navigation/navigation2 PR #5683).
+
+    Every negative off-diagonal pair ``Σ_ij = Σ_ji = c < 0`` becomes 0, and ``|c|`` is added to both
+    ``Σ_ii`` and ``Σ_jj``. The change is ``|c| (e_i + e_j)(e_i + e_j)ᵀ``, positive semi-definite, so
+    the result is never narrower than the belief in any direction (a Gaussian seeded from it covers
+    every place the belief's does), and it is still a covariance. What is lost: the correlation
+    (the tilt of the uncertainty ellipse: along a diagonal of the map the seeded spread is wider
+    than the belief's, by at most ``|c|`` in variance), and ``|c|`` is added to the variances
+    AMCL reads (entries 0, 7 and 35). A covariance without negative entries is returned as it is."""
+    cov = np.array(covariance, dtype=np.float64).reshape(6, 6)
+    upper = np.triu(cov, k=1)
+    negative = np.minimum(upper, 0.0)  # c_ij < 0 for i < j, else 0
+    if not negative.any():
+        return tuple(float(v) for v in covariance)
+    added = -(negative.sum(axis=0) + negative.sum(axis=1))  # |c| to both ends of every negative pair
+    cov = cov - negative - negative.T + np.diag(added)
+    return tuple(float(v) + 0.0 for v in cov.ravel())
+
+
+def _grid_and_weights(model: Model, belief: np.ndarray) -> tuple[GridLayout, np.ndarray]:
+    """The model's grid and the belief normalised, checked as :func:`belief_pose` checks them."""
+    grid = model.grid
+    if grid is None:
+        raise InvalidValueError(f"model {model.name} has no grid, so its states have no pose")
+    b = np.asarray(belief, dtype=np.float64)
+    if b.shape != (model.n_states,):
+        raise InvalidValueError(f"a belief over {model.n_states} states was expected, got shape {b.shape}")
+    total = float(b.sum())
+    if not math.isfinite(total) or total <= 0.0 or np.any(b < 0.0):
+        raise InvalidValueError("the belief must be non-negative and finite with a positive sum")
+    weights: np.ndarray = b / total
+    return grid, weights

@@ -22,7 +22,7 @@ from beliefloc import compile_model, load_map, uniform
 from beliefloc.cli.app import app
 from beliefloc.errors import EXIT_BAD_INPUT, EXIT_NEGATIVE, ReplyError
 from beliefloc.model import Model
-from beliefloc.pose import state_pose
+from beliefloc.pose import nonnegative_covariance, state_pose
 from beliefloc.robots.line_protocol import MAX_LINE_CHARS, LineRobot, action_message
 from beliefloc.robots.localize import Command, SimulatedReadingRobot, localize
 from beliefloc.robots.readings import RawReading, ReadingBinner
@@ -432,8 +432,11 @@ def test_a_robot_on_the_depot_gets_an_initial_pose_for_amcl(tmp_path: Path) -> N
     message = yaml.safe_load(ros.stdout)
     assert message["header"]["frame_id"] == "map"
     position = message["pose"]["pose"]["position"]
-    assert (position["x"], position["y"]) == pytest.approx((result["pose"]["x"], result["pose"]["y"]))
-    assert message["pose"]["covariance"] == pytest.approx(result["pose"]["covariance"])
+    assert (position["x"], position["y"]) == pytest.approx((result["pose"]["x"], result["pose"]["y"]), abs=1e-9)
+    # the message's covariance: the belief's, made non-negative for Rolling's AMCL, to 9 decimals
+    safe = nonnegative_covariance(tuple(result["pose"]["covariance"]))
+    assert message["pose"]["covariance"] == pytest.approx(safe, abs=1e-9)
+    assert min(message["pose"]["covariance"]) >= 0.0
 
 
 def _localize(stdin: str) -> subprocess.CompletedProcess[str]:

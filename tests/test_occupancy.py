@@ -24,8 +24,10 @@ from beliefloc.semantic_map.occupancy_map import (
     MAX_IMAGE_BYTES,
     MAX_PIXELS,
     MAX_YAML_BYTES,
+    RULE_NAMES,
     MapMode,
     MapYaml,
+    Nav2Version,
     Occupancy,
     OccupancyMap,
     OccupancyRule,
@@ -147,19 +149,32 @@ def test_16_bit_pgm_is_normalised_by_its_maxval(tmp_path: Path, maxval: int):
 def test_16_bit_saver_grey_is_the_unknown_grey_too(tmp_path: Path):
     path = write_map(tmp_path, pgm16([[205 * 257, 205 * 257 + 1]], 65535), fmt="PGM")
     occupancy = load_occupancy(path)
-    assert occupancy.pixels.tolist() == [[U, F]]  # only the exact grey is the saver's
-    assert occupancy.warnings[0].startswith("1 pixels of map_saver's unknown grey 205")
+    assert occupancy.pixels.tolist() == [[U, U]]  # Jazzy cuts both to 8 bits: grey 205, the saver's
+    assert occupancy.warnings[0].startswith("2 pixels of map_saver's unknown grey 205")
+    humble = load_occupancy(path, rule=OccupancyRule.NAV2_HUMBLE)  # 16 bits kept: occ 0.196 < 0.25
+    assert humble.pixels.tolist() == [[F, F]] and humble.warnings == ()
 
 
-def test_rgb_png_takes_the_mean_of_the_channels(tmp_path: Path):
+def test_rgb_png_takes_the_mean_of_the_channels_under_humble(tmp_path: Path):
     # shade = mean/255: red 1/3 -> occ 0.667 X; cyan 2/3 -> occ 0.333 U; (200,255,255) -> occ 0.072 F
     image = rgba([[(255, 0, 0), (0, 255, 255), (200, 255, 255)], [(205, 205, 205), (205, 205, 206), (0, 0, 0)]])
     path = write_map(tmp_path, image)
-    assert load_occupancy(path).pixels.tolist() == [[X, U, F], [U, F, X]]
-    assert load_occupancy(path, rule=OccupancyRule.NAV2).pixels.tolist() == [[X, U, F], [F, F, X]]
+    assert load_occupancy(path, rule=OccupancyRule.NAV2_HUMBLE).pixels.tolist() == [[X, U, F], [F, F, X]]
 
 
-def test_png_alpha_is_a_fourth_channel_in_trinary_mode(tmp_path: Path):
+def test_rgb_png_takes_the_rec_601_luma_under_jazzy(tmp_path: Path):
+    # g = ((306 R + 601 G + 117 B) * 257 >> 10) // 257: red 76 -> occ 0.702 X; cyan 178 -> 0.302 U;
+    # (200,255,255) 238 -> 0.067 F; (205,205,206) is grey 205 too, the saver's grey under beliefloc
+    image = rgba([[(255, 0, 0), (0, 255, 255), (200, 255, 255)], [(205, 205, 205), (205, 205, 206), (0, 0, 0)]])
+    path = write_map(tmp_path, image)
+    assert load_occupancy(path).pixels.tolist() == [[X, U, F], [U, U, X]]
+    for rule in (OccupancyRule.NAV2_JAZZY, OccupancyRule("nav2")):
+        assert load_occupancy(path, rule=rule).pixels.tolist() == [[X, U, F], [F, F, X]]
+    occupancy = load_occupancy(path)
+    assert load_region_mask(path, like=occupancy).tolist() == [[100, -1, 0], [0, 0, 100]]
+
+
+def test_png_alpha_is_a_fourth_channel_in_trinary_mode_under_humble(tmp_path: Path):
     # shade = (R + G + B + A) / 4 / 255 with A = 255 opaque (Nav2's MaxRGB - opacity):
     # (254,254,254,255) -> occ 0.003 F; (254,254,254,0) -> 0.253 U; (0,0,0,255) -> 0.75 X;
     # (255,255,255,0) -> exactly 0.25, not below free_thresh 0.25: U; (205,205,205,255) -> 0.147 F (Nav2)
@@ -170,15 +185,18 @@ def test_png_alpha_is_a_fourth_channel_in_trinary_mode(tmp_path: Path):
         ]
     )
     path = write_map(tmp_path, image)
-    assert load_occupancy(path, rule=OccupancyRule.NAV2).pixels.tolist() == [[F, U, X], [U, F, X]]
-    assert load_occupancy(path).pixels.tolist() == [[F, U, X], [U, U, X]]  # the saver's grey, opaque
+    assert load_occupancy(path, rule=OccupancyRule.NAV2_HUMBLE).pixels.tolist() == [[F, U, X], [U, F, X]]
+    # Jazzy: any alpha below 255 is unknown, (0,0,0,0) included; beliefloc: and the saver's grey
+    assert load_occupancy(path, rule=OccupancyRule.NAV2_JAZZY).pixels.tolist() == [[F, U, X], [U, F, U]]
+    assert load_occupancy(path).pixels.tolist() == [[F, U, X], [U, U, U]]
 
 
 def test_grey_with_alpha_counts_the_grey_three_times(tmp_path: Path):
     # (0, a=255): mean(0, 0, 0, 255) = 63.75 -> occ 0.75 X (averaging grey and alpha alone would give 0.5: U)
     image = Image.fromarray(np.array([[[0, 255], [254, 255]]], dtype=np.uint8), mode="LA")
     path = write_map(tmp_path, image)
-    assert load_occupancy(path).pixels.tolist() == [[X, F]]
+    assert load_occupancy(path, rule=OccupancyRule.NAV2_HUMBLE).pixels.tolist() == [[X, F]]
+    assert load_occupancy(path).pixels.tolist() == [[X, F]]  # Jazzy: opaque, alpha plays no part
 
 
 def test_a_transparent_colour_of_a_grey_png_is_an_alpha_channel(tmp_path: Path):
@@ -203,7 +221,8 @@ def test_a_palette_png_reads_its_colours(tmp_path: Path):
 def test_negate_reads_dark_as_free_and_mirrors_the_unknown_grey(tmp_path: Path):
     # occ = shade: 0 -> 0 F; 254 -> 0.996 X; 205 -> 0.804 X; 50 -> 0.196 F for Nav2, the saver's grey mirrored
     path = write_map(tmp_path, grey([[0, 254, 205, 50]]), negate="1")
-    assert load_occupancy(path, rule=OccupancyRule.NAV2).pixels.tolist() == [[F, X, X, F]]
+    for rule in (OccupancyRule.NAV2_HUMBLE, OccupancyRule.NAV2_JAZZY):
+        assert load_occupancy(path, rule=rule).pixels.tolist() == [[F, X, X, F]]
     occupancy = load_occupancy(path)
     assert occupancy.pixels.tolist() == [[F, X, X, U]]
     assert occupancy.warnings[0].startswith("1 pixels of map_saver's unknown grey 50 ")
@@ -254,13 +273,16 @@ def test_saver_grey_is_unknown_by_default_and_free_under_nav2_with_a_warning(tmp
     assert ours.pixels.tolist() == [[U, U, F], [U, X, F]]
     assert ours.warnings == (
         "3 pixels of map_saver's unknown grey 205 read as unknown, not free as Nav2 reads them "
-        "(occ 0.196 < free_thresh 0.25); occupancy_rule: nav2 in the map file keeps Nav2's reading",
+        "(occ 0.196 <= free_thresh 0.25); occupancy_rule: nav2 in the map file keeps Nav2's reading",
     )
-    nav2 = load_occupancy(path, rule=OccupancyRule.NAV2)
-    assert nav2.pixels.tolist() == [[F, F, F], [F, X, F]]
-    assert nav2.warnings == ()
-    assert nav2.rule is OccupancyRule.NAV2
-    assert nav2.sha256 != ours.sha256  # the rule is part of the content hash
+    hashes = {ours.sha256}
+    for rule in (OccupancyRule.NAV2_HUMBLE, OccupancyRule.NAV2_JAZZY):
+        nav2 = load_occupancy(path, rule=rule)
+        assert nav2.pixels.tolist() == [[F, F, F], [F, X, F]]
+        assert nav2.warnings == ()
+        assert nav2.rule is rule
+        hashes.add(nav2.sha256)
+    assert len(hashes) == 3  # the rule is part of the content hash
 
 
 def test_saver_grey_below_free_thresh_needs_no_rule(tmp_path: Path):
@@ -272,8 +294,12 @@ def test_saver_grey_below_free_thresh_needs_no_rule(tmp_path: Path):
 
 
 def test_rules_have_stable_names():
-    assert [rule.value for rule in OccupancyRule] == ["beliefloc", "nav2"]
-    assert OccupancyRule("nav2") is OccupancyRule.NAV2
+    assert [rule.value for rule in OccupancyRule] == ["beliefloc", "nav2-humble", "nav2-jazzy"]
+    assert OccupancyRule("nav2") is OccupancyRule.NAV2_JAZZY  # the current LTS
+    assert RULE_NAMES == ("beliefloc", "nav2", "nav2-humble", "nav2-jazzy")
+    assert [rule.nav2 for rule in OccupancyRule] == [Nav2Version.JAZZY, Nav2Version.HUMBLE, Nav2Version.JAZZY]
+    with pytest.raises(ValueError):
+        OccupancyRule("nav2-iron")
 
 
 # --- the oracle: Nav2's loop, pixel by pixel ------------------------------------------------------
@@ -290,36 +316,66 @@ def nav2_shade(pixel: tuple[int, ...], has_alpha: bool, params: MapYaml) -> tupl
     return shade, (shade if params.negate else 1.0 - shade), opacity
 
 
-def nav2_reference(pixel: tuple[int, ...], has_alpha: bool, params: MapYaml) -> int:
-    """The OccupancyGrid cell Nav2 makes of one pixel."""
+def humble_reference(pixel: tuple[int, ...], has_alpha: bool, params: MapYaml) -> tuple[int, Occupancy]:
+    """The OccupancyGrid cell Nav2 Humble's loop makes of one pixel, and beliefloc's class of it."""
     shade, occ, opacity = nav2_shade(pixel, has_alpha, params)
     if params.mode is MapMode.RAW:
         percent = math.floor(shade * 255 + 0.5)
-        return percent if 0 <= percent <= 100 else -1
+        if not 0 <= percent <= 100:
+            return -1, U
+        p = percent / 100.0
+        return percent, X if p > params.occupied_thresh else F if p < params.free_thresh else U
     if params.mode is MapMode.SCALE and opacity != 0:
-        return -1
+        return -1, U
     if params.occupied_thresh < occ:
-        return 100
+        return 100, X
     if occ < params.free_thresh:
-        return 0
+        return 0, F
     if params.mode is MapMode.TRINARY:
-        return -1
+        return -1, U
     between = (occ - params.free_thresh) / (params.occupied_thresh - params.free_thresh) * 100.0
-    return round(between)  # std::rint: half to even, as round()
+    return round(between), U  # std::rint: half to even, as round()
+
+
+def jazzy_reference(pixel: tuple[int, ...], has_alpha: bool, params: MapYaml) -> tuple[int, Occupancy]:
+    """The OccupancyGrid cell Nav2 Jazzy's Eigen code makes of one pixel, and beliefloc's class of it:
+    one pixel at a time in numpy float32 scalars (Eigen's float arrays)."""
+    r, g, b = (257 * c for c in pixel[:3])
+    grey = ((306 * r + 601 * g + 117 * b) >> 10) // 257  # PixelIntensityRec601, ScaleQuantumToChar
+    if params.mode is MapMode.RAW:
+        if grey > 100:
+            return -1, U
+        p = grey / 100.0
+        return grey, X if p >= params.occupied_thresh else F if p <= params.free_thresh else U
+    f32 = np.float32
+    occ = f32(grey) / f32(255.0)
+    if not params.negate:
+        occ = f32(1.0) - occ
+    transparent = has_alpha and pixel[3] < 255
+    value, kind = -1, U
+    if occ >= f32(params.occupied_thresh):
+        value, kind = 100, X
+    if occ <= f32(params.free_thresh):
+        value, kind = 0, F
+    if params.mode is MapMode.SCALE and f32(params.free_thresh) < occ < f32(params.occupied_thresh):
+        scaled = (occ - f32(params.free_thresh)) / f32(params.occupied_thresh - params.free_thresh) * f32(100.0)
+        value = math.floor(float(scaled) + 0.5)  # std::round of a positive float; exact in double
+    return (-1, U) if transparent else (value, kind)
+
+
+def nav2_reference(pixel: tuple[int, ...], has_alpha: bool, params: MapYaml, version: Nav2Version) -> int:
+    reference = humble_reference if version is Nav2Version.HUMBLE else jazzy_reference
+    return reference(pixel, has_alpha, params)[0]
 
 
 def beliefloc_reference(pixel: tuple[int, ...], has_alpha: bool, params: MapYaml, rule: OccupancyRule) -> Occupancy:
-    """The module's table, for one pixel."""
-    _, occ, opacity = nav2_shade(pixel, has_alpha, params)
-    if params.mode is MapMode.RAW:
-        value = nav2_reference(pixel, has_alpha, params)
-        occ = value / 100.0 if value >= 0 else math.nan  # NaN: neither above nor below a threshold
-    elif params.mode is MapMode.SCALE and opacity != 0:
-        return U
-    kind = X if occ > params.occupied_thresh else F if occ < params.free_thresh else U
+    """The module's table under ``rule``, for one pixel."""
+    reference = humble_reference if rule.nav2 is Nav2Version.HUMBLE else jazzy_reference
+    kind = reference(pixel, has_alpha, params)[1]
     if params.mode is MapMode.TRINARY and rule is OccupancyRule.BELIEFLOC and kind is F:
         saver = 50 if params.negate else 205
-        if pixel[0] == pixel[1] == pixel[2] == saver:
+        r, g, b = (257 * c for c in pixel[:3])
+        if ((306 * r + 601 * g + 117 * b) >> 10) // 257 == saver:
             return U
     return kind
 
@@ -334,7 +390,7 @@ def beliefloc_reference(pixel: tuple[int, ...], has_alpha: bool, params: MapYaml
     gap=st.floats(0.01, 0.4),
     rule=st.sampled_from(list(OccupancyRule)),
 )
-def test_vectorised_reading_matches_nav2s_loop(
+def test_vectorised_reading_matches_each_nav2_release_pixel_by_pixel(
     seed: int, mode: MapMode, negate: int, has_alpha: bool, free: float, gap: float, rule: OccupancyRule
 ):
     rng = np.random.default_rng(seed)
@@ -354,16 +410,17 @@ def test_vectorised_reading_matches_nav2s_loop(
     )
     colour = image[..., :3].astype(np.uint16) * np.uint16(257)
     alpha = image[..., 3].astype(np.uint16) * np.uint16(257) if has_alpha else None
-    values = nav2_cell_values(colour, alpha, params)
+    values = nav2_cell_values(colour, alpha, params, rule.nav2)
     pixels, reclassified = classify_pixels(colour, alpha, params, rule)
     flipped = 0
     for i in range(shape[0]):
         for j in range(shape[1]):
             pixel = tuple(int(c) for c in image[i, j])
-            assert values[i, j] == nav2_reference(pixel, has_alpha, params), (i, j, pixel)
+            assert values[i, j] == nav2_reference(pixel, has_alpha, params, rule.nav2), (i, j, pixel)
             expected = beliefloc_reference(pixel, has_alpha, params, rule)
             assert pixels[i, j] == expected, (i, j, pixel)
-            flipped += int(expected is U and beliefloc_reference(pixel, has_alpha, params, OccupancyRule.NAV2) is F)
+            plain = beliefloc_reference(pixel, has_alpha, params, OccupancyRule.NAV2_JAZZY)
+            flipped += int(rule is OccupancyRule.BELIEFLOC and expected is U and plain is F)
     assert reclassified == flipped
 
 
@@ -626,19 +683,22 @@ def test_depot_loads_with_the_saver_grey_unknown():
     assert occupancy.resolution == 0.05
     assert np.bincount(occupancy.pixels.ravel(), minlength=3).tolist() == [170587, 5947, 8894]
     assert occupancy.warnings[0].startswith("8894 pixels of map_saver's unknown grey 205 read as unknown")
-    nav2 = load_occupancy(SHARED / "depot.yaml", rule=OccupancyRule.NAV2)
-    assert np.bincount(nav2.pixels.ravel(), minlength=3).tolist() == [170587 + 8894, 5947, 0]
+    for rule in (OccupancyRule.NAV2_HUMBLE, OccupancyRule.NAV2_JAZZY):
+        nav2 = load_occupancy(SHARED / "depot.yaml", rule=rule)
+        assert np.bincount(nav2.pixels.ravel(), minlength=3).tolist() == [170587 + 8894, 5947, 0]
 
 
 @needs_shared
 def test_tb3_sandbox_free_thresh_0_196_keeps_205_unknown_under_both_rules():
     ours = load_occupancy(SHARED / "tb3_sandbox.yaml")
-    nav2 = load_occupancy(SHARED / "tb3_sandbox.yaml", rule=OccupancyRule.NAV2)
     assert (ours.width, ours.height) == (384, 384)
     assert ours.frame == MapFrame(-10.0, -10.0, 0.0)
-    np.testing.assert_array_equal(ours.pixels, nav2.pixels)
+    for rule in (OccupancyRule.NAV2_HUMBLE, OccupancyRule.NAV2_JAZZY):
+        nav2 = load_occupancy(SHARED / "tb3_sandbox.yaml", rule=rule)
+        np.testing.assert_array_equal(ours.pixels, nav2.pixels)
+        assert nav2.warnings == ()
     assert np.bincount(ours.pixels.ravel(), minlength=3).tolist() == [7903, 870, 138683]
-    assert ours.warnings == nav2.warnings == ()
+    assert ours.warnings == ()
 
 
 # Nav2's own expectation for testmap.png (nav2_map_server/test/test_constants.cpp,
@@ -678,3 +738,124 @@ def test_depot_keepout_is_a_mask_of_the_depot():
     kinds, counts = np.unique(values, return_counts=True)
     # Nav2's own reading: its filters see the mask's unknown grey 205 as 0 (free_thresh 0.25), no -1
     assert dict(zip(kinds.tolist(), counts.tolist(), strict=True)) == {0: 149422 + 4793, 100: 31213}
+
+
+# --- Nav2's own test images, and the fixtures on which Humble and Jazzy differ ---------------------
+
+RELEASES = (OccupancyRule.NAV2_HUMBLE, OccupancyRule.NAV2_JAZZY)
+
+
+def nav2_testmap_cells() -> np.ndarray:
+    """Nav2's expected cells for testmap.png/.pgm/.bmp in image order (top row first), recreated from
+    ``g_valid_image_content`` in nav2_map_server/test/test_constants.cpp (bottom row first there)."""
+    return np.flipud(np.array(NAV2_TESTMAP, dtype=np.int16))
+
+
+@pytest.mark.parametrize(("fmt", "mode"), [("PNG", "RGB"), ("PGM", "L"), ("BMP", "L"), ("BMP", "RGB")])
+@pytest.mark.parametrize("rule", RELEASES)
+def test_nav2s_testmap_in_every_format_reads_as_nav2_expects(tmp_path: Path, fmt: str, mode: str, rule: OccupancyRule):
+    """Nav2's MapIOTester.loadSaveValid{PNG,PGM,BMP}: black for 100, white for 0; its thresholds
+    (free 0.196, occupied 0.65, test_constants.cpp), origin (2, 3, 1) and resolution 0.1."""
+    cells = nav2_testmap_cells()
+    image = Image.fromarray(np.where(cells == 100, 0, 255).astype(np.uint8), mode="L").convert(mode)
+    content: Image.Image | bytes = image
+    if fmt == "PGM":  # Pillow writes PGM as its PPM format
+        buffer = io.BytesIO()
+        image.save(buffer, format="PPM")
+        content = buffer.getvalue()
+        assert content.startswith(b"P5")
+    path = write_map(tmp_path, content, fmt=fmt, resolution="0.1", origin="[2.0, 3.0, 1.0]", free_thresh="0.196")
+    occupancy = load_occupancy(path, rule=rule)
+    assert load_region_mask(path, like=occupancy).tolist() == cells.tolist()
+    np.testing.assert_array_equal(occupancy.pixels, np.where(cells == 100, X, F))
+
+
+def nav2_saved(cells: np.ndarray, mode: MapMode) -> Image.Image:
+    """The image Nav2's map saver (tryWriteMapToFile) writes for ``cells`` (-1..100) in ``mode``:
+    trinary: 254 free, 0 occupied, 205 else (grey); scale: grey (100 - c) / 100 with alpha, unknown
+    transparent (RGBA: the saver uses TrueColorMatte); raw: the grey c, unknown 255."""
+    if mode is MapMode.TRINARY:
+        values = np.where(cells < 0, 205, np.where(cells <= 25, 254, np.where(cells >= 65, 0, 205)))
+        return Image.fromarray(values.astype(np.uint8), mode="L")
+    if mode is MapMode.SCALE:
+        shade = np.rint(np.where(cells < 0, 0.5, (100.0 - cells) / 100.0) * 255).astype(np.uint8)
+        alpha = np.where(cells < 0, 0, 255).astype(np.uint8)
+        return Image.fromarray(np.stack([shade, shade, shade, alpha], axis=2), mode="RGBA")
+    return Image.fromarray(np.where(cells < 0, 255, cells).astype(np.uint8), mode="L")
+
+
+@pytest.mark.parametrize("mode", list(MapMode))
+@pytest.mark.parametrize("rule", RELEASES)
+def test_nav2s_testmap_saved_in_each_mode_reads_back_as_nav2_expects(
+    tmp_path: Path, mode: MapMode, rule: OccupancyRule
+):
+    """Nav2's MapIOTester.loadSaveMapModes: the test map saved by the saver in trinary (thresholds
+    0.65 / 0.25 in the saved YAML), scale and raw (the test's 0.65 / 0.196) loads back unchanged."""
+    cells = nav2_testmap_cells()
+    free = "0.25" if mode is MapMode.TRINARY else "0.196"
+    path = write_map(tmp_path, nav2_saved(cells, mode), free_thresh=free, mode=mode.value)
+    occupancy = load_occupancy(path, rule=rule)
+    assert load_region_mask(path, like=occupancy).tolist() == cells.tolist()
+
+
+def test_a_grey_on_the_occupied_threshold_is_occupied_under_jazzy_and_unknown_under_humble(tmp_path: Path):
+    # thresholds 0.2 / 0.6: grey 102 has occ = 1 - 102/255 = 0.6 exactly (Humble: 0.6 < 0.6 is false;
+    # Jazzy: 0.6 >= 0.6); grey 204 has occ 0.2: free under Jazzy (<=), and under Humble too, only
+    # because 1 - 0.8 is 0.19999999999999996 in double, just below 0.2
+    path = write_map(tmp_path, grey([[102, 204, 150]]), occupied_thresh="0.6", free_thresh="0.2")
+    humble = load_occupancy(path, rule=OccupancyRule.NAV2_HUMBLE)
+    jazzy = load_occupancy(path, rule=OccupancyRule.NAV2_JAZZY)
+    assert humble.pixels.tolist() == [[U, F, U]]
+    assert jazzy.pixels.tolist() == [[X, F, U]]
+    assert load_occupancy(path).pixels.tolist() == [[X, F, U]]  # beliefloc starts from Jazzy
+    assert load_region_mask(path, like=humble).tolist() == [[-1, 0, -1]]
+    assert load_region_mask(path, like=jazzy).tolist() == [[100, 0, -1]]
+
+
+def test_an_opaque_ish_white_pixel_is_free_under_humble_and_unknown_under_jazzy(tmp_path: Path):
+    # (255,255,255,254): Humble's trinary mean (255+255+255+254)/4 -> occ 0.001: free;
+    # Jazzy: alpha 254 < 255 -> unknown, in trinary and in scale alike
+    image = rgba([[(255, 255, 255, 254), (255, 255, 255, 255), (0, 0, 0, 254)]])
+    trinary = write_map(tmp_path, image)
+    assert load_occupancy(trinary, rule=OccupancyRule.NAV2_HUMBLE).pixels.tolist() == [[F, F, X]]
+    assert load_occupancy(trinary, rule=OccupancyRule.NAV2_JAZZY).pixels.tolist() == [[U, F, U]]
+    assert load_occupancy(trinary).pixels.tolist() == [[U, F, U]]
+    scale = write_map(tmp_path, image, name="scale", mode="scale")
+    for rule in RELEASES:  # scale: Humble too wants a fully opaque pixel
+        assert load_occupancy(scale, rule=rule).pixels.tolist() == [[U, F, U]]
+
+
+def test_scale_rounds_half_to_even_under_humble_and_away_from_zero_in_float32_under_jazzy(tmp_path: Path):
+    # thresholds 0.1 / 0.9, grey 102: occ 0.6, 100 (0.6 - 0.1) / 0.8 = 62.5: Humble rint -> 62,
+    # Jazzy round -> 63; grey 153: occ 0.4, 37.5 in double (Humble 38) but 37.4999... in float32 (Jazzy 37)
+    path = write_map(tmp_path, grey([[102, 153]]), occupied_thresh="0.9", free_thresh="0.1", mode="scale")
+    humble = load_occupancy(path, rule=OccupancyRule.NAV2_HUMBLE)
+    jazzy = load_occupancy(path, rule=OccupancyRule.NAV2_JAZZY)
+    assert load_region_mask(path, like=humble).tolist() == [[62, 38]]
+    assert load_region_mask(path, like=jazzy).tolist() == [[63, 37]]
+    assert humble.pixels.tolist() == jazzy.pixels.tolist() == [[U, U]]  # in between: unknown for beliefloc
+
+
+def test_a_16_bit_grey_is_cut_to_8_bits_under_jazzy(tmp_path: Path):
+    # thresholds 0.2 / 0.6, 16-bit grey 102 * 257 + 200: Humble occ 0.59695 (unknown); Jazzy cuts it to
+    # 102 (occ 0.6, occupied); 204 * 257 + 256 -> Jazzy 204 (occ 0.2, free), Humble occ 0.19648 (free)
+    path = write_map(
+        tmp_path,
+        pgm16([[102 * 257 + 200, 204 * 257 + 256]], 65535),
+        fmt="PGM",
+        occupied_thresh="0.6",
+        free_thresh="0.2",
+    )
+    assert load_occupancy(path, rule=OccupancyRule.NAV2_HUMBLE).pixels.tolist() == [[U, F]]
+    assert load_occupancy(path, rule=OccupancyRule.NAV2_JAZZY).pixels.tolist() == [[X, F]]
+
+
+def test_raw_reads_the_luma_under_jazzy_and_the_mean_under_humble(tmp_path: Path):
+    # (90, 90, 150): Humble round(255 * mean / 255) = 110 -> -1; Jazzy luma ((306 + 601) 90 + 117 150) >> 10 = 96
+    path = write_map(tmp_path, rgba([[(90, 90, 150), (40, 40, 40)]]), mode="raw")
+    humble = load_occupancy(path, rule=OccupancyRule.NAV2_HUMBLE)
+    jazzy = load_occupancy(path, rule=OccupancyRule.NAV2_JAZZY)
+    assert load_region_mask(path, like=humble).tolist() == [[-1, 40]]
+    assert load_region_mask(path, like=jazzy).tolist() == [[96, 40]]
+    # p = v / 100 against 0.65 / 0.25: 0.96 occupied, 0.40 in between
+    assert humble.pixels.tolist() == [[U, U]] and jazzy.pixels.tolist() == [[X, U]]

@@ -187,7 +187,11 @@ def test_rooms_from_polygons(room: Path) -> None:
         ),
         ("landmarks:\n  - {class: box, x: 9.0, y: 1.0}\n", "room.yaml", r"landmarks\[0\]\.x: \(9, 1\) is off the map"),
         ("landmarks:\n  - {class: box, x: 1.0}\n", "room.yaml", r"landmarks\[0\]: has x but no y"),
-        ("occupancy_rule: ros\n", "room.yaml", r"occupancy_rule: should be one of: beliefloc, nav2"),
+        (
+            "occupancy_rule: ros\n",
+            "room.yaml",
+            r"occupancy_rule: should be one of: beliefloc, nav2, nav2-humble, nav2-jazzy; got 'ros'",
+        ),
         ("rooms:\n  labels: {1: a}\n", "room.yaml", r"rooms: a region mask needs both mask and labels"),
         (
             "rooms:\n  polygons:\n    a: [[0, 0], [1, 0]]\n",
@@ -255,6 +259,20 @@ def test_the_savers_grey_is_unknown_unless_the_map_says_nav2(tmp_path: Path) -> 
     assert len(warnings) == 1 and "100 pixels" in warnings[0] and "occupancy_rule: nav2" in warnings[0]
     nav2 = load_map(_map(tmp_path, "occupancy_rule: nav2\n"), on_warning=warnings.append)
     assert nav2.free[:, 2:].any() and len(warnings) == 1
+
+
+def test_the_map_file_names_the_nav2_release_it_reads_as(tmp_path: Path) -> None:
+    """A strip of grey 153 under free_thresh 0.4: occ = 1 - 153/255 = 0.4, on the threshold. Jazzy
+    (<= in float32) reads it free, Humble (< in double) unknown; nav2 is Jazzy, and so is the default."""
+    pixels = np.full((10, 20), FREE)
+    pixels[:, 10:] = 153
+    _occupancy(tmp_path, pixels, free_thresh=0.4)
+    strip_free = {}
+    for rule in ("", "beliefloc", "nav2", "nav2-jazzy", "nav2-humble"):
+        smap = load_map(_map(tmp_path, f"occupancy_rule: {rule}\n" if rule else ""))
+        assert smap.free[:, :2].any()
+        strip_free[rule] = bool(smap.free[:, 2:].any())
+    assert strip_free == {"": True, "beliefloc": True, "nav2": True, "nav2-jazzy": True, "nav2-humble": False}
 
 
 def test_the_depot_as_shipped() -> None:

@@ -168,7 +168,7 @@ def test_belief_out_feeds_pose_format_ros(runner: CliRunner, tmp_path: Path) -> 
     result = runner.invoke(app, [*args, "--cell-size", "0.2", "--headings", "16"])
     assert result.exit_code in (0, 1), result.output
     assert belief.exists()
-    pose = runner.invoke(app, ["pose", str(DEPOT_MAP), "--belief", str(belief), "--format", "ros"])
+    pose = runner.invoke(app, ["pose", str(DEPOT_MAP), "--belief", str(belief), "--format", "ros", "--force"])
     assert pose.exit_code == 0, pose.output
     assert "covariance" in pose.stdout and "frame_id: map" in pose.stdout
 

@@ -61,6 +61,7 @@ def _files_named(source: Source) -> dict[str, Any]:
     if named is None:
         return {}
     from beliefloc.semantic_map.occupancy_map import (  # Pillow: only for these maps
+        RULE_NAMES,
         OccupancyRule,
         load_occupancy,
         load_region_mask,
@@ -71,7 +72,7 @@ def _files_named(source: Source) -> dict[str, Any]:
     try:
         rule = OccupancyRule(rule_text)
     except ValueError:
-        choices = ", ".join(r.value for r in OccupancyRule)
+        choices = ", ".join(RULE_NAMES)
         raise MapError(source.format(("occupancy_rule",), f"should be one of: {choices}; got {rule_text!r}")) from None
     occupancy = load_occupancy(target, rule=rule)
     context: dict[str, Any] = {"occupancy": occupancy}

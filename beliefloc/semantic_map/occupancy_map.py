@@ -12,37 +12,56 @@ Stricter than Nav2, which takes these values as written: a resolution <= 0, thre
 x or y, a ``negate`` other than 0/1/true/false and ``true``/``false`` where a number belongs are
 errors. A NaN yaw (``.nan``) is read as 0 with a warning.
 
-**The pixels, as Nav2 computes them.** Nav2 reads images with GraphicsMagick in its 16-bit build
+**The pixels, by Nav2 release.** Nav2 reads images with GraphicsMagick in its 16-bit build
 (Ubuntu's), so every channel is a *quantum* ``q`` in 0..65535: an 8-bit value ``v`` is ``257 v``; a
 PGM of any ``maxval`` M is scaled to full range, ``q ~ 65535 v / M`` (Pillow scales it to 16 bits, or
 to 8 bits when M < 256, as GraphicsMagick does; the two may round apart by less than 1/255 of a
-shade for such small M). A grey pixel counts as R = G = B. With ``A`` the alpha quantum
-(65535 = opaque; Nav2 writes it ``MaxRGB - alphaQuantum()`` because GraphicsMagick stores opacity)::
+shade for such small M). ``A`` is the alpha quantum (65535 = opaque; GraphicsMagick stores
+opacity, Nav2 reads ``MaxRGB - opacity``). ``map_io.cpp`` was rewritten with Eigen for Jazzy, and
+the two releases read the same image differently; each :class:`OccupancyRule` names the one it
+follows (:attr:`OccupancyRule.nav2`), and each is a plain transcription of that release's
+``loadMapFromFile``:
 
-    shade = mean(q_R, q_G, q_B [, A]) / 65535      # A joins the mean in trinary mode, when the image has alpha
-    occ   = shade if negate else 1 - shade
+============  =========================================  ==============================================
+              **Humble** (``nav2-humble``)               **Jazzy** (``nav2-jazzy`` = ``nav2``)
+============  =========================================  ==============================================
+grey          ``shade = mean(q_R, q_G, q_B [, A])/65535``  ``g`` = Rec. 601 luma ``(306 q_R + 601 q_G +
+              in float64; A joins the mean in trinary    117 q_B) >> 10``, cut to 8 bits (``q / 257``
+              mode when the image has alpha              truncated): a 16-bit image loses its low byte
+occ           ``shade``, or ``1 - shade`` unless negate  ``g / 255`` in float32, ``1 -`` it unless negate
+trinary       100 if ``occ > occupied_thresh``, 0 if     100 if ``occ >= occupied_thresh``, 0 if
+              ``occ < free_thresh``, else -1             ``occ <= free_thresh`` (float32), else -1
+scale         -1 if ``A`` is not opaque; else as         as trinary; strictly in between
+              trinary; in between ``rint(100 (occ -      ``round(100 (occ - free) / (occupied - free))``
+              free) / (occupied - free))`` (half even)   in float32, halves away from zero
+alpha         trinary: in the mean; scale: see above     any pixel with 8-bit alpha < 255 is -1, in
+                                                         trinary and scale
+raw           ``v = round(255 shade)``; v if v <= 100,   ``g`` if ``g <= 100``, else -1
+              else -1 (no alpha, negate ignored)         (no alpha, negate ignored)
+============  =========================================  ==============================================
 
-Per mode, Nav2's cell value (:func:`nav2_cell_values`) and beliefloc's :class:`Occupancy`
-(:func:`classify_pixels`):
+So, with thresholds 0.2 / 0.6, a grey of 102 (``occ = 0.6``) is occupied under Jazzy and unknown
+under Humble; an opaque-ish white pixel (alpha 254) is free under Humble's trinary (the alpha
+barely moves the mean) and unknown under Jazzy; a pure red pixel has Humble's shade 1/3 (occ 0.67)
+and Jazzy's luma 76 (occ 0.70).
 
-- **trinary**: Nav2 100 if ``occ > occupied_thresh``, 0 if ``occ < free_thresh``, else -1;
-  beliefloc OCCUPIED / FREE / UNKNOWN the same (but see the saver's unknown grey below).
-- **scale** (alpha not in the mean): Nav2 -1 if the pixel is not fully opaque, else 100 / 0 by the
-  thresholds as in trinary, else ``rint(100 (occ - free_thresh) / (occupied_thresh - free_thresh))``;
-  beliefloc UNKNOWN where not opaque, OCCUPIED / FREE by the thresholds, UNKNOWN in between: a pixel
-  the map is unsure of is neither a place the robot can be nor a clear line of sight.
-- **raw** (no alpha, ``negate`` ignored, as in Nav2): ``v = round(255 shade)``, the value painted;
-  Nav2 v if v <= 100, else -1; beliefloc UNKNOWN if v > 100 (map_saver writes 255 for unknown), else
-  with ``p = v / 100``: OCCUPIED if ``p > occupied_thresh``, FREE if ``p < free_thresh``, else UNKNOWN.
+beliefloc's :class:`Occupancy` of a pixel (:func:`classify_pixels`) follows the release's
+thresholds: OCCUPIED where Nav2 writes 100 by the occupied threshold, FREE where it writes 0 by the
+free threshold, UNKNOWN everywhere else -- in scale mode also the pixels in between (a pixel the
+map is unsure of is neither a place the robot can be nor a clear line of sight). In raw mode
+(Nav2 has no thresholds there) a value ``v <= 100`` is read as ``p = v / 100`` against the
+thresholds with the release's comparisons; 101..255 (map_saver writes 255 for unknown) is UNKNOWN.
+:func:`nav2_cell_values` gives Nav2's cell values themselves.
 
-**The saver's unknown grey** (rule :attr:`OccupancyRule.BELIEFLOC`, the default). ``map_saver``
-writes unknown space as grey 205, whose ``occ = 1 - 205/255 = 0.196...``; any ``free_thresh`` above
-that -- Nav2's default 0.25, the depot's -- makes Nav2 load unknown space as *free*. A robot is never
-in space its map does not know, so in **trinary** mode a pixel whose three colour channels all equal
-the saver's unknown grey (205 at 8 bits, quantum 52685; with ``negate: 1`` its mirror 50, quantum
-12850, which has the same ``occ``) and which Nav2 reads as FREE is UNKNOWN instead; their number is
-given in a warning. Nothing else changes: no other shade, no scale or raw image (scale marks unknown
-by transparency, raw by 255). :attr:`OccupancyRule.NAV2` keeps Nav2's reading exactly.
+**The saver's unknown grey** (rule :attr:`OccupancyRule.BELIEFLOC`, the default: Nav2 Jazzy's
+reading plus this one change). ``map_saver`` writes unknown space as grey 205, whose
+``occ = 1 - 205/255 = 0.196...``; any ``free_thresh`` above that -- Nav2's default 0.25, the
+depot's -- makes Nav2 load unknown space as *free*. A robot is never in space its map does not
+know, so in **trinary** mode a pixel whose 8-bit grey (Jazzy's ``g``) is the saver's unknown grey
+(205; with ``negate: 1`` its mirror 50, which has the same ``occ``) and which Nav2 reads as FREE is
+UNKNOWN instead; their number is given in a warning. Nothing else changes: no other shade, no
+scale or raw image (scale marks unknown by transparency, raw by 255). ``nav2``, ``nav2-jazzy`` and
+``nav2-humble`` keep Nav2's reading exactly.
 
 **Orientation.** :attr:`OccupancyMap.pixels` keeps the image's order: row 0 is the image's top row,
 the largest y (Nav2 flips it into ``OccupancyGrid.data``, whose row 0 is the bottom).
@@ -96,17 +115,50 @@ _Q8 = 257
 """An 8-bit channel value times this is its 16-bit quantum (255 -> 65535)."""
 SAVER_UNKNOWN_GREY = 205
 """The grey ``map_saver`` writes for unknown space in trinary mode (8-bit)."""
-_READING = "beliefloc.semantic_map.occupancy_map/1"
+_READING = "beliefloc.semantic_map.occupancy_map/2"
 """Changes when the reading rules change, so that a cache keyed on :attr:`OccupancyMap.sha256` misses."""
 
 
+class Nav2Version(str, enum.Enum):
+    """The Nav2 release whose ``nav2_map_server/src/map_io.cpp`` a rule transcribes (see the module's
+    docstring for what differs)."""
+
+    HUMBLE = "humble"
+    """The per-pixel loop (Humble, and every release before the Eigen rewrite)."""
+    JAZZY = "jazzy"
+    """The Eigen version: the current LTS."""
+
+
 class OccupancyRule(str, enum.Enum):
-    """How to read the saver's unknown grey (see the module's docstring)."""
+    """How a map's image is read: which Nav2 release, and whether the saver's grey is unknown."""
 
     BELIEFLOC = "beliefloc"
-    """Nav2's reading, except that the saver's unknown grey is UNKNOWN where Nav2 says FREE."""
-    NAV2 = "nav2"
-    """Exactly Nav2's reading."""
+    """Nav2 Jazzy's reading, except that the saver's unknown grey is UNKNOWN where Nav2 says FREE."""
+    NAV2_HUMBLE = "nav2-humble"
+    """Nav2 Humble's reading, as it is."""
+    NAV2_JAZZY = "nav2-jazzy"
+    """Nav2 Jazzy's reading, as it is. The map file's ``nav2`` names it (the current LTS)."""
+
+    @classmethod
+    def _missing_(cls, value: object) -> OccupancyRule | None:
+        return cls.NAV2_JAZZY if value == NAV2_CURRENT else None
+
+    @property
+    def nav2(self) -> Nav2Version:
+        """The Nav2 release whose reading this rule follows (or starts from)."""
+        return Nav2Version.HUMBLE if self is OccupancyRule.NAV2_HUMBLE else Nav2Version.JAZZY
+
+
+NAV2_CURRENT = "nav2"
+"""The rule name that means the current Nav2 LTS: ``OccupancyRule("nav2")`` is
+:attr:`OccupancyRule.NAV2_JAZZY` (it meant Humble's reading before both were named; see docs/map-format.md)."""
+RULE_NAMES = (
+    OccupancyRule.BELIEFLOC.value,
+    NAV2_CURRENT,
+    OccupancyRule.NAV2_HUMBLE.value,
+    OccupancyRule.NAV2_JAZZY.value,
+)
+"""Every name a map file's ``occupancy_rule`` takes."""
 
 
 class Occupancy(enum.IntEnum):
@@ -277,7 +329,7 @@ class OccupancyMap:
 
 
 def pixel_shade(colour: np.ndarray, alpha: np.ndarray | None, *, with_alpha: bool) -> np.ndarray:
-    """``shade[i, j] = mean(q_R, q_G, q_B [, A]) / 65535`` in [0, 1], as Nav2 computes it.
+    """Humble: ``shade[i, j] = mean(q_R, q_G, q_B [, A]) / 65535`` in [0, 1], as its loop computes it.
 
     ``colour[i, j, c]``: 16-bit quanta, ``c`` one grey channel (counted as R = G = B) or R, G, B;
     ``alpha[i, j]``: 16-bit alpha (65535 opaque) or None; ``with_alpha``: average it in (trinary)."""
@@ -292,59 +344,149 @@ def pixel_shade(colour: np.ndarray, alpha: np.ndarray | None, *, with_alpha: boo
     return shade
 
 
-def _occ(colour: np.ndarray, alpha: np.ndarray | None, params: MapYaml) -> np.ndarray:
-    shade = pixel_shade(colour, alpha, with_alpha=params.mode is MapMode.TRINARY)
-    return shade if params.negate else 1.0 - shade
+def jazzy_grey(colour: np.ndarray) -> np.ndarray:
+    """Jazzy: ``grey[i, j]`` in 0..255 (uint8), the 8-bit intensity GraphicsMagick hands Nav2.
+
+    ``gray.type(GrayscaleType)`` turns a colour pixel into its Rec. 601 luma in GraphicsMagick's
+    integer form, ``(306 q_R + 601 q_G + 117 q_B) >> 10`` (``PixelIntensityRec601`` for a 16-bit
+    quantum; a grey pixel keeps its value, 306 + 601 + 117 = 1024), and ``write(..., "I",
+    CharPixel)`` cuts the quantum to 8 bits, ``q / 257`` truncated (``ScaleQuantumToChar``): a 16-bit
+    image loses its low byte before any threshold."""
+    quantum: np.ndarray
+    if colour.shape[2] == 1:
+        quantum = colour[..., 0].astype(np.uint32)
+    else:
+        q = colour.astype(np.uint32)
+        quantum = (q[..., 0] * 306 + q[..., 1] * 601 + q[..., 2] * 117) >> 10
+    grey: np.ndarray = (quantum // _Q8).astype(np.uint8)
+    return grey
 
 
-def _raw_percent(colour: np.ndarray) -> np.ndarray:
-    """Raw mode's ``round(255 shade)`` (half away from zero, as std::round; all values are >= 0)."""
-    return np.floor(pixel_shade(colour, None, with_alpha=False) * 255.0 + 0.5)
+def _half_away_from_zero(x: np.ndarray) -> np.ndarray:
+    """``std::round`` (Eigen's ``round()``) in the array's own precision: halves away from zero."""
+    magnitude = np.abs(x)
+    whole = np.floor(magnitude)
+    rounded = whole + (magnitude - whole >= 0.5)  # the difference is exact in float32
+    result: np.ndarray = np.copysign(rounded, x)
+    return result
 
 
-def nav2_cell_values(colour: np.ndarray, alpha: np.ndarray | None, params: MapYaml) -> np.ndarray:
-    """``value[i, j]`` in -1..100: the ``OccupancyGrid`` cell Nav2's map server publishes for image
-    pixel ``(i, j)`` (row 0 at the top; Nav2 stores it at row ``H - 1 - i``). int16."""
+@dataclass(frozen=True)
+class _Reading:
+    """One rule's reading of an image: Nav2's cell values and beliefloc's classes, and the grey Nav2
+    compared (for the saver's grey)."""
+
+    values: np.ndarray
+    """int16 -1..100: the ``OccupancyGrid`` cell of each pixel (image order)."""
+    occupied: np.ndarray
+    free: np.ndarray
+    """bool masks; neither: UNKNOWN."""
+    saver_grey: np.ndarray | None
+    """bool: the pixel is the saver's unknown grey as this Nav2 reads it (trinary only), else None."""
+
+
+def _read_humble(colour: np.ndarray, alpha: np.ndarray | None, params: MapYaml) -> _Reading:
+    """Nav2 Humble's ``loadMapFromFile`` loop, vectorised: the mean of the 16-bit channels (alpha
+    averaged in by trinary), strict thresholds (``occupied_thresh < occ``, ``occ < free_thresh``)
+    in float64; scale: not fully opaque -> -1, in between ``std::rint`` (half to even); raw:
+    ``std::round(255 shade)``, alpha ignored."""
     shape = colour.shape[:2]
     if params.mode is MapMode.RAW:
-        percent = _raw_percent(colour)
-        return np.where(percent <= 100.0, percent, -1.0).astype(np.int16)
-    occ = _occ(colour, alpha, params)
+        percent = np.floor(pixel_shade(colour, None, with_alpha=False) * 255.0 + 0.5)  # std::round, >= 0
+        known = percent <= 100.0
+        values = np.where(known, percent, -1.0).astype(np.int16)
+        # beliefloc's reading of a raw percentage p = v / 100, with Humble's strict comparisons
+        occupied = known & (percent / 100.0 > params.occupied_thresh)
+        free = known & (percent / 100.0 < params.free_thresh)
+        return _Reading(values, occupied, free, None)
+    shade = pixel_shade(colour, alpha, with_alpha=params.mode is MapMode.TRINARY)
+    occ = shade if params.negate else 1.0 - shade
+    occupied = occ > params.occupied_thresh
+    free = occ < params.free_thresh
     values = np.full(shape, -1, dtype=np.int16)
     if params.mode is MapMode.SCALE:
         between = (occ - params.free_thresh) / (params.occupied_thresh - params.free_thresh) * 100.0
         values = np.clip(np.rint(between), 0.0, 100.0).astype(np.int16)  # in between: 0..100
-    values[occ > params.occupied_thresh] = 100
-    values[occ < params.free_thresh] = 0
-    if params.mode is MapMode.SCALE and alpha is not None:
-        values[alpha != _FULL] = -1
-    return values
+    values[occupied] = 100
+    values[free] = 0
+    saver_grey = None
+    if params.mode is MapMode.SCALE:
+        if alpha is not None:
+            opaque = alpha == _FULL
+            values[~opaque] = -1
+            occupied &= opaque
+            free &= opaque
+    else:
+        grey = (255 - SAVER_UNKNOWN_GREY if params.negate else SAVER_UNKNOWN_GREY) * _Q8
+        saver_grey = np.all(colour == grey, axis=2)
+    return _Reading(values, occupied, free, saver_grey)
+
+
+def _read_jazzy(colour: np.ndarray, alpha: np.ndarray | None, params: MapYaml) -> _Reading:
+    """Nav2 Jazzy's ``loadMapFromFile`` (the Eigen version), transcribed: one 8-bit grey per pixel
+    (:func:`jazzy_grey`); trinary and scale: ``occ = grey / 255`` in float32 (``1 - `` it unless
+    ``negate``), inclusive thresholds in float32 (``occ >= occupied_thresh`` -> 100, then
+    ``occ <= free_thresh`` -> 0), scale: strictly between them ``round(100 (occ - free) / (occupied
+    - free))`` in float32, halves away from zero; then every pixel whose 8-bit alpha is below 255
+    -> -1, in trinary and scale alike. Raw: the grey itself if at most 100, else -1 (alpha
+    ignored)."""
+    grey = jazzy_grey(colour)
+    if params.mode is MapMode.RAW:
+        known = grey <= 100
+        values = np.where(known, grey.astype(np.int16), np.int16(-1)).astype(np.int16)
+        # beliefloc's reading of a raw percentage p = v / 100, with Jazzy's inclusive comparisons
+        percent = grey.astype(np.float64) / 100.0
+        return _Reading(
+            values, known & (percent >= params.occupied_thresh), known & (percent <= params.free_thresh), None
+        )
+    occ = grey.astype(np.float32) / np.float32(255.0)
+    if not params.negate:
+        occ = np.float32(1.0) - occ
+    occupied_thresh, free_thresh = np.float32(params.occupied_thresh), np.float32(params.free_thresh)
+    occupied = occ >= occupied_thresh
+    free = occ <= free_thresh
+    values = np.full(grey.shape, -1, dtype=np.int16)
+    values[occupied] = 100
+    values[free] = 0
+    if params.mode is MapMode.SCALE:
+        between = (occ > free_thresh) & (occ < occupied_thresh)
+        span = np.float32(params.occupied_thresh - params.free_thresh)  # a double difference, then float
+        scaled = ((occ - free_thresh) / span) * np.float32(100.0)
+        values[between] = _half_away_from_zero(scaled[between]).astype(np.int16)
+    if alpha is not None:
+        transparent = (alpha // _Q8) < 255
+        values[transparent] = -1
+        occupied &= ~transparent
+        free &= ~transparent
+    saver = 255 - SAVER_UNKNOWN_GREY if params.negate else SAVER_UNKNOWN_GREY
+    saver_grey = grey == saver if params.mode is MapMode.TRINARY else None
+    return _Reading(values, occupied, free, saver_grey)
+
+
+_READERS = {Nav2Version.HUMBLE: _read_humble, Nav2Version.JAZZY: _read_jazzy}
+
+
+def nav2_cell_values(
+    colour: np.ndarray, alpha: np.ndarray | None, params: MapYaml, version: Nav2Version = Nav2Version.JAZZY
+) -> np.ndarray:
+    """``value[i, j]`` in -1..100: the ``OccupancyGrid`` cell Nav2 ``version``'s map server publishes
+    for image pixel ``(i, j)`` (row 0 at the top; Nav2 stores it at row ``H - 1 - i``). int16."""
+    return _READERS[version](colour, alpha, params).values
 
 
 def classify_pixels(
     colour: np.ndarray, alpha: np.ndarray | None, params: MapYaml, rule: OccupancyRule
 ) -> tuple[np.ndarray, int]:
     """``(pixels, reclassified)``: the :class:`Occupancy` (uint8) of every pixel by the module's
-    table, and how many pixels of the saver's unknown grey the rule turned from FREE to UNKNOWN."""
-    shape = colour.shape[:2]
-    pixels = np.full(shape, Occupancy.UNKNOWN, dtype=np.uint8)
-    if params.mode is MapMode.RAW:
-        percent = _raw_percent(colour)
-        known = percent <= 100.0
-        pixels[known & (percent / 100.0 > params.occupied_thresh)] = Occupancy.OCCUPIED
-        pixels[known & (percent / 100.0 < params.free_thresh)] = Occupancy.FREE
+    table under ``rule``, and how many pixels of the saver's unknown grey the rule turned from FREE
+    to UNKNOWN (only :attr:`OccupancyRule.BELIEFLOC` does)."""
+    reading = _READERS[rule.nav2](colour, alpha, params)
+    pixels = np.full(colour.shape[:2], Occupancy.UNKNOWN, dtype=np.uint8)
+    pixels[reading.occupied] = Occupancy.OCCUPIED
+    pixels[reading.free] = Occupancy.FREE
+    if rule is not OccupancyRule.BELIEFLOC or reading.saver_grey is None:
         return pixels, 0
-    occ = _occ(colour, alpha, params)
-    pixels[occ > params.occupied_thresh] = Occupancy.OCCUPIED
-    pixels[occ < params.free_thresh] = Occupancy.FREE
-    if params.mode is MapMode.SCALE:
-        if alpha is not None:
-            pixels[alpha != _FULL] = Occupancy.UNKNOWN
-        return pixels, 0
-    if rule is OccupancyRule.NAV2:
-        return pixels, 0
-    grey = (255 - SAVER_UNKNOWN_GREY if params.negate else SAVER_UNKNOWN_GREY) * _Q8
-    saver_unknown = np.all(colour == grey, axis=2) & (pixels == Occupancy.FREE)
+    saver_unknown = reading.saver_grey & reading.free
     pixels[saver_unknown] = Occupancy.UNKNOWN
     return pixels, int(np.count_nonzero(saver_unknown))
 
@@ -367,7 +509,7 @@ def load_occupancy(path: str | Path, *, rule: OccupancyRule = OccupancyRule.BELI
         occ = 1.0 - SAVER_UNKNOWN_GREY / 255.0
         notes.append(
             f"{reclassified} pixels of map_saver's unknown grey {grey} read as unknown, not free as Nav2 reads "
-            f"them (occ {occ:.3f} < free_thresh {params.free_thresh:g}); occupancy_rule: nav2 in the map file "
+            f"them (occ {occ:.3f} <= free_thresh {params.free_thresh:g}); occupancy_rule: nav2 in the map file "
             "keeps Nav2's reading"
         )
     digest = hashlib.sha256()
@@ -386,8 +528,9 @@ def load_occupancy(path: str | Path, *, rule: OccupancyRule = OccupancyRule.BELI
 
 
 def load_region_mask(path: str | Path, like: OccupancyMap) -> np.ndarray:
-    """``region[i, j]``: the value Nav2's map server publishes for pixel ``(i, j)`` of a region mask
-    (row 0 at the top, int16 in -1..100); with ``mode: raw`` the grey value painted, 1..100 (101..255
+    """``region[i, j]``: the value Nav2's map server publishes for pixel ``(i, j)`` of a region mask,
+    read as the Nav2 release ``like``'s rule follows reads it (row 0 at the top, int16 in -1..100);
+    with ``mode: raw`` the grey value painted, 1..100 (101..255
     read -1). The mask must have the size, resolution and origin of ``like``: else an
     :class:`OccupancyMapError` names both files and the field that differs."""
     source, params, _ = _read_yaml(path)
@@ -406,7 +549,7 @@ def load_region_mask(path: str | Path, like: OccupancyMap) -> np.ndarray:
             )
     image_path = _image_path(source, params)
     _, colour, alpha = _read_image(image_path, source, size=(like.width, like.height), size_of=like.image_path, why=why)
-    return nav2_cell_values(colour, alpha, params)
+    return nav2_cell_values(colour, alpha, params, like.rule.nav2)
 
 
 def _read_yaml(path: str | Path) -> tuple[Source, MapYaml, list[str]]:

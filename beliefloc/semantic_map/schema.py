@@ -68,9 +68,10 @@ class SemanticMap(StrictModel):
     occupancy: str | None = None
     """A ROS/Nav2 occupancy map (its YAML file, relative to this one) instead of a ``layout``: the
     grid's rows, columns, free cells and frame come from it (:mod:`beliefloc.semantic_map.occupancy_map`)."""
-    occupancy_rule: Literal["beliefloc", "nav2"] = "beliefloc"
-    """``beliefloc``: the saver's unknown grey is unknown even where Nav2's ``free_thresh`` would call
-    it free; ``nav2``: Nav2's reading exactly."""
+    occupancy_rule: Literal["beliefloc", "nav2", "nav2-humble", "nav2-jazzy"] = "beliefloc"
+    """``beliefloc``: Nav2 Jazzy's reading, but the saver's unknown grey is unknown even where Nav2's
+    ``free_thresh`` would call it free; ``nav2-humble`` / ``nav2-jazzy``: that Nav2 release's reading
+    exactly; ``nav2``: the current Nav2 LTS's, Jazzy (see :mod:`beliefloc.semantic_map.occupancy_map`)."""
     grid: Grid
     layout: str | None = None
     landmarks: list[Landmark] = Field(default_factory=list)
