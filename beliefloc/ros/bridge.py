@@ -161,7 +161,7 @@ def check_map(binner: ReadingBinner, settings: BridgeSettings) -> GridLayout:
 def likely_states(belief: np.ndarray, mass: float = BELIEF_MASS, limit: int = BELIEF_POSES) -> np.ndarray:
     """The likeliest states, most likely first, that together hold ``mass`` (at most ``limit``)."""
     order = np.argsort(-belief, kind="stable")
-    count = int(np.searchsorted(np.cumsum(belief[order]), mass * float(belief.sum()))) + 1
+    count = int(np.searchsorted(np.cumsum(belief[order]), mass * float(belief.sum()) - 1e-12)) + 1
     chosen: np.ndarray = order[: max(1, min(count, limit))]
     return chosen
 
@@ -365,7 +365,7 @@ class RosbridgeRobot:
                 if goal.done_fraction(progress) < STUCK_FRACTION:
                     raise ReplyError(
                         f"the robot did not move {during}: its odometry on {s.odom_topic} covered "
-                        f"{max(goal.done_fraction(progress), 0.0):.0%} of the {what} in {s.motion_timeout:g} s "
+                        f"{max(goal.done_fraction(progress), 0.0) + 0.0:.0%} of the {what} in {s.motion_timeout:g} s "
                         f"(--motion-timeout): is the base stuck, its motors off, or {s.cmd_vel_topic} not the "
                         "topic it obeys?"
                     )
