@@ -30,7 +30,7 @@ from .conftest import MAPS, ROOT
 pytest.importorskip("websockets")
 pytest.importorskip("roslibpy")
 
-from .fake_rosbridge import Faults, FakeRosbridge, kitchen_server  # noqa: E402
+from .fake_rosbridge import FakeRosbridge, Faults, kitchen_server
 
 ZERO = {"linear": {"x": 0.0, "y": 0.0, "z": 0.0}, "angular": {"x": 0.0, "y": 0.0, "z": 0.0}}
 
@@ -93,7 +93,7 @@ def test_returns_outside_the_range_limits_follow_rep_117() -> None:
 
 def test_a_beam_outside_the_scan_is_refused_with_the_scan_s_coverage() -> None:
     scan = parse_scan(_scan_body(angle_min=-0.5, angle_increment=0.5, ranges=[1.0, 1.0, 1.0]), "/scan")
-    with pytest.raises(ReplyError, match="beam at 90° .* outside the scan, which covers -28.65° to 28.65°"):
+    with pytest.raises(ReplyError, match=r"beam at 90° .* outside the scan, which covers -28\.65° to 28\.65°"):
         beam_ranges(scan, [math.pi / 2], (0.0, 0.0, 0.0), "/scan")
 
 
@@ -109,7 +109,7 @@ def test_odometry_gives_the_yaw_of_its_quaternion() -> None:
     assert (odometry.frame_id, odometry.child_frame_id, odometry.stamp_ns) == ("odom", "base_footprint", 1_000_000_002)
     assert odometry.pose == pytest.approx((1.0, -2.0, yaw))
     body["pose"]["pose"]["orientation"] = {"x": 0.0, "y": 0.0, "z": 0.0, "w": 0.0}
-    with pytest.raises(ReplyError, match="topic /odom: 'pose.pose.orientation' is not a unit quaternion"):
+    with pytest.raises(ReplyError, match=r"topic /odom: 'pose\.pose\.orientation' is not a unit quaternion"):
         parse_odometry(body, "/odom")
 
 
@@ -125,7 +125,7 @@ def test_detections_in_both_shapes() -> None:
     assert parse_detections(vision, "/d", "vision_msgs/Detection2DArray") == ["screen", "chair"]
     assert parse_detections({"data": "chair, screen chair"}, "/d", "std_msgs/String") == ["chair", "screen"]
     assert parse_detections({"data": ""}, "/d", "std_msgs/String") == []
-    with pytest.raises(ReplyError, match="topic /d: 'detections\\[0\\].results'"):
+    with pytest.raises(ReplyError, match=r"topic /d: 'detections\[0\]\.results'"):
         parse_detections({"detections": [{}]}, "/d", "vision_msgs/Detection2DArray")
 
 
@@ -198,9 +198,9 @@ def _binner(name: str) -> ReadingBinner:
 
 
 def test_maps_the_link_cannot_drive_are_refused_before_connecting() -> None:
-    with pytest.raises(UsageError, match="1 heading.*up/down/left/right"):
+    with pytest.raises(UsageError, match=r"1 heading.*up/down/left/right"):
         check_map(_binner("window-2x2"), BridgeSettings(detections_topic="/d"))
-    with pytest.raises(UsageError, match="8 heading.*diagonal"):
+    with pytest.raises(UsageError, match=r"8 heading.*diagonal"):
         check_map(_binner("hallway"), BridgeSettings(detections_topic="/d"))
     with pytest.raises(UsageError, match="Look sensor \\('look'\\): give --detections-topic"):
         check_map(_binner("kitchen"), BridgeSettings())
@@ -338,9 +338,9 @@ def test_a_dropped_connection_ends_the_session_and_the_stop_goes_out_after_recon
 
 
 def test_a_server_that_is_not_there_is_a_one_paragraph_error(runner: Any) -> None:
-    from beliefloc.cli.app import app
-
     import socket
+
+    from beliefloc.cli.app import app
 
     with socket.socket() as probe:  # a port nobody listens on
         probe.bind(("127.0.0.1", 0))
