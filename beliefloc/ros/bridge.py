@@ -472,8 +472,7 @@ class RoslibpyLink:
         try:
             self._ros.run(timeout=timeout)
         except Exception as exc:  # roslibpy raises a plain Exception on a timeout
-            self._closing = True
-            self._ros.close()
+            self.close()
             raise ReplyError(f"could not connect to rosbridge at {url} within {timeout:g} s ({exc})") from None
 
     def _tell(self, up: bool) -> None:
@@ -504,6 +503,11 @@ class RoslibpyLink:
         self._topics[topic].publish(self._roslibpy.Message(dict(body)))
 
     def close(self) -> None:
+        """Close the connection and stop reconnecting (roslibpy's factory retries a connection that
+        never came up, or that dropped, until it is told not to)."""
         self._closing = True
-        with suppress(Exception):
+        with suppress(Exception):  # closing a link that is already gone
+            from twisted.internet import reactor
+
+            reactor.callFromThread(self._ros.factory.stopTrying)
             self._ros.close()
