@@ -393,3 +393,68 @@ def test_sigterm_and_ctrl_c_stop_the_robot_before_exiting(
         assert f"interrupted by {sig.name} before localization ended" in " ".join(err.split())
         assert "Traceback" not in err
         _assert_stopped(fake)
+
+
+# --- one action on the live link ----------------------------------------------------------------
+
+
+def _link_robot(fake: FakeRosbridge, binner: ReadingBinner) -> Any:
+    from beliefloc.ros.bridge import RosbridgeRobot, RoslibpyLink
+
+    settings = BridgeSettings(detections_topic="/detections", settle=0.05, timeout=2.0, motion_timeout=5.0)
+    return RosbridgeRobot(binner, RoslibpyLink(fake.url, 2.0), settings)
+
+
+@pytest.mark.parametrize(
+    ("server", "action", "moved"),
+    [
+        ({"state": "1,1,1"}, "forward", (1.2, 0.0, 0.0)),  # east, into the free cell 1,2
+        ({"state": "1,1,1"}, "rotate_ccw", (0.0, 0.0, math.pi / 2)),  # east to north
+        ({"state": "1,1,1"}, "rotate_cw", (0.0, 0.0, -math.pi / 2)),
+        ({"state": "1,1,1"}, "backward", (-1.2, 0.0, 0.0)),
+    ],
+    indirect=["server"],
+)
+def test_a_move_is_driven_to_its_goal_on_odometry(
+    server: FakeRosbridge, kitchen: tuple[Model, ReadingBinner], action: str, moved: tuple[float, float, float]
+) -> None:
+    from beliefloc.continuous.motion import relative
+    from beliefloc.robots.localize import Command
+    from beliefloc.robots.odometry import MotionReport
+
+    model, binner = kitchen
+    robot = _link_robot(server, binner)
+    try:
+        before = server.robot.odometry.copy()
+        readings = robot.act(Command(1, model.action(action), None, None))
+        assert set(readings) == set()  # the kitchen has no passive sensor
+        assert robot.motion_report() == MotionReport(None, False)
+        done = relative(before, server.robot.odometry)
+        assert done[:2] == pytest.approx(moved[:2], abs=0.03)  # the controller's tolerance and one late step
+        assert math.remainder(done[2] - moved[2], 2 * math.pi) == pytest.approx(0.0, abs=math.radians(3))
+        _assert_stopped(server)
+    finally:
+        robot.link.close()
+
+
+@pytest.mark.parametrize("server", [{"state": "0,1,0"}], indirect=True)  # north, 0.6 m from the north wall
+def test_a_drive_stopped_by_an_obstacle_drives_back_and_reports_blocked(
+    server: FakeRosbridge, kitchen: tuple[Model, ReadingBinner]
+) -> None:
+    from beliefloc.robots.localize import Command
+    from beliefloc.robots.odometry import MotionReport
+
+    model, binner = kitchen
+    robot = _link_robot(server, binner)
+    try:
+        start = server.robot.pose.copy()
+        robot.act(Command(1, model.action("forward"), None, None))
+        assert robot.motion_report() == MotionReport(None, True)
+        driven = [c["linear"]["x"] for c in server.messages("/cmd_vel")]
+        assert max(driven) > 0 and min(driven) < 0  # there, and back
+        assert server.robot.pose[:2] == pytest.approx(start[:2], abs=0.03)
+        _assert_stopped(server)
+        scan = robot.act(Command(2, model.action("scan"), None, None))["scan"]
+        assert scan == [pytest.approx(0.6, abs=0.05)]  # the wall, from the cell's centre again
+    finally:
+        robot.link.close()
