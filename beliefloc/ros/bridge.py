@@ -293,11 +293,12 @@ class RosbridgeRobot:
             self._report = self._move(wanted, during)
         settled = time.monotonic()
         readings: dict[str, RawReading] = {}
-        for slot in self.binner.sensors(action):
+        described = self.binner.describe(action)  # the beams in radians, counter-clockwise (REP 103)
+        for slot, description in zip(self.binner.sensors(action), described, strict=True):
             sensor = slot.sensor
             if isinstance(sensor, ScanSensor):
-                beams = [0.0 - math.radians(b) for b in sensor.beams]
                 scan = self._scan(settled, during)
+                beams = [float(b) for b in description["beams"]]
                 readings[slot.name] = beam_ranges(scan, beams, self.settings.laser_mount, self.settings.scan_topic)
             elif isinstance(sensor, LookSensor):
                 topic = self.settings.detections_topic
