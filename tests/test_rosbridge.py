@@ -291,6 +291,12 @@ def test_a_session_localizes_the_simulated_robot_and_publishes_its_pose(
     _assert_stopped(server)
     subscribed = {op["topic"] for op in server.ops if op["op"] == "subscribe"}
     assert subscribed == {"/scan", "/odom", "/detections"}
+    advertised = {(op["topic"], op["type"]) for op in server.ops if op["op"] == "advertise"}
+    assert advertised == {
+        ("/cmd_vel", "geometry_msgs/Twist"),
+        ("/beliefloc/belief", "geometry_msgs/PoseArray"),
+        ("/initialpose", "geometry_msgs/PoseWithCovarianceStamped"),
+    }
 
 
 @pytest.mark.parametrize("server", [{"faults": Faults(silent=frozenset({"/scan"}))}], indirect=True)
