@@ -464,3 +464,42 @@ def test_a_drive_stopped_by_an_obstacle_drives_back_and_reports_blocked(
         assert scan == [pytest.approx(0.6, abs=0.05)]  # the wall, from the cell's centre again
     finally:
         robot.link.close()
+
+
+class _DeadLink:
+    """A link whose connection is gone and does not come back."""
+
+    url = "ws://robot:9090"
+    connected = False
+
+    def __init__(self) -> None:
+        self.published: list[tuple[str, Any]] = []
+
+    def subscribe(self, topic: str, message_type: str, callback: Any) -> None:
+        pass
+
+    def advertise(self, topic: str, message_type: str) -> None:
+        pass
+
+    def publish(self, topic: str, body: Any) -> None:
+        self.published.append((topic, body))
+
+    def on_connection(self, callback: Any) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
+def test_a_stop_that_cannot_be_sent_is_said_in_the_error(kitchen: tuple[Model, ReadingBinner]) -> None:
+    from beliefloc.ros.bridge import RosbridgeRobot, stopped
+
+    _, binner = kitchen
+    link = _DeadLink()
+    robot = RosbridgeRobot(binner, link, BridgeSettings(detections_topic="/d", timeout=0.1))
+    said = r"^topic /odom: gone; the robot could not be told to stop: the connection to ws://robot:9090 did not come"
+    with pytest.raises(ReplyError, match=said), stopped(robot):
+        raise ReplyError("topic /odom: gone")
+    assert link.published == []  # nothing was sent into a dead connection
+    with pytest.raises(ReplyError, match=r"^The robot could not be told to stop"), stopped(robot):
+        pass
