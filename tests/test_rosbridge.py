@@ -364,6 +364,7 @@ def test_a_server_that_is_not_there_is_a_one_paragraph_error(runner: Any) -> Non
         (["--rosbridge", "ws://robot:9090", "--laser-frame", "laser"], "--laser-frame and --laser-pose go together"),
         (["--rosbridge", "ws://robot:9090", "--laser-frame", "l", "--laser-pose", "1,2"], "--laser-pose '1,2'"),
         (["--rosbridge", "ws://robot:9090", "--detections-type", "std_msgs/Int8"], "--detections-type"),
+        (["--scan-topic", "/base_scan"], "--scan-topic is an option of the live link: give --rosbridge"),
     ],
 )
 def test_bad_link_options_are_refused(runner: Any, extra: list[str], message: str) -> None:

@@ -194,6 +194,25 @@ def localize(
     from beliefloc.simulation.strategies import EpisodeStatus, PlannerSettings
 
     chosen = resolve_heuristic(planner, heuristic, h_weight)
+    from beliefloc.cli import localize_ros
+
+    link = localize_ros.bridge_settings(
+        rosbridge,
+        scan_topic=scan_topic,
+        odom_topic=odom_topic,
+        cmd_vel_topic=cmd_vel_topic,
+        detections_topic=detections_topic,
+        detections_type=detections_type,
+        laser_frame=laser_frame,
+        laser_pose=laser_pose,
+        robot_radius=robot_radius,
+        margin=margin,
+        max_speed=max_speed,
+        max_turn=max_turn_speed,
+        motion_timeout=motion_timeout,
+        settle=settle,
+        ros_timeout=ros_timeout,
+    )
     if belief_out is not None:
         from beliefloc.source import file_kinds
 
@@ -228,23 +247,7 @@ def localize(
     if rosbridge is not None:
         from beliefloc.cli import localize_ros
 
-        link = localize_ros.bridge_settings(
-            scan_topic=scan_topic,
-            odom_topic=odom_topic,
-            cmd_vel_topic=cmd_vel_topic,
-            detections_topic=detections_topic,
-            detections_type=detections_type,
-            laser_frame=laser_frame,
-            laser_pose=laser_pose,
-            robot_radius=robot_radius,
-            map_radius=smap.grid.robot_radius,
-            margin=margin,
-            max_speed=max_speed,
-            max_turn=max_turn_speed,
-            motion_timeout=motion_timeout,
-            settle=settle,
-            ros_timeout=ros_timeout,
-        )
+        link = localize_ros.with_map_radius(link, robot_radius, smap.grid.robot_radius)
         outcome = localize_ros.run(rosbridge, link, model, start, binner, settings, max_steps, on_step)
     else:
         robot = LineRobot(binner, _timed_reader(reply_timeout), _write_line, source="stdin")

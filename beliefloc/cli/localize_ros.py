@@ -10,6 +10,7 @@ import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, Annotated, Any
+from urllib.parse import urlsplit
 
 import typer
 
@@ -170,6 +171,7 @@ def parse_laser_pose(text: str) -> tuple[float, float, float]:
 
 
 def bridge_settings(
+    url: str | None,
     *,
     scan_topic: str,
     odom_topic: str,
@@ -179,19 +181,35 @@ def bridge_settings(
     laser_frame: str | None,
     laser_pose: str | None,
     robot_radius: float | None,
-    map_radius: float | None,
     margin: float,
     max_speed: float,
     max_turn: float,
     motion_timeout: float,
     settle: float,
     ros_timeout: float,
-) -> BridgeSettings:
-    """The options as :class:`~beliefloc.ros.bridge.BridgeSettings`, checked together."""
+) -> BridgeSettings | None:
+    """The options as :class:`~beliefloc.ros.bridge.BridgeSettings`, checked together (before the
+    map is read); None without ``--rosbridge``, when a link option given is a usage error."""
+    given = {
+        "--scan-topic": scan_topic != "/scan",
+        "--odom-topic": odom_topic != "/odom",
+        "--cmd-vel-topic": cmd_vel_topic != "/cmd_vel",
+        "--detections-topic": detections_topic is not None,
+        "--laser-frame": laser_frame is not None,
+        "--laser-pose": laser_pose is not None,
+        "--robot-radius": robot_radius is not None,
+    }
+    if url is None:
+        used = [name for name, set_ in given.items() if set_]
+        if used:
+            raise UsageError(f"{used[0]} is an option of the live link: give --rosbridge ws://HOST:PORT too")
+        return None
     from beliefloc.ros.bridge import BridgeSettings
     from beliefloc.ros.motion_control import MotionLimits
     from beliefloc.ros.sensors import DETECTION_TYPES
 
+    if urlsplit(url).scheme not in ("ws", "wss"):
+        raise UsageError(f"--rosbridge {url!r}: give rosbridge's websocket as ws://HOST:PORT, e.g. ws://robot:9090")
     if (laser_frame is None) != (laser_pose is None):
         raise UsageError(
             "--laser-frame and --laser-pose go together: the frame the scan is in and where that frame sits on the "
@@ -213,13 +231,24 @@ def bridge_settings(
         detections_type=detections_type,
         laser_frame=laser_frame.lstrip("/") if laser_frame is not None else None,
         laser_mount=parse_laser_pose(laser_pose) if laser_pose is not None else (0.0, 0.0, 0.0),
-        robot_radius=robot_radius if robot_radius is not None else (map_radius or 0.2),
+        robot_radius=robot_radius if robot_radius is not None else BridgeSettings.robot_radius,
         margin=margin,
         limits=limits,
         motion_timeout=motion_timeout,
         settle=settle,
         timeout=ros_timeout,
     )
+
+
+def with_map_radius(settings: BridgeSettings | None, option: float | None, map_radius: float | None) -> BridgeSettings:
+    """``settings`` with the map's ``grid.robot_radius`` for the obstacle stop, unless --robot-radius
+    gave one."""
+    import dataclasses
+
+    assert settings is not None
+    if option is None and map_radius is not None:
+        return dataclasses.replace(settings, robot_radius=float(map_radius))
+    return settings
 
 
 @contextmanager
