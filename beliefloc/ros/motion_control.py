@@ -25,6 +25,8 @@ import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 
+import numpy as np
+
 from beliefloc.errors import InvalidValueError
 
 
@@ -91,14 +93,14 @@ def velocity(goal: Goal, progress: tuple[float, float, float], limits: MotionLim
     return 0.0, sign * turn
 
 
-def obstacle_ahead(points: Iterable[tuple[float, float]], forward: bool, radius: float, margin: float) -> float | None:
-    """The distance of the nearest scan point (base frame) in the corridor the base drives into
-    next (see the module), or None when it is clear."""
-    nearest = None
-    reach = radius + margin
-    for x, y in points:
-        along = x if forward else -x
-        if 0.0 < along <= reach and abs(y) <= radius:
-            d = math.hypot(x, y)
-            nearest = d if nearest is None else min(nearest, d)
-    return nearest
+def obstacle_ahead(
+    points: np.ndarray | Iterable[tuple[float, float]], forward: bool, radius: float, margin: float
+) -> float | None:
+    """The distance of the nearest scan point (base frame, shape ``(N, 2)``) in the corridor the
+    base drives into next (see the module), or None when it is clear."""
+    xy = np.asarray(list(points) if not isinstance(points, np.ndarray) else points, dtype=np.float64).reshape(-1, 2)
+    along = xy[:, 0] if forward else -xy[:, 0]
+    inside = (along > 0.0) & (along <= radius + margin) & (np.abs(xy[:, 1]) <= radius)
+    if not inside.any():
+        return None
+    return float(np.hypot(xy[inside, 0], xy[inside, 1]).min())

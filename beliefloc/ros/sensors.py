@@ -27,6 +27,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from beliefloc.errors import ReplyError
 
 SCAN_TYPE = "sensor_msgs/LaserScan"
@@ -221,15 +223,13 @@ def beam_ranges(
     return out
 
 
-def base_points(scan: Scan, mount: tuple[float, float, float]) -> list[tuple[float, float]]:
-    """The scan's returns within range as points ``(x, y)`` in the base frame (for the obstacle stop)."""
+def base_points(scan: Scan, mount: tuple[float, float, float]) -> np.ndarray:
+    """The scan's returns within range as points in the base frame, shape ``(N, 2)`` (for the
+    obstacle stop)."""
     mx, my, myaw = mount
-    c, s = math.cos(myaw), math.sin(myaw)
-    points = []
-    for k, r in enumerate(scan.ranges):
-        if not (math.isfinite(r) and scan.range_min <= r <= scan.range_max):
-            continue
-        a = scan.angle(k)
-        lx, ly = r * math.cos(a), r * math.sin(a)
-        points.append((mx + c * lx - s * ly, my + s * lx + c * ly))
+    ranges = np.asarray(scan.ranges, dtype=np.float64)
+    angles = scan.angle_min + scan.angle_increment * np.arange(ranges.size) + myaw
+    keep = np.isfinite(ranges) & (ranges >= scan.range_min) & (ranges <= scan.range_max)
+    r, a = ranges[keep], angles[keep]
+    points: np.ndarray = np.stack([mx + r * np.cos(a), my + r * np.sin(a)], axis=1)
     return points
