@@ -15,6 +15,23 @@ import typer
 from rich.markup import escape
 
 from beliefloc.cli.common import belief_inputs, boundary, check_output, initial_belief, warn
+from beliefloc.cli.localize_ros import (
+    CmdVelTopicOption,
+    DetectionsTopicOption,
+    DetectionsTypeOption,
+    LaserFrameOption,
+    LaserPoseOption,
+    MarginOption,
+    MaxSpeedOption,
+    MaxTurnOption,
+    MotionTimeoutOption,
+    OdomTopicOption,
+    RobotRadiusOption,
+    RosbridgeOption,
+    RosTimeoutOption,
+    ScanTopicOption,
+    SettleOption,
+)
 from beliefloc.cli.options import (
     BeliefOption,
     HeuristicOption,
@@ -130,6 +147,21 @@ def localize(
             show_default=False,
         ),
     ] = None,
+    rosbridge: RosbridgeOption = None,
+    scan_topic: ScanTopicOption = "/scan",
+    odom_topic: OdomTopicOption = "/odom",
+    cmd_vel_topic: CmdVelTopicOption = "/cmd_vel",
+    detections_topic: DetectionsTopicOption = None,
+    detections_type: DetectionsTypeOption = "vision_msgs/Detection2DArray",
+    laser_frame: LaserFrameOption = None,
+    laser_pose: LaserPoseOption = None,
+    robot_radius: RobotRadiusOption = None,
+    margin: MarginOption = 0.1,
+    max_speed: MaxSpeedOption = 0.2,
+    max_turn_speed: MaxTurnOption = 0.6,
+    motion_timeout: MotionTimeoutOption = 30.0,
+    settle: SettleOption = 0.5,
+    ros_timeout: RosTimeoutOption = 10.0,
 ) -> None:
     """Localize a real robot: plan, send it an action, read what it sensed, update, replan when surprised.
 
@@ -140,6 +172,11 @@ def localize(
     look detected, the class a here sensor reads. beliefloc bins them with the map's sensor model. The
     last line is the result: the most likely state and its map-frame pose when localized. Progress goes
     to stderr; stdout carries only protocol lines.
+
+    With --rosbridge ws://HOST:9090 beliefloc drives a ROS robot itself through rosbridge_server
+    (docs/rosbridge.md): each action a short /cmd_vel motion closed on odometry, the scan's beams and
+    a detector's classes as readings, the belief published as a PoseArray and /initialpose when
+    localized; the result line goes to stdout. Whatever ends the session, the robot is told to stop.
 
     Exit code 0 localized; 1 not localized (no plan, gave up, step limit, an impossible observation);
     2 a bad map or option, or a reply that is not valid (the message names the line).
@@ -157,6 +194,25 @@ def localize(
     from beliefloc.simulation.strategies import EpisodeStatus, PlannerSettings
 
     chosen = resolve_heuristic(planner, heuristic, h_weight)
+    from beliefloc.cli import localize_ros
+
+    link = localize_ros.bridge_settings(
+        rosbridge,
+        scan_topic=scan_topic,
+        odom_topic=odom_topic,
+        cmd_vel_topic=cmd_vel_topic,
+        detections_topic=detections_topic,
+        detections_type=detections_type,
+        laser_frame=laser_frame,
+        laser_pose=laser_pose,
+        robot_radius=robot_radius,
+        margin=margin,
+        max_speed=max_speed,
+        max_turn=max_turn_speed,
+        motion_timeout=motion_timeout,
+        settle=settle,
+        ros_timeout=ros_timeout,
+    )
     if belief_out is not None:
         from beliefloc.source import file_kinds
 
@@ -166,7 +222,6 @@ def localize(
     binner = ReadingBinner(smap, model)
     start = initial_belief(model, belief, smap)
     settings = PlannerSettings(threshold, chosen, max_expansions, time_limit, weight=h_weight)
-    robot = LineRobot(binner, _timed_reader(reply_timeout), _write_line, source="stdin")
     err = stderr_console()
 
     def on_step(step: LocalizeStep) -> None:
@@ -189,12 +244,19 @@ def localize(
                 seen += f", expected {escape(action.observation.name(command.expected))}"
         err.print(f"{command.seq}. {escape(action.name)}{seen}; max b = {step.belief.max():.3f}", highlight=False)
 
-    try:
-        outcome = run(model, start, robot, binner, settings=settings, max_steps=max_steps, on_step=on_step)
-    except ReplyError as exc:
-        _try_send(robot, error_message(str(exc)))
-        raise
-    robot.finish(outcome)
+    if rosbridge is not None:
+        from beliefloc.cli import localize_ros
+
+        link = localize_ros.with_map_radius(link, robot_radius, smap.grid.robot_radius)
+        outcome = localize_ros.run(rosbridge, link, model, start, binner, settings, max_steps, on_step)
+    else:
+        robot = LineRobot(binner, _timed_reader(reply_timeout), _write_line, source="stdin")
+        try:
+            outcome = run(model, start, robot, binner, settings=settings, max_steps=max_steps, on_step=on_step)
+        except ReplyError as exc:
+            _try_send(robot, error_message(str(exc)))
+            raise
+        robot.finish(outcome)
     if belief_out is not None:
         _write_belief(belief_out, model, outcome.belief)
     if outcome.localized:
