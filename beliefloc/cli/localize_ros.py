@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import math
 import signal
 import sys
 import threading
@@ -14,6 +13,7 @@ from urllib.parse import urlsplit
 
 import typer
 
+from beliefloc.cli.options import parse_laser_pose
 from beliefloc.errors import ReplyError, UsageError
 
 if TYPE_CHECKING:
@@ -153,21 +153,6 @@ RosTimeoutOption = Annotated[
         rich_help_panel=PANEL,
     ),
 ]
-
-
-def parse_laser_pose(text: str) -> tuple[float, float, float]:
-    """``"X,Y,YAW"`` -> a tuple; UsageError naming --laser-pose."""
-    parts = [p.strip() for p in text.split(",")]
-    try:
-        values = tuple(float(p) for p in parts)
-    except ValueError:
-        values = ()
-    if len(values) != 3 or not all(math.isfinite(v) for v in values):
-        raise UsageError(
-            f"--laser-pose {text!r}: give the laser's pose on the base as X,Y,YAW (metres, metres, radians), "
-            "e.g. -0.04,0,1.5708"
-        )
-    return values[0], values[1], values[2]
 
 
 def bridge_settings(

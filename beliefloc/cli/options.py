@@ -15,6 +15,7 @@ from typing import Annotated
 import typer
 
 from beliefloc.cli.common import for_option
+from beliefloc.errors import UsageError
 from beliefloc.planning.settings import DEFAULT_WEIGHT, Heuristic, Planner, check_weight, heuristic_for
 
 # --- numbers ---------------------------------------------------------------------------------------
@@ -317,3 +318,18 @@ ResumeOption = Annotated[
         "file must have been written with the same settings).",
     ),
 ]
+
+
+def parse_laser_pose(text: str) -> tuple[float, float, float]:
+    """``"X,Y,YAW"`` (metres, metres, radians) -> a tuple; UsageError naming --laser-pose."""
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        values = tuple(float(p) for p in parts)
+    except ValueError:
+        values = ()
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
+        raise UsageError(
+            f"--laser-pose {text!r}: give the laser's pose on the base as X,Y,YAW (metres, metres, radians), "
+            "e.g. -0.04,0,1.5708"
+        )
+    return values[0], values[1], values[2]

@@ -17,6 +17,7 @@ import typer
 from rich.markup import escape
 
 from beliefloc.cli.common import check_output, check_ros_recording, print_json, warn
+from beliefloc.cli.options import parse_laser_pose
 from beliefloc.errors import MapError, UsageError
 
 if TYPE_CHECKING:
@@ -31,21 +32,6 @@ if TYPE_CHECKING:
 
 BELIEF_OUT_SUFFIXES = (".json",)
 MAX_MAP_YAML_BYTES = 1 << 20
-
-
-def parse_laser_pose(text: str) -> tuple[float, float, float]:
-    """``"X,Y,YAW"`` (metres, metres, radians) -> a tuple; UsageError naming --laser-pose."""
-    parts = [p.strip() for p in text.split(",")]
-    try:
-        values = tuple(float(p) for p in parts)
-    except ValueError:
-        values = ()
-    if len(values) != 3 or not all(math.isfinite(v) for v in values):
-        raise UsageError(
-            f"--laser-pose {text!r}: give the laser's pose on the base as X,Y,YAW (metres, metres, radians), "
-            "e.g. -0.04,0,1.5708"
-        )
-    return values[0], values[1], values[2]
 
 
 def read_map(path: Path, *, layout: bool = False) -> tuple[OccupancyMap, GridLayout | None, float | None, bool]:
