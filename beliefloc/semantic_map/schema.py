@@ -26,7 +26,7 @@ from pydantic import (
 
 from beliefloc.errors import FieldError
 from beliefloc.model import MapFrame, SourceInfo
-from beliefloc.semantic_map import observations
+from beliefloc.semantic_map import angles, observations
 from beliefloc.semantic_map.observations import ObservationSet, PartGroup, PartSpec
 from beliefloc.semantic_map.occupancy_grid import free_cells, rooms_from_mask, rooms_from_polygons
 from beliefloc.semantic_map.occupancy_section import grid_from_occupancy, landmark_cells, too_much_geometry
@@ -111,6 +111,9 @@ class SemanticMap(StrictModel):
             return data
         _refuse_internal_names(data)
         context = info.context or {}
+        data, old_forms = angles.new_form(data)
+        if isinstance(context.get("old_forms"), list):
+            context["old_forms"].extend(old_forms)
         occupancy: OccupancyMap | None = context.get("occupancy")
         if occupancy is not None:
             data = grid_from_occupancy(data, occupancy)
@@ -282,7 +285,7 @@ class SemanticMap(StrictModel):
                 for k, angle in enumerate(sensor.beams):
                     if abs(angle / step - round(angle / step)) > 1e-9:
                         raise FieldError(
-                            ("sensors", name, "beams", k),
+                            ("sensors", name, "beams_deg", k),
                             f"a beam at {angle:g} degrees falls between headings; with headings: {g.headings} "
                             f"use multiples of {step:g}",
                         )
@@ -290,9 +293,9 @@ class SemanticMap(StrictModel):
                 half = sensor.effective_fov(g.headings) / 2.0
                 if half > sensor.angle_bins[-1] + 1e-9:
                     raise FieldError(
-                        ("sensors", name, "fov"),
+                        ("sensors", name, "fov_deg"),
                         f"a field of view of {2 * half:g} degrees sees up to {half:g} degrees off axis, but the "
-                        f"angle_bins stop at {sensor.angle_bins[-1]:g}; drop fov or add a bin edge of {half:g}",
+                        f"angle_bins_deg stop at {sensor.angle_bins[-1]:g}; drop fov_deg or add a bin edge of {half:g}",
                     )
             if not isinstance(sensor, HereSensor):
                 self._check_edges(name, sensor)
@@ -381,7 +384,7 @@ class SemanticMap(StrictModel):
         at = observations.same_label(edges)
         if at is None:
             return
-        key, unit = ("bins", "m") if isinstance(sensor, ScanSensor) else ("angle_bins", "degrees")
+        key, unit = ("bins", "m") if isinstance(sensor, ScanSensor) else ("angle_bins_deg", "degrees")
         before = edges[at - 1] if at > 0 else 0.0
         shown = observations.label(edges[at])
         raise FieldError(
@@ -468,7 +471,7 @@ def _sensor_parts(name: str, sensor: Sensor, smap: SemanticMap) -> tuple[PartSpe
             where = (*at, "classes", i)
 
             def value_where(w: int, where: tuple[str | int, ...] = where) -> tuple[str | int, ...]:
-                return (*at, "angle_bins", w - 1) if bins and w > 0 else where
+                return (*at, "angle_bins_deg", w - 1) if bins and w > 0 else where
 
             parts.append(PartSpec(f"{name}.{cls}", values, aliases, where, value_where, name))
         return tuple(parts)
@@ -485,7 +488,7 @@ def _sensor_parts(name: str, sensor: Sensor, smap: SemanticMap) -> tuple[PartSpe
                 f"{name}@{observations.label(angle)}",
                 observations.scan_values(sensor.bins, observations.label(angle)),
                 {},
-                (*at, "beams", k),
+                (*at, "beams_deg", k),
                 bin_where,
                 name,
             )
@@ -500,7 +503,7 @@ def _defining_field(name: str, sensor: Sensor) -> tuple[str | int, ...]:
     if isinstance(sensor, LookSensor):
         return ("sensors", name, "classes")
     if isinstance(sensor, ScanSensor):
-        return ("sensors", name, "beams" if sensor.multi_beam and len(sensor.bins) < 2 else "bins")
+        return ("sensors", name, "beams_deg" if sensor.multi_beam and len(sensor.bins) < 2 else "bins")
     return ("sensors", name, "legend" if sensor.legend is not None else "labels" if sensor.labels else "type")
 
 
@@ -530,7 +533,7 @@ def _check_reading(
         else:
             if not isinstance(value, dict):
                 raise FieldError(
-                    path, f"should map each class seen to its viewing angle, e.g. {{{sensor.classes[0]}: 25}}"
+                    path, f"should map each class seen to its viewing angle, e.g. {{{sensor.classes[0]}: 25deg}}"
                 )
             classes = list(value)
             for cls_name, angle in value.items():
@@ -541,7 +544,7 @@ def _check_reading(
                 ):
                     raise FieldError(
                         (*path, cls_name),
-                        f"viewing angle must be a number of degrees within ±{sensor.angle_bins[-1]:g}",
+                        f"viewing angle must be a number of degrees within ±{sensor.angle_bins[-1]:g}, e.g. 25deg",
                     )
         for cls_name in classes:
             if cls_name not in sensor.classes:
