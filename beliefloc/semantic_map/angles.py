@@ -70,6 +70,12 @@ def degrees_with_unit(value: Any) -> float | None:
     return float(match[1]) if match and math.isfinite(float(match[1])) else None
 
 
+def looks_like_radians(values: list[float]) -> bool:
+    """Degrees that look like radians: every one within 2π and one of them not a whole number of
+    degrees (``[0.3, 0.5, 0.8]``; ``[1, 2, 3]`` may well be degrees)."""
+    return all(abs(v) <= 2 * math.pi for v in values) and any(not float(v).is_integer() for v in values)
+
+
 def renamed_paths(data: Any) -> dict[Path, Path]:
     """New path -> the old path it was written at, for every old sensor key of ``data``: an error
     found on the new key then points at the line the file wrote."""

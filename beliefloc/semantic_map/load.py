@@ -46,8 +46,14 @@ def load_map(path: str | Path, *, on_warning: Warn | None = None) -> SemanticMap
     context["warnings"] = warnings
     context["old_forms"] = old_forms
     renamed = renamed_paths(source.data)
-    located = replace(source, aliases={**source.aliases, **renamed}) if renamed else source
-    smap = validate_source(located, SemanticMap, MapError, context=context)
+    located = replace(source, renamed=renamed) if renamed else source
+    try:
+        smap = validate_source(located, SemanticMap, MapError, context=context)
+    except MapError:
+        if on_warning is not None:  # what was found before the error helps to read it: a unit mistake
+            for message in [*old_form_warnings(source, old_forms), *(source.format(*w) for w in warnings)]:
+                on_warning(message)
+        raise
     smap._source = SourceInfo(str(source.path), source.sha256)
     if on_warning is not None:
         for message in old_form_warnings(source, old_forms):

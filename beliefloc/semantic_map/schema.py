@@ -24,7 +24,7 @@ from pydantic import (
     model_validator,
 )
 
-from beliefloc.errors import FieldError
+from beliefloc.errors import FieldError, raise_collected
 from beliefloc.model import MapFrame, SourceInfo
 from beliefloc.semantic_map import angles, observations
 from beliefloc.semantic_map.observations import ObservationSet, PartGroup, PartSpec
@@ -195,6 +195,7 @@ class SemanticMap(StrictModel):
         self._occupancy = context.get("occupancy")
         self._region_mask = context.get("region_mask")
         self._check_occupancy()
+        self._warn_units(context.get("warnings"))
         g = self.grid
         if self._occupancy is None:  # an occupancy map's grid was checked as its size was worked out
             observations.check_grid(g.rows, g.cols, g.headings, ("grid",))
@@ -208,13 +209,16 @@ class SemanticMap(StrictModel):
                     f"{radius:g} m: the map has no states; try a smaller cell_size or robot_radius",
                 )
             raise FieldError(("layout",), "every cell is blocked: the map has no states")
-        self._check_landmarks()
-        self._check_actions()
-        self._check_sensors()
-        self._check_observations()
-        self._check_annotations()
+        # the checks below are independent: every problem they find is reported in one run
+        errors = [*self._check_landmarks(), *self._check_actions(), *self._check_sensors()]
+        for check in (self._check_observations, lambda: check_rooms(self)):
+            try:
+                check()
+            except FieldError as exc:
+                errors.append(exc)
+        errors.extend(self._check_annotations())
         self._warn_unseen_classes(context.get("warnings"))
-        check_rooms(self)
+        raise_collected(errors)
         return self
 
     def _check_occupancy(self) -> None:
@@ -248,62 +252,80 @@ class SemanticMap(StrictModel):
                         column=c,
                     )
 
-    def _check_landmarks(self) -> None:
+    def _check_landmarks(self) -> list[FieldError]:
         g = self.grid
+        errors = []
         for i, lm in enumerate(self.landmarks):
             r, c = lm.cell
             if not (0 <= r < g.rows and 0 <= c < g.cols):
-                raise FieldError(("landmarks", i, "cell"), f"cell [{r}, {c}] is outside the {g.rows}x{g.cols} grid")
-            if self._occupancy is None and not self.free[r, c]:
-                raise FieldError(("landmarks", i, "cell"), f"cell [{r}, {c}] is blocked in the layout")
+                errors.append(
+                    FieldError(("landmarks", i, "cell"), f"cell [{r}, {c}] is outside the {g.rows}x{g.cols} grid")
+                )
+            elif self._occupancy is None and not self.free[r, c]:
+                errors.append(FieldError(("landmarks", i, "cell"), f"cell [{r}, {c}] is blocked in the layout"))
+        return errors
 
-    def _check_actions(self) -> None:
+    def _check_actions(self) -> list[FieldError]:
         allowed = MOVES_BY_HEADINGS[self.grid.headings]
         if not self.actions:
-            raise FieldError(("actions",), f"no actuation actions; expected some of: {', '.join(allowed)}")
+            return [FieldError(("actions",), f"no actuation actions; expected some of: {', '.join(allowed)}")]
+        errors = []
         for name in self.actions:
             if name not in allowed:
-                raise FieldError(
-                    ("actions", name),
-                    f"unknown action {name!r} for a map with headings: {self.grid.headings}; "
-                    f"expected some of: {', '.join(allowed)}",
+                errors.append(
+                    FieldError(
+                        ("actions", name),
+                        f"unknown action {name!r} for a map with headings: {self.grid.headings}; "
+                        f"expected some of: {', '.join(allowed)}",
+                    )
                 )
             if name in self.sensors:
-                raise FieldError(("sensors", name), f"{name!r} is both an action and a sensor")
+                errors.append(FieldError(("sensors", name), f"{name!r} is both an action and a sensor"))
+        return errors
 
-    def _check_sensors(self) -> None:
-        g = self.grid
+    def _check_sensors(self) -> list[FieldError]:
+        """The first problem of each sensor."""
+        errors = []
         for name, sensor in self.sensors.items():
-            if isinstance(sensor, ScanSensor) and g.headings == 1:
-                raise FieldError(
-                    ("sensors", name, "type"), "a scan looks ahead, but the map has headings: 1 (no heading)"
-                )
-            if isinstance(sensor, HereSensor):
-                self._check_here(name, sensor)
-            if isinstance(sensor, ScanSensor) and g.headings > 1:
-                step = 360.0 / g.headings
-                for k, angle in enumerate(sensor.beams):
-                    if abs(angle / step - round(angle / step)) > 1e-9:
-                        raise FieldError(
-                            ("sensors", name, "beams_deg", k),
-                            f"a beam at {angle:g} degrees falls between headings; with headings: {g.headings} "
-                            f"use multiples of {step:g}",
-                        )
-            if isinstance(sensor, LookSensor) and sensor.angle_bins and g.headings > 1:
-                half = sensor.effective_fov(g.headings) / 2.0
-                if half > sensor.angle_bins[-1] + 1e-9:
+            try:
+                self._check_sensor(name, sensor)
+            except FieldError as exc:
+                errors.append(exc)
+        return errors
+
+    def _check_sensor(self, name: str, sensor: Sensor) -> None:
+        g = self.grid
+        if isinstance(sensor, ScanSensor) and g.headings == 1:
+            raise FieldError(
+                ("sensors", name, "type"), "a scan looks ahead, but the map has headings: 1 (no heading)"
+            )
+        if isinstance(sensor, HereSensor):
+            self._check_here(name, sensor)
+        if isinstance(sensor, ScanSensor) and g.headings > 1:
+            step = 360.0 / g.headings
+            for k, angle in enumerate(sensor.beams):
+                if abs(angle / step - round(angle / step)) > 1e-9:
                     raise FieldError(
-                        ("sensors", name, "fov_deg"),
-                        f"a field of view of {2 * half:g} degrees sees up to {half:g} degrees off axis, but the "
-                        f"angle_bins_deg stop at {sensor.angle_bins[-1]:g}; drop fov_deg or add a bin edge of {half:g}",
+                        ("sensors", name, "beams_deg", k),
+                        f"a beam at {angle:g} degrees (counter-clockwise) falls between headings; with headings: {g.headings} "
+                        f"use multiples of {step:g}"
+                        + ("; it looks like radians: beams_deg is in degrees" if angles.looks_like_radians([angle]) else ""),
                     )
-            if not isinstance(sensor, HereSensor):
-                self._check_edges(name, sensor)
-            if not sensor.passive and not sensor.as_action:
+        if isinstance(sensor, LookSensor) and sensor.angle_bins and g.headings > 1:
+            half = sensor.effective_fov(g.headings) / 2.0
+            if half > sensor.angle_bins[-1] + 1e-9:
                 raise FieldError(
-                    ("sensors", name, "as_action"),
-                    "a sensor that is neither passive nor an action is never used",
+                    ("sensors", name, "fov_deg"),
+                    f"a field of view of {2 * half:g} degrees sees up to {half:g} degrees off axis, but the "
+                    f"angle_bins_deg stop at {sensor.angle_bins[-1]:g}; drop fov_deg or add a bin edge of {half:g}",
                 )
+        if not isinstance(sensor, HereSensor):
+            self._check_edges(name, sensor)
+        if not sensor.passive and not sensor.as_action:
+            raise FieldError(
+                ("sensors", name, "as_action"),
+                "a sensor that is neither passive nor an action is never used",
+            )
 
     def observation_sets(self, *, named: bool = False) -> list[ObservationSet]:
         """The observations of the model's actions, from the map alone: the moves' (the joint
@@ -356,6 +378,51 @@ class SemanticMap(StrictModel):
             raise FieldError(
                 ("sensors", name, where),
                 too_much_geometry(tests, f"{landmarks:,} landmarks, each seen from up to {states:,} states"),
+            )
+
+    def _warn_units(self, warnings: list[tuple[tuple[str | int, ...], str]] | None) -> None:
+        """Likely unit mistakes, which are warnings and not errors (docs/map-format.md, Angles): an
+        angle in degrees that looks like radians, an origin yaw in radians that looks like degrees, a
+        cell larger than the occupancy map."""
+        if warnings is None:
+            return
+        for name, sensor in self.sensors.items():
+            if isinstance(sensor, LookSensor) and sensor.fov is not None and sensor.fov <= 2 * math.pi:
+                warnings.append(
+                    (
+                        ("sensors", name, "fov_deg"),
+                        f"a field of view of {sensor.fov:g} degrees looks like radians ({math.degrees(sensor.fov):.4g} "
+                        "degrees); fov_deg is in degrees",
+                    )
+                )
+            if isinstance(sensor, LookSensor) and sensor.angle_bins and angles.looks_like_radians(sensor.angle_bins):
+                shown = ", ".join(f"{math.degrees(b):.4g}" for b in sensor.angle_bins)
+                warnings.append(
+                    (
+                        ("sensors", name, "angle_bins_deg"),
+                        f"{sensor.angle_bins} look like radians ([{shown}] degrees); angle_bins_deg is in degrees",
+                    )
+                )
+        occupancy = self._occupancy
+        if occupancy is None:
+            return
+        yaw = occupancy.frame.yaw
+        if abs(yaw) > 2 * math.pi:
+            warnings.append(
+                (
+                    ("occupancy",),
+                    f"the origin yaw of {occupancy.yaml_path.name} is {yaw:g}, which looks like degrees: map_server "
+                    f"reads it in radians ({yaw:g} rad is {math.degrees(yaw) % 360:.4g} degrees, counter-clockwise)",
+                )
+            )
+        width, height = occupancy.size_m
+        if self.grid.cell_size > min(width, height):
+            warnings.append(
+                (
+                    ("grid", "cell_size"),
+                    f"a cell of {self.grid.cell_size:g} m is larger than the occupancy map ({width:g} m x {height:g} m): "
+                    "cell_size is in metres",
+                )
             )
 
     def _warn_unseen_classes(self, warnings: list[tuple[tuple[str | int, ...], str]] | None) -> None:
@@ -422,30 +489,39 @@ class SemanticMap(StrictModel):
                     if self.free[r, c] and ch not in sensor.legend:
                         raise FieldError(path, f"row {r} has {ch!r}, which the legend does not name", row=r, column=c)
 
-    def _check_annotations(self) -> None:
+    def _check_annotations(self) -> list[FieldError]:
+        """The first problem of each annotation."""
+        errors = []
         for i, annotation in enumerate(self.annotations):
-            if annotation.state is not None and annotation.states is not None:
-                raise FieldError(("annotations", i, "states"), "give either state: 'r,c,h' or states: [...], not both")
-            if annotation.state is None and annotation.states is None:
-                raise FieldError(
-                    ("annotations", i),
-                    "names no state: give state: 'r,c,h' (or 'r,c' for a whole cell) or states: [...], "
-                    "e.g. {state: '1,1,0', look: [chair]}",
-                )
-            for name, where in annotation.targets:
-                try:
-                    self.parse_state(name)
-                except ValueError as exc:
-                    raise FieldError(("annotations", i, *where), str(exc)) from None
-            if not annotation.readings:
-                raise FieldError(("annotations", i), "names no sensor; e.g. {state: '1,1,0', look: [chair]}")
-            for key, value in annotation.readings.items():
-                path = ("annotations", i, key)
-                sensor = self.sensors.get(key)
-                if sensor is None:
-                    known = ", ".join(self.sensors) or "none"
-                    raise FieldError(path, f"unknown sensor {key!r}; the map's sensors are: {known}")
-                _check_reading(sensor, value, path, self)
+            try:
+                self._check_annotation(i, annotation)
+            except FieldError as exc:
+                errors.append(exc)
+        return errors
+
+    def _check_annotation(self, i: int, annotation: Annotation) -> None:
+        if annotation.state is not None and annotation.states is not None:
+            raise FieldError(("annotations", i, "states"), "give either state: 'r,c,h' or states: [...], not both")
+        if annotation.state is None and annotation.states is None:
+            raise FieldError(
+                ("annotations", i),
+                "names no state: give state: 'r,c,h' (or 'r,c' for a whole cell) or states: [...], "
+                "e.g. {state: '1,1,0', look: [chair]}",
+            )
+        for name, where in annotation.targets:
+            try:
+                self.parse_state(name)
+            except ValueError as exc:
+                raise FieldError(("annotations", i, *where), str(exc)) from None
+        if not annotation.readings:
+            raise FieldError(("annotations", i), "names no sensor; e.g. {state: '1,1,0', look: [chair]}")
+        for key, value in annotation.readings.items():
+            path = ("annotations", i, key)
+            sensor = self.sensors.get(key)
+            if sensor is None:
+                known = ", ".join(self.sensors) or "none"
+                raise FieldError(path, f"unknown sensor {key!r}; the map's sensors are: {known}")
+            _check_reading(sensor, value, path, self)
 
 
 def _sensor_groups(name: str, sensor: Sensor, smap: SemanticMap) -> tuple[PartGroup, ...]:
