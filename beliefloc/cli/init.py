@@ -210,7 +210,11 @@ def _render_overlay(
     from beliefloc.semantic_map.overlay import align_comments, free_spot, overlay_cell_size, scan_bins
 
     occupancy = load_occupancy(occupancy_path)
-    size = cell_size if cell_size is not None else overlay_cell_size(occupancy.width, occupancy.height, occupancy.resolution)
+    size = (
+        cell_size
+        if cell_size is not None
+        else overlay_cell_size(occupancy.width, occupancy.height, occupancy.resolution)
+    )
     rows, cols = grid_shape(occupancy.height, occupancy.width, occupancy.resolution, size)
     width, height = occupancy.size_m
     corners = map_corners(occupancy)

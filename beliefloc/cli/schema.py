@@ -271,7 +271,8 @@ def map_schema() -> JsonObject:
             properties[old] = {
                 **{k: v for k, v in properties[new].items() if k not in ("title", "description", "default")},
                 "deprecated": True,
-                "description": f"The old form ({was}), read as before with a warning: write {new} (docs/map-format.md, Angles).",
+                "description": f"The old form ({was}), read as before with a warning: write {new} "
+                "(docs/map-format.md, Angles).",
             }
             defs[definition].setdefault("not", {"anyOf": []})["anyOf"].append({"required": [old, new]})
 

@@ -182,7 +182,12 @@ def _annotation_new_form(i: int, annotation: Any, looks: set[str], found: list[O
                 f"{cls}: {shown(n)}deg" if (n := number(v)) is not None else f"{cls}: {v}" for cls, v in values.items()
             )
             found.append(
-                OldForm(("annotations", i, key), key, f"{key}: {{{text}}}", "a viewing angle without a unit is the old form; the new form writes it with one, like 25deg")
+                OldForm(
+                    ("annotations", i, key),
+                    key,
+                    f"{key}: {{{text}}}",
+                    "a viewing angle without a unit is the old form; the new form writes it with one, like 25deg",
+                )
             )
     return changed
 

@@ -152,4 +152,4 @@ def map_extent(occupancy: OccupancyMap) -> str:
         (x0, y0), _, (x1, y1), _ = corners
         return f"x from {x0:.6g} to {x1:.6g} m and y from {y0:.6g} to {y1:.6g} m (map frame)"
     shown = ", ".join(f"({x:.4g}, {y:.4g})" for x, y in corners)
-    return f"the rectangle with corners {shown} m (map frame, origin yaw {occupancy.frame.yaw:g} rad)"
+    return f"the rectangle {shown} m (map frame, origin yaw {occupancy.frame.yaw:g} rad)"

@@ -296,20 +296,19 @@ class SemanticMap(StrictModel):
     def _check_sensor(self, name: str, sensor: Sensor) -> None:
         g = self.grid
         if isinstance(sensor, ScanSensor) and g.headings == 1:
-            raise FieldError(
-                ("sensors", name, "type"), "a scan looks ahead, but the map has headings: 1 (no heading)"
-            )
+            raise FieldError(("sensors", name, "type"), "a scan looks ahead, but the map has headings: 1 (no heading)")
         if isinstance(sensor, HereSensor):
             self._check_here(name, sensor)
         if isinstance(sensor, ScanSensor) and g.headings > 1:
             step = 360.0 / g.headings
             for k, angle in enumerate(sensor.beams):
                 if abs(angle / step - round(angle / step)) > 1e-9:
+                    radians = angles.looks_like_radians([angle])
                     raise FieldError(
                         ("sensors", name, "beams_deg", k),
-                        f"a beam at {angle:g} degrees (counter-clockwise) falls between headings; with headings: {g.headings} "
-                        f"use multiples of {step:g}"
-                        + ("; it looks like radians: beams_deg is in degrees" if angles.looks_like_radians([angle]) else ""),
+                        f"a beam at {angle:g} degrees (counter-clockwise) falls between headings; with headings: "
+                        f"{g.headings} use multiples of {step:g}"
+                        + ("; it looks like radians: beams_deg is in degrees" if radians else ""),
                     )
         if isinstance(sensor, LookSensor) and sensor.angle_bins and g.headings > 1:
             half = sensor.effective_fov(g.headings) / 2.0
@@ -420,8 +419,8 @@ class SemanticMap(StrictModel):
             warnings.append(
                 (
                     ("grid", "cell_size"),
-                    f"a cell of {self.grid.cell_size:g} m is larger than the occupancy map ({width:g} m x {height:g} m): "
-                    "cell_size is in metres",
+                    f"a cell of {self.grid.cell_size:g} m is larger than the occupancy map ({width:g} m x "
+                    f"{height:g} m): cell_size is in metres",
                 )
             )
 
