@@ -116,7 +116,7 @@ def init_command(
 
     \b
       beliefloc init map lab
-      beliefloc init map lab --occupancy my_map.yaml
+      beliefloc init map arena --occupancy maps/occupancy/tb3_sandbox.yaml
       beliefloc init domain office -o office-domain.yaml
     """
     if kind not in KINDS:

@@ -28,9 +28,11 @@ def load_map(path: str | Path, *, on_warning: Warn | None = None) -> SemanticMap
     A file of another kind (a domain, a belief file, an occupancy map's YAML, a knowledge base...)
     is refused as such: ``domains/home.yaml is a knowledge-base domain, not a map``.
 
-    What validation has to say goes to ``on_warning``: a Look class no landmark has, with the
-    file, line and field; what the occupancy map's reading has to say (unknown grey counted as
-    unknown, a NaN yaw), prefixed with the occupancy map's file."""
+    What validation has to say goes to ``on_warning``: an angle in the old form, with its line in
+    the new form (:mod:`~beliefloc.semantic_map.angles`); a Look class no landmark has, with the
+    file, line and field; a likely unit mistake (also before an error it may explain); what the
+    occupancy map's reading has to say (unknown grey counted as unknown, a NaN yaw), prefixed with
+    the occupancy map's file."""
     other = kind_of_path(path)
     if other is not None:
         raise MapError(not_a(path, other, MAP))
@@ -42,22 +44,26 @@ def load_map(path: str | Path, *, on_warning: Warn | None = None) -> SemanticMap
         raise MapError(f"{source.path}:1:1: a map file is a YAML mapping (name:, grid:, actions:, ...)")
     context = _files_named(source)
     warnings: list[tuple[tuple[str | int, ...], str]] = []
+    unit_warnings: list[tuple[tuple[str | int, ...], str]] = []
     old_forms: list[OldForm] = []
     context["warnings"] = warnings
+    context["unit_warnings"] = unit_warnings
     context["old_forms"] = old_forms
     renamed = renamed_paths(source.data)
     located = replace(source, renamed=renamed) if renamed else source
     try:
         smap = validate_source(located, SemanticMap, MapError, context=context)
     except MapError:
-        if on_warning is not None:  # what was found before the error helps to read it: a unit mistake
-            for message in [*old_form_warnings(source, old_forms), *(source.format(*w) for w in warnings)]:
-                on_warning(message)
+        if on_warning is not None:  # a unit mistake may be why: say so before the error
+            for where, message in unit_warnings:
+                on_warning(source.format(where, message))
         raise
     smap._source = SourceInfo(str(source.path), source.sha256)
     if on_warning is not None:
         for message in old_form_warnings(source, old_forms):
             on_warning(message)
+        for where, message in unit_warnings:
+            on_warning(source.format(where, message))
         for where, message in warnings:
             on_warning(source.format(where, message))
         occupancy = smap.occupancy_map

@@ -195,7 +195,7 @@ class SemanticMap(StrictModel):
         self._occupancy = context.get("occupancy")
         self._region_mask = context.get("region_mask")
         self._check_occupancy()
-        self._warn_units(context.get("warnings"))
+        self._warn_units(context.get("unit_warnings"))
         g = self.grid
         if self._occupancy is None:  # an occupancy map's grid was checked as its size was worked out
             observations.check_grid(g.rows, g.cols, g.headings, ("grid",))
