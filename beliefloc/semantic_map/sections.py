@@ -91,7 +91,8 @@ class Grid(StrictModel):
     cell_size: CellSize = 1.0
     """Side of a cell in meters; ranges and scan bins are in meters too."""
     headings: Annotated[Literal[1, 4, 8], BeforeValidator(_no_boolean)] = 4
-    """1: no orientation, compass moves; 4 or 8: a triangle per heading, 0 = north, clockwise."""
+    """1: no orientation, compass moves; 4 or 8: a triangle per heading, heading 0 = north and the
+    index counting clockwise, as the papers number them (heading h has yaw π/2 − h·2π/headings)."""
     robot_radius: Length | None = None
     """Occupancy maps: a cell is a state only when a disc of this radius on its centre touches no
     occupied or unknown pixel (:mod:`beliefloc.semantic_map.occupancy_grid`). Default 0."""
