@@ -25,6 +25,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from beliefloc.errors import FieldError, Path
+from beliefloc.semantic_map.sections import as_number as number
 
 OLD_KEYS: dict[str, dict[str, str]] = {
     "scan": {"beams": "beams_deg"},
@@ -48,13 +49,6 @@ class OldForm:
     """The key and value in the new form: ``beams_deg: [90, 0, -90]``."""
     what: str
     """What the old form meant, for the warning."""
-
-
-def number(value: Any) -> float | None:
-    """``value`` as a finite float, or None (booleans are not numbers)."""
-    if isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value):
-        return float(value)
-    return None
 
 
 def shown(value: float) -> str:
