@@ -106,6 +106,23 @@ class FieldError(Exception):
         self.column = column
 
 
+class FieldErrors(Exception):
+    """Several :class:`FieldError` found in one file, reported together (``validate`` lists every
+    problem of a file in one run, up to :data:`beliefloc.source.validation.MAX_ERRORS_SHOWN`)."""
+
+    def __init__(self, errors: Sequence[FieldError]) -> None:
+        super().__init__("; ".join(e.message for e in errors))
+        self.errors: list[FieldError] = list(errors)
+
+
+def raise_collected(errors: Sequence[FieldError]) -> None:
+    """Raise the one error, or all of them together; nothing when there are none."""
+    if len(errors) == 1:
+        raise errors[0]
+    if errors:
+        raise FieldErrors(errors)
+
+
 class RecordingError(InputFileError):
     """A ROS recording (a rosbag2 folder or file, a ROS 1 ``.bag``) cannot be localized from: the
     message names the bag, the topic and what is wrong with it."""

@@ -92,7 +92,7 @@ def marked_map(n_corridors: int, length: int, seed: int) -> dict[str, Any]:
                 "type": "scan",
                 "passive": True,
                 "as_action": False,
-                "beams": [-90, 0, 90],
+                "beams_deg": [90, 0, -90],
                 "bins": [0.5, 1.5],
                 "error": 0.05,
             },

@@ -399,3 +399,21 @@ def test_help_has_a_summary_that_fits(runner: CliRunner, command: str) -> None:
     overview = runner.invoke(app, ["--help"])
     summary = next(line for line in overview.stdout.splitlines() if line.strip().startswith(command + " "))
     assert not summary.rstrip().endswith("..."), summary  # a one-line summary that fits
+
+
+def test_an_overlay_init_writes_and_an_old_form_map_are_what_the_schema_says(
+    runner: CliRunner, tmp_path: Path, schemas: dict[str, dict[str, Any]]
+) -> None:
+    """``init --occupancy`` writes a file the editor finds no fault in; a map in the old angle form
+    is accepted too (its keys are marked deprecated), but not with both forms of one key."""
+    out = tmp_path / "site.yaml"
+    occupancy = str(MAPS / "occupancy" / "tb3_sandbox.yaml")
+    assert runner.invoke(app, ["init", "map", "site", "-o", str(out), "--occupancy", occupancy]).exit_code == 0
+    assert _errors(schemas["map"], _as_editor_sees(out.read_text(encoding="utf-8"))) == []
+    old = yaml.safe_load((MAPS / "corridors.yaml").read_text(encoding="utf-8"))
+    scan = old["sensors"]["range"]
+    scan["beams"] = [-90, 0, 90]
+    assert _errors(schemas["map"], _as_editor_sees(yaml.safe_dump({**old, "sensors": {"range": scan}}))) != []
+    del scan["beams_deg"]
+    assert _errors(schemas["map"], _as_editor_sees(yaml.safe_dump({**old, "sensors": {"range": scan}}))) == []
+    assert schemas["map"]["definitions"]["ScanSensor"]["properties"]["beams"]["deprecated"] is True

@@ -86,7 +86,8 @@ def test_true_ranges_bin_to_compiles_true_readings(name: str) -> None:
     action = model.action(sensor_name) if sensor.as_action else model.actuation_actions[0]
     parts = action.observation.parts
     for k, angle in enumerate(sensor.beams):
-        beam = geometry.beam_distances(layout, ahead, round(angle / (360.0 / layout.headings)))
+        # beams turn counter-clockwise (REP 103); beam_distances counts heading steps clockwise
+        beam = geometry.beam_distances(layout, ahead, round(-angle / (360.0 / layout.headings)))
         binned = np.array([scan_bin(sensor.bins, float(d)) for d in beam])
         np.testing.assert_array_equal(binned, parts[k].truth)
 
@@ -94,7 +95,7 @@ def test_true_ranges_bin_to_compiles_true_readings(name: str) -> None:
 def test_multi_beam_scan_bins_each_beam_in_order() -> None:
     _, model, binner = _binner("corridors")
     forward = model.action("forward")
-    expected = forward.observation.index("wall_0-0.5@-90+no_wall@0+wall_0.5-1.5@90")
+    expected = forward.observation.index("wall_0-0.5@90+no_wall@0+wall_0.5-1.5@-90")  # left, ahead, right
     assert binner.observation(forward, {"range": [0.3, None, 1.0]}) == expected
 
 

@@ -261,6 +261,21 @@ def map_schema() -> JsonObject:
     _non_null(rooms["properties"]["labels"])["propertyNames"] = {"pattern": r"^-?[0-9]+$"}
     _non_null(rooms["properties"]["polygons"])["additionalProperties"]["minItems"] = 3
 
+    # the old form of angles (semantic_map/angles.py): still read, with a warning; an editor marks it
+    from beliefloc.semantic_map.angles import OLD_KEYS
+
+    for kind, definition in (("look", "LookSensor"), ("scan", "ScanSensor")):
+        properties = defs[definition]["properties"]
+        for old, new in OLD_KEYS[kind].items():
+            was = "degrees clockwise from the heading" if old == "beams" else "degrees"
+            properties[old] = {
+                **{k: v for k, v in properties[new].items() if k not in ("title", "description", "default")},
+                "deprecated": True,
+                "description": f"The old form ({was}), read as before with a warning: write {new} "
+                "(docs/map-format.md, Angles).",
+            }
+            defs[definition].setdefault("not", {"anyOf": []})["anyOf"].append({"required": [old, new]})
+
     # an annotation names its state(s); its other keys are sensor names
     annotation = defs["Annotation"]
     annotation["anyOf"] = [{"required": ["state"]}, {"required": ["states"]}]

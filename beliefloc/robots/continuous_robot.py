@@ -118,7 +118,7 @@ class ContinuousReadingRobot:
 
     def _scan(self, spec: Any) -> list[float | None]:
         pose = self.robot.pose
-        angles = -np.radians(np.asarray(spec.beams, dtype=np.float64))
+        angles = np.radians(np.asarray(spec.beams, dtype=np.float64))  # counter-clockwise, as the laser's
         ranges = self.robot.world.scan_ranges(np.repeat(pose.reshape(1, 3), len(angles), axis=0), angles)
         return [None if r == math.inf else max(float(r), 0.0) for r in ranges]
 

@@ -194,7 +194,7 @@ class ReadingBinner:
         sensor = slot.sensor
         data: dict[str, Any] = {"name": slot.name, "type": sensor.type}
         if isinstance(sensor, ScanSensor):
-            data["beams"] = [0.0 - math.radians(b) for b in sensor.beams]  # the map's are clockwise; no -0.0
+            data["beams"] = [0.0 + math.radians(b) for b in sensor.beams]  # counter-clockwise, as the map's; no -0.0
             data["bins"] = list(sensor.bins)
         elif isinstance(sensor, LookSensor):
             data["classes"] = list(slot.classes)

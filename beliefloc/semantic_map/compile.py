@@ -389,7 +389,8 @@ def _scan_parts(
 ) -> tuple[ObservationPart, ...]:
     """One independent part per beam. A single beam straight ahead (the default) is the part
     ``name`` with readings ``wall_0-0.2``, ...; with several beams each is ``name@angle`` and its
-    readings are suffixed ``@angle`` (``wall_0-0.2@-90``), so joint names stay unambiguous."""
+    readings are suffixed ``@angle`` (``wall_0-0.2@90``, degrees counter-clockwise: the left beam), so
+    joint names stay unambiguous."""
     names = sensor.observation_names()
     bins = np.array(sensor.bins)
     sub, yaw, sigma, random, short = sensor.region()
@@ -403,7 +404,7 @@ def _scan_parts(
         )
     parts = []
     for k, angle in enumerate(sensor.beams):
-        offset = round(angle / (360.0 / layout.headings))
+        offset = round(-angle / (360.0 / layout.headings))  # heading steps clockwise; beams turn counter-clockwise
         beam = geometry.beam_distances(layout, distance, offset)
         truth = np.searchsorted(bins, beam - 1e-9, side="left").astype(np.int32)
         for states, readings in annotated:

@@ -8,13 +8,15 @@ takes the grid's size, free cells and frame from them.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
 from beliefloc.errors import MapError
 from beliefloc.model import SourceInfo
+from beliefloc.semantic_map.angles import OldForm, renamed_paths, rewritten_line
 from beliefloc.semantic_map.schema import SemanticMap
-from beliefloc.source import Source, read_source, validate_source
+from beliefloc.source import Source, read_source, read_text, validate_source
 from beliefloc.source.file_kinds import MAP, kind_of_data, kind_of_path, not_a
 
 Warn = Callable[[str], None]
@@ -26,9 +28,11 @@ def load_map(path: str | Path, *, on_warning: Warn | None = None) -> SemanticMap
     A file of another kind (a domain, a belief file, an occupancy map's YAML, a knowledge base...)
     is refused as such: ``domains/home.yaml is a knowledge-base domain, not a map``.
 
-    What validation has to say goes to ``on_warning``: a Look class no landmark has, with the
-    file, line and field; what the occupancy map's reading has to say (unknown grey counted as
-    unknown, a NaN yaw), prefixed with the occupancy map's file."""
+    What validation has to say goes to ``on_warning``: an angle in the old form, with its line in
+    the new form (:mod:`~beliefloc.semantic_map.angles`); a Look class no landmark has, with the
+    file, line and field; a likely unit mistake (also before an error it may explain); what the
+    occupancy map's reading has to say (unknown grey counted as unknown, a NaN yaw), prefixed with
+    the occupancy map's file."""
     other = kind_of_path(path)
     if other is not None:
         raise MapError(not_a(path, other, MAP))
@@ -40,10 +44,26 @@ def load_map(path: str | Path, *, on_warning: Warn | None = None) -> SemanticMap
         raise MapError(f"{source.path}:1:1: a map file is a YAML mapping (name:, grid:, actions:, ...)")
     context = _files_named(source)
     warnings: list[tuple[tuple[str | int, ...], str]] = []
+    unit_warnings: list[tuple[tuple[str | int, ...], str]] = []
+    old_forms: list[OldForm] = []
     context["warnings"] = warnings
-    smap = validate_source(source, SemanticMap, MapError, context=context)
+    context["unit_warnings"] = unit_warnings
+    context["old_forms"] = old_forms
+    renamed = renamed_paths(source.data)
+    located = replace(source, renamed=renamed) if renamed else source
+    try:
+        smap = validate_source(located, SemanticMap, MapError, context=context)
+    except MapError:
+        if on_warning is not None:  # a unit mistake may be why: say so before the error
+            for where, message in unit_warnings:
+                on_warning(source.format(where, message))
+        raise
     smap._source = SourceInfo(str(source.path), source.sha256)
     if on_warning is not None:
+        for message in old_form_warnings(source, old_forms):
+            on_warning(message)
+        for where, message in unit_warnings:
+            on_warning(source.format(where, message))
         for where, message in warnings:
             on_warning(source.format(where, message))
         occupancy = smap.occupancy_map
@@ -93,3 +113,26 @@ def _beside(source: Source, where: tuple[str, ...], named: object, what: str) ->
         problem = "is a folder, not a file" if target.is_dir() else "does not exist"
         raise MapError(source.format(where, f"{named}: {target} {problem}"))
     return target
+
+
+def old_form_warnings(source: Source, old_forms: list[OldForm]) -> list[str]:
+    """One paragraph per angle written in the old form: where, what it meant, and its line in the
+    new form (:mod:`~beliefloc.semantic_map.angles`)."""
+    if not old_forms:
+        return []
+    lines = read_text(source.path, MapError)[0].splitlines()
+    messages = []
+    for old in sorted(old_forms, key=lambda old: source.locate(old.path, key=True)[1]):
+        _, (line, column) = source.locate(old.path, key=True)
+        text = lines[line - 1] if 0 < line <= len(lines) else ""
+        new_line = rewritten_line(text, column, old)
+        shown = (new_line if new_line is not None else old.new_text).strip()
+        messages.append(
+            source.format(
+                old.path,
+                f"{old.what}. It is read as before (the same model); write line {line} as `{shown}` "
+                "(docs/map-format.md, Angles)",
+                key=True,
+            )
+        )
+    return messages

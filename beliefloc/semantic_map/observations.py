@@ -60,7 +60,7 @@ def same_label(edges: Sequence[float]) -> int | None:
 
 def scan_values(bins: Sequence[float], beam: str | None = None) -> tuple[str, ...]:
     """The readings of a Scan beam: ``wall_0-0.2``, ..., ``no_wall``; with ``beam`` (a multi-beam
-    scan's angle, ``-90``) each is suffixed ``@-90``."""
+    scan's angle in degrees counter-clockwise, ``90`` for the left beam) each is suffixed ``@90``."""
     edges = [0.0, *bins]
     names = [*(f"wall_{label(lo)}-{label(hi)}" for lo, hi in itertools.pairwise(edges)), "no_wall"]
     return tuple(names if beam is None else (f"{name}@{beam}" for name in names))
@@ -72,7 +72,7 @@ class PartSpec:
     will have it, with where in the map file it comes from."""
 
     name: str
-    """``look.door``, ``scan``, ``scan@-90``, ``here``."""
+    """``look.door``, ``scan``, ``scan@90``, ``here``."""
     values: tuple[str, ...]
     """The readings' names; ``""`` is a silent reading (left out of joint names)."""
     aliases: Mapping[str, int]

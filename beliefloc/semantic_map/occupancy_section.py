@@ -7,7 +7,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING, Any
 
-from beliefloc.errors import FieldError
+from beliefloc.errors import FieldError, raise_collected
 from beliefloc.model import MapFrame
 from beliefloc.semantic_map import observations
 from beliefloc.semantic_map.occupancy_grid import grid_shape
@@ -80,6 +80,7 @@ def landmark_cells(data: dict[str, Any], occupancy: OccupancyMap | None) -> dict
         return data
     frame = occupancy.frame if occupancy is not None else MapFrame()
     filled = []
+    errors = []
     for i, landmark in enumerate(landmarks):
         if not isinstance(landmark, dict) or ("x" not in landmark and "y" not in landmark):
             filled.append(landmark)
@@ -103,18 +104,52 @@ def landmark_cells(data: dict[str, Any], occupancy: OccupancyMap | None) -> dict
                 height - 1 - math.floor(float(gy) / occupancy.resolution),
             )
             if not (0 <= i_px < height and 0 <= j < width):
-                raise FieldError(("landmarks", i, "x"), f"({x:g}, {y:g}) is off the map {data.get('occupancy')}")
-            if occupancy.blocked()[i_px, j]:
-                raise FieldError(
-                    ("landmarks", i, "x"),
-                    f"({x:g}, {y:g}) is on an occupied or unknown pixel of {data.get('occupancy')}: put the object "
-                    "on the free pixel in front of it, where the robot sees it from",
+                errors.append(
+                    FieldError(
+                        ("landmarks", i, "x"),
+                        f"({x:g}, {y:g}) is off the map {data.get('occupancy')}, which covers {map_extent(occupancy)}",
+                    )
                 )
+                continue
+            if occupancy.blocked()[i_px, j]:
+                errors.append(
+                    FieldError(
+                        ("landmarks", i, "x"),
+                        f"({x:g}, {y:g}) is on an occupied or unknown pixel of {data.get('occupancy')}: put the "
+                        "object on the free pixel in front of it, where the robot sees it from",
+                    )
+                )
+                continue
         row = int(rows) - 1 - math.floor(float(gy) / size)  # rows and cols are whole: checked by the grid
         col = math.floor(float(gx) / size)
         if not (0 <= row < rows and 0 <= col < cols):
-            raise FieldError(
-                ("landmarks", i, "x"), f"({x:g}, {y:g}) is off the {rows:g}x{cols:g} grid of {size:g} m cells"
+            errors.append(
+                FieldError(
+                    ("landmarks", i, "x"), f"({x:g}, {y:g}) is off the {rows:g}x{cols:g} grid of {size:g} m cells"
+                )
             )
+            continue
         filled.append({**landmark, "cell": [row, col]})
+    raise_collected(errors)
     return {**data, "landmarks": filled}
+
+
+def map_corners(occupancy: OccupancyMap) -> list[tuple[float, float]]:
+    """The map-frame corners of the occupancy image: lower-left, lower-right, upper-right, upper-left."""
+    width, height = occupancy.size_m
+    corners = []
+    for gx, gy in ((0.0, 0.0), (width, 0.0), (width, height), (0.0, height)):
+        x, y = occupancy.frame.to_map(gx, gy)
+        corners.append((float(x), float(y)))
+    return corners
+
+
+def map_extent(occupancy: OccupancyMap) -> str:
+    """Where the occupancy map lies in the map frame, for a message: ``x from -10 to 9.2 m and y from
+    -10 to 9.2 m``; with a yaw, its four corners."""
+    corners = map_corners(occupancy)
+    if occupancy.frame.yaw == 0.0:
+        (x0, y0), _, (x1, y1), _ = corners
+        return f"x from {x0:.6g} to {x1:.6g} m and y from {y0:.6g} to {y1:.6g} m (map frame)"
+    shown = ", ".join(f"({x:.4g}, {y:.4g})" for x, y in corners)
+    return f"the rectangle {shown} m (map frame, origin yaw {occupancy.frame.yaw:g} rad)"

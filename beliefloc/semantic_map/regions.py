@@ -10,7 +10,7 @@ the **average over sub-poses of the region** of what a sensor with continuous no
   sector (``360 / headings`` degrees; none on a map with one heading). A sub-pose on a blocked
   pixel is not a place the robot can be and is left out; a state whose every sub-pose is blocked
   keeps its centre. ``sub_samples: 1, yaw_samples: 1`` is the centre and the heading: the exact pose.
-* **Scan** (one beam at ``heading yaw − beam angle``, cast over the same blocked pixels as the exact
+* **Scan** (one beam at ``heading yaw + beam angle`` (counter-clockwise), cast over the same blocked pixels as the exact
   model: :mod:`beliefloc.continuous.raycast`): the reading is a mixture, as AMCL's beam model
   (Thrun et al., Probabilistic Robotics §6.3):
 
@@ -194,13 +194,13 @@ def region_scan(
     short: float,
 ) -> np.ndarray:
     """The average reading distribution of every state's region for one beam (``beam_deg`` degrees
-    clockwise from the heading): shape ``(n_states, len(bins) + 1)``."""
+    counter-clockwise from the heading): shape ``(n_states, len(bins) + 1)``."""
     poses, weight = sub_poses(layout, image, spec)
     reach = float(bins[-1]) + 4.0 * sigma
     used = weight > 0
     ranges = np.full(weight.shape, np.inf)
     p = poses[used]
-    ranges[used] = cast_rays(image, p[:, 0], p[:, 1], p[:, 2] - math.radians(beam_deg), reach)
+    ranges[used] = cast_rays(image, p[:, 0], p[:, 1], p[:, 2] + math.radians(beam_deg), reach)
     ranges[ranges > reach] = np.inf
     dist = scan_distribution(ranges, bins, sigma, random, short)  # (n, K, values)
     out: np.ndarray = np.einsum("nk,nkv->nv", weight, dist)

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Protocol
 import numpy as np
 
 from beliefloc.errors import FieldError
-from beliefloc.semantic_map.occupancy_section import too_much_geometry
+from beliefloc.semantic_map.occupancy_section import map_extent, too_much_geometry
 from beliefloc.semantic_map.sections import BLOCKED, FREE, NO_ROOM, Grid, RoomRectangle, Rooms, grid_lines
 from beliefloc.source.limits import GEOMETRY_TESTS
 
@@ -120,7 +120,9 @@ def _check_room_polygons(smap: RoomsOfAMap, polygons: dict[str, list[tuple[float
     owner = np.full(smap.free.shape, "", dtype=object)
     for name, mask in smap.rooms.items():
         if not mask.any():
-            raise FieldError(("rooms", "polygons", name), f"no free cell has its centre inside room {name!r}")
+            occupancy = smap.occupancy_map
+            where = f" (the map {occupancy.yaml_path.name} covers {map_extent(occupancy)})" if occupancy else ""
+            raise FieldError(("rooms", "polygons", name), f"no free cell has its centre inside room {name!r}{where}")
         taken = np.argwhere(mask & (owner != ""))
         if len(taken):
             r, c = (int(v) for v in taken[0])

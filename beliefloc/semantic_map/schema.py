@@ -24,9 +24,9 @@ from pydantic import (
     model_validator,
 )
 
-from beliefloc.errors import FieldError
+from beliefloc.errors import FieldError, raise_collected
 from beliefloc.model import MapFrame, SourceInfo
-from beliefloc.semantic_map import observations
+from beliefloc.semantic_map import angles, observations
 from beliefloc.semantic_map.observations import ObservationSet, PartGroup, PartSpec
 from beliefloc.semantic_map.occupancy_grid import free_cells, rooms_from_mask, rooms_from_polygons
 from beliefloc.semantic_map.occupancy_section import grid_from_occupancy, landmark_cells, too_much_geometry
@@ -112,6 +112,9 @@ class SemanticMap(StrictModel):
             return data
         _refuse_internal_names(data)
         context = info.context or {}
+        data, old_forms = angles.new_form(data)
+        if isinstance(context.get("old_forms"), list):
+            context["old_forms"].extend(old_forms)
         occupancy: OccupancyMap | None = context.get("occupancy")
         if occupancy is not None:
             data = grid_from_occupancy(data, occupancy)
@@ -193,6 +196,7 @@ class SemanticMap(StrictModel):
         self._occupancy = context.get("occupancy")
         self._region_mask = context.get("region_mask")
         self._check_occupancy()
+        self._warn_units(context.get("unit_warnings"))
         g = self.grid
         if self._occupancy is None:  # an occupancy map's grid was checked as its size was worked out
             observations.check_grid(g.rows, g.cols, g.headings, ("grid",))
@@ -206,13 +210,16 @@ class SemanticMap(StrictModel):
                     f"{radius:g} m: the map has no states; try a smaller cell_size or robot_radius",
                 )
             raise FieldError(("layout",), "every cell is blocked: the map has no states")
-        self._check_landmarks()
-        self._check_actions()
-        self._check_sensors()
-        self._check_observations()
-        self._check_annotations()
+        # the checks below are independent: every problem they find is reported in one run
+        errors = [*self._check_landmarks(), *self._check_actions(), *self._check_sensors()]
+        for check in (self._check_observations, lambda: check_rooms(self)):
+            try:
+                check()
+            except FieldError as exc:
+                errors.append(exc)
+        errors.extend(self._check_annotations())
         self._warn_unseen_classes(context.get("warnings"))
-        check_rooms(self)
+        raise_collected(errors)
         return self
 
     def _check_occupancy(self) -> None:
@@ -246,62 +253,79 @@ class SemanticMap(StrictModel):
                         column=c,
                     )
 
-    def _check_landmarks(self) -> None:
+    def _check_landmarks(self) -> list[FieldError]:
         g = self.grid
+        errors = []
         for i, lm in enumerate(self.landmarks):
             r, c = lm.cell
             if not (0 <= r < g.rows and 0 <= c < g.cols):
-                raise FieldError(("landmarks", i, "cell"), f"cell [{r}, {c}] is outside the {g.rows}x{g.cols} grid")
-            if self._occupancy is None and not self.free[r, c]:
-                raise FieldError(("landmarks", i, "cell"), f"cell [{r}, {c}] is blocked in the layout")
+                errors.append(
+                    FieldError(("landmarks", i, "cell"), f"cell [{r}, {c}] is outside the {g.rows}x{g.cols} grid")
+                )
+            elif self._occupancy is None and not self.free[r, c]:
+                errors.append(FieldError(("landmarks", i, "cell"), f"cell [{r}, {c}] is blocked in the layout"))
+        return errors
 
-    def _check_actions(self) -> None:
+    def _check_actions(self) -> list[FieldError]:
         allowed = MOVES_BY_HEADINGS[self.grid.headings]
         if not self.actions:
-            raise FieldError(("actions",), f"no actuation actions; expected some of: {', '.join(allowed)}")
+            return [FieldError(("actions",), f"no actuation actions; expected some of: {', '.join(allowed)}")]
+        errors = []
         for name in self.actions:
             if name not in allowed:
-                raise FieldError(
-                    ("actions", name),
-                    f"unknown action {name!r} for a map with headings: {self.grid.headings}; "
-                    f"expected some of: {', '.join(allowed)}",
+                errors.append(
+                    FieldError(
+                        ("actions", name),
+                        f"unknown action {name!r} for a map with headings: {self.grid.headings}; "
+                        f"expected some of: {', '.join(allowed)}",
+                    )
                 )
             if name in self.sensors:
-                raise FieldError(("sensors", name), f"{name!r} is both an action and a sensor")
+                errors.append(FieldError(("sensors", name), f"{name!r} is both an action and a sensor"))
+        return errors
 
-    def _check_sensors(self) -> None:
-        g = self.grid
+    def _check_sensors(self) -> list[FieldError]:
+        """The first problem of each sensor."""
+        errors = []
         for name, sensor in self.sensors.items():
-            if isinstance(sensor, ScanSensor) and g.headings == 1:
-                raise FieldError(
-                    ("sensors", name, "type"), "a scan looks ahead, but the map has headings: 1 (no heading)"
-                )
-            if isinstance(sensor, HereSensor):
-                self._check_here(name, sensor)
-            if isinstance(sensor, ScanSensor) and g.headings > 1:
-                step = 360.0 / g.headings
-                for k, angle in enumerate(sensor.beams):
-                    if abs(angle / step - round(angle / step)) > 1e-9:
-                        raise FieldError(
-                            ("sensors", name, "beams", k),
-                            f"a beam at {angle:g} degrees falls between headings; with headings: {g.headings} "
-                            f"use multiples of {step:g}",
-                        )
-            if isinstance(sensor, LookSensor) and sensor.angle_bins and g.headings > 1:
-                half = sensor.effective_fov(g.headings) / 2.0
-                if half > sensor.angle_bins[-1] + 1e-9:
+            try:
+                self._check_sensor(name, sensor)
+            except FieldError as exc:
+                errors.append(exc)
+        return errors
+
+    def _check_sensor(self, name: str, sensor: Sensor) -> None:
+        g = self.grid
+        if isinstance(sensor, ScanSensor) and g.headings == 1:
+            raise FieldError(("sensors", name, "type"), "a scan looks ahead, but the map has headings: 1 (no heading)")
+        if isinstance(sensor, HereSensor):
+            self._check_here(name, sensor)
+        if isinstance(sensor, ScanSensor) and g.headings > 1:
+            step = 360.0 / g.headings
+            for k, angle in enumerate(sensor.beams):
+                if abs(angle / step - round(angle / step)) > 1e-9:
+                    radians = angles.looks_like_radians([angle])
                     raise FieldError(
-                        ("sensors", name, "fov"),
-                        f"a field of view of {2 * half:g} degrees sees up to {half:g} degrees off axis, but the "
-                        f"angle_bins stop at {sensor.angle_bins[-1]:g}; drop fov or add a bin edge of {half:g}",
+                        ("sensors", name, "beams_deg", k),
+                        f"a beam at {angle:g} degrees (counter-clockwise) falls between headings; with headings: "
+                        f"{g.headings} use multiples of {step:g}"
+                        + ("; it looks like radians: beams_deg is in degrees" if radians else ""),
                     )
-            if not isinstance(sensor, HereSensor):
-                self._check_edges(name, sensor)
-            if not sensor.passive and not sensor.as_action:
+        if isinstance(sensor, LookSensor) and sensor.angle_bins and g.headings > 1:
+            half = sensor.effective_fov(g.headings) / 2.0
+            if half > sensor.angle_bins[-1] + 1e-9:
                 raise FieldError(
-                    ("sensors", name, "as_action"),
-                    "a sensor that is neither passive nor an action is never used",
+                    ("sensors", name, "fov_deg"),
+                    f"a field of view of {2 * half:g} degrees sees up to {half:g} degrees off axis, but the "
+                    f"angle_bins_deg stop at {sensor.angle_bins[-1]:g}; drop fov_deg or add a bin edge of {half:g}",
                 )
+        if not isinstance(sensor, HereSensor):
+            self._check_edges(name, sensor)
+        if not sensor.passive and not sensor.as_action:
+            raise FieldError(
+                ("sensors", name, "as_action"),
+                "a sensor that is neither passive nor an action is never used",
+            )
 
     def observation_sets(self, *, named: bool = False) -> list[ObservationSet]:
         """The observations of the model's actions, from the map alone: the moves' (the joint
@@ -356,6 +380,51 @@ class SemanticMap(StrictModel):
                 too_much_geometry(tests, f"{landmarks:,} landmarks, each seen from up to {states:,} states"),
             )
 
+    def _warn_units(self, warnings: list[tuple[tuple[str | int, ...], str]] | None) -> None:
+        """Likely unit mistakes, which are warnings and not errors (docs/map-format.md, Angles): an
+        angle in degrees that looks like radians, an origin yaw in radians that looks like degrees, a
+        cell larger than the occupancy map."""
+        if warnings is None:
+            return
+        for name, sensor in self.sensors.items():
+            if isinstance(sensor, LookSensor) and sensor.fov is not None and sensor.fov <= 2 * math.pi:
+                warnings.append(
+                    (
+                        ("sensors", name, "fov_deg"),
+                        f"a field of view of {sensor.fov:g} degrees looks like radians ({math.degrees(sensor.fov):.4g} "
+                        "degrees); fov_deg is in degrees",
+                    )
+                )
+            if isinstance(sensor, LookSensor) and sensor.angle_bins and angles.looks_like_radians(sensor.angle_bins):
+                shown = ", ".join(f"{math.degrees(b):.4g}" for b in sensor.angle_bins)
+                warnings.append(
+                    (
+                        ("sensors", name, "angle_bins_deg"),
+                        f"{sensor.angle_bins} look like radians ([{shown}] degrees); angle_bins_deg is in degrees",
+                    )
+                )
+        occupancy = self._occupancy
+        if occupancy is None:
+            return
+        yaw = occupancy.frame.yaw
+        if abs(yaw) > 2 * math.pi:
+            warnings.append(
+                (
+                    ("occupancy",),
+                    f"the origin yaw of {occupancy.yaml_path.name} is {yaw:g}, which looks like degrees: map_server "
+                    f"reads it in radians ({yaw:g} rad is {math.degrees(yaw) % 360:.4g} degrees, counter-clockwise)",
+                )
+            )
+        width, height = occupancy.size_m
+        if self.grid.cell_size > min(width, height):
+            warnings.append(
+                (
+                    ("grid", "cell_size"),
+                    f"a cell of {self.grid.cell_size:g} m is larger than the occupancy map ({width:g} m x "
+                    f"{height:g} m): cell_size is in metres",
+                )
+            )
+
     def _warn_unseen_classes(self, warnings: list[tuple[tuple[str | int, ...], str]] | None) -> None:
         """A Look class that no landmark has, and that no annotation says is seen, is never seen."""
         if warnings is None:
@@ -382,7 +451,7 @@ class SemanticMap(StrictModel):
         at = observations.same_label(edges)
         if at is None:
             return
-        key, unit = ("bins", "m") if isinstance(sensor, ScanSensor) else ("angle_bins", "degrees")
+        key, unit = ("bins", "m") if isinstance(sensor, ScanSensor) else ("angle_bins_deg", "degrees")
         before = edges[at - 1] if at > 0 else 0.0
         shown = observations.label(edges[at])
         raise FieldError(
@@ -420,30 +489,39 @@ class SemanticMap(StrictModel):
                     if self.free[r, c] and ch not in sensor.legend:
                         raise FieldError(path, f"row {r} has {ch!r}, which the legend does not name", row=r, column=c)
 
-    def _check_annotations(self) -> None:
+    def _check_annotations(self) -> list[FieldError]:
+        """The first problem of each annotation."""
+        errors = []
         for i, annotation in enumerate(self.annotations):
-            if annotation.state is not None and annotation.states is not None:
-                raise FieldError(("annotations", i, "states"), "give either state: 'r,c,h' or states: [...], not both")
-            if annotation.state is None and annotation.states is None:
-                raise FieldError(
-                    ("annotations", i),
-                    "names no state: give state: 'r,c,h' (or 'r,c' for a whole cell) or states: [...], "
-                    "e.g. {state: '1,1,0', look: [chair]}",
-                )
-            for name, where in annotation.targets:
-                try:
-                    self.parse_state(name)
-                except ValueError as exc:
-                    raise FieldError(("annotations", i, *where), str(exc)) from None
-            if not annotation.readings:
-                raise FieldError(("annotations", i), "names no sensor; e.g. {state: '1,1,0', look: [chair]}")
-            for key, value in annotation.readings.items():
-                path = ("annotations", i, key)
-                sensor = self.sensors.get(key)
-                if sensor is None:
-                    known = ", ".join(self.sensors) or "none"
-                    raise FieldError(path, f"unknown sensor {key!r}; the map's sensors are: {known}")
-                _check_reading(sensor, value, path, self)
+            try:
+                self._check_annotation(i, annotation)
+            except FieldError as exc:
+                errors.append(exc)
+        return errors
+
+    def _check_annotation(self, i: int, annotation: Annotation) -> None:
+        if annotation.state is not None and annotation.states is not None:
+            raise FieldError(("annotations", i, "states"), "give either state: 'r,c,h' or states: [...], not both")
+        if annotation.state is None and annotation.states is None:
+            raise FieldError(
+                ("annotations", i),
+                "names no state: give state: 'r,c,h' (or 'r,c' for a whole cell) or states: [...], "
+                "e.g. {state: '1,1,0', look: [chair]}",
+            )
+        for name, where in annotation.targets:
+            try:
+                self.parse_state(name)
+            except ValueError as exc:
+                raise FieldError(("annotations", i, *where), str(exc)) from None
+        if not annotation.readings:
+            raise FieldError(("annotations", i), "names no sensor; e.g. {state: '1,1,0', look: [chair]}")
+        for key, value in annotation.readings.items():
+            path = ("annotations", i, key)
+            sensor = self.sensors.get(key)
+            if sensor is None:
+                known = ", ".join(self.sensors) or "none"
+                raise FieldError(path, f"unknown sensor {key!r}; the map's sensors are: {known}")
+            _check_reading(sensor, value, path, self)
 
 
 def _sensor_groups(name: str, sensor: Sensor, smap: SemanticMap) -> tuple[PartGroup, ...]:
@@ -469,7 +547,7 @@ def _sensor_parts(name: str, sensor: Sensor, smap: SemanticMap) -> tuple[PartSpe
             where = (*at, "classes", i)
 
             def value_where(w: int, where: tuple[str | int, ...] = where) -> tuple[str | int, ...]:
-                return (*at, "angle_bins", w - 1) if bins and w > 0 else where
+                return (*at, "angle_bins_deg", w - 1) if bins and w > 0 else where
 
             parts.append(PartSpec(f"{name}.{cls}", values, aliases, where, value_where, name))
         return tuple(parts)
@@ -486,7 +564,7 @@ def _sensor_parts(name: str, sensor: Sensor, smap: SemanticMap) -> tuple[PartSpe
                 f"{name}@{observations.label(angle)}",
                 observations.scan_values(sensor.bins, observations.label(angle)),
                 {},
-                (*at, "beams", k),
+                (*at, "beams_deg", k),
                 bin_where,
                 name,
             )
@@ -501,7 +579,7 @@ def _defining_field(name: str, sensor: Sensor) -> tuple[str | int, ...]:
     if isinstance(sensor, LookSensor):
         return ("sensors", name, "classes")
     if isinstance(sensor, ScanSensor):
-        return ("sensors", name, "beams" if sensor.multi_beam and len(sensor.bins) < 2 else "bins")
+        return ("sensors", name, "beams_deg" if sensor.multi_beam and len(sensor.bins) < 2 else "bins")
     return ("sensors", name, "legend" if sensor.legend is not None else "labels" if sensor.labels else "type")
 
 
@@ -531,7 +609,7 @@ def _check_reading(
         else:
             if not isinstance(value, dict):
                 raise FieldError(
-                    path, f"should map each class seen to its viewing angle, e.g. {{{sensor.classes[0]}: 25}}"
+                    path, f"should map each class seen to its viewing angle, e.g. {{{sensor.classes[0]}: 25deg}}"
                 )
             classes = list(value)
             for cls_name, angle in value.items():
@@ -542,7 +620,7 @@ def _check_reading(
                 ):
                     raise FieldError(
                         (*path, cls_name),
-                        f"viewing angle must be a number of degrees within ±{sensor.angle_bins[-1]:g}",
+                        f"viewing angle must be a number of degrees within ±{sensor.angle_bins[-1]:g}, e.g. 25deg",
                     )
         for cls_name in classes:
             if cls_name not in sensor.classes:

@@ -91,7 +91,8 @@ class Grid(StrictModel):
     cell_size: CellSize = 1.0
     """Side of a cell in meters; ranges and scan bins are in meters too."""
     headings: Annotated[Literal[1, 4, 8], BeforeValidator(_no_boolean)] = 4
-    """1: no orientation, compass moves; 4 or 8: a triangle per heading, 0 = north, clockwise."""
+    """1: no orientation, compass moves; 4 or 8: a triangle per heading, heading 0 = north and the
+    index counting clockwise, as the papers number them (heading h has yaw π/2 − h·2π/headings)."""
     robot_radius: Length | None = None
     """Occupancy maps: a cell is a state only when a disc of this radius on its centre touches no
     occupied or unknown pixel (:mod:`beliefloc.semantic_map.occupancy_grid`). Default 0."""
@@ -137,10 +138,12 @@ class LookSensor(_SensorBase):
     false_negative: Probability = 0.0
     range: Length | None = None
     """Meters between cell centres; unlimited when omitted."""
-    fov: Annotated[Degrees, Field(gt=0.0, le=360.0)] | None = None
-    """Field of view in degrees, centred on the heading. Default 90 (360 on maps with headings 1)."""
-    angle_bins: list[Annotated[Degrees, Field(gt=0.0, le=180.0)]] | None = None
-    """Upper edges (degrees) of viewing-angle bins: [18, 30, 45] reports 0-18, 18-30 or 30-45."""
+    fov: Annotated[Degrees, Field(gt=0.0, le=360.0)] | None = Field(default=None, alias="fov_deg")
+    """Field of view in degrees (``fov_deg``), centred on the heading. Default 90 (360 on maps with
+    headings 1). The old key ``fov`` is read as before, with a warning."""
+    angle_bins: list[Annotated[Degrees, Field(gt=0.0, le=180.0)]] | None = Field(default=None, alias="angle_bins_deg")
+    """Upper edges in degrees (``angle_bins_deg``) of viewing-angle bins, off the axis either way:
+    [18, 30, 45] reports 0-18, 18-30 or 30-45. The old key ``angle_bins`` is read as before."""
     occlusion: bool = True
     """Blocked cells between the robot and a landmark hide it."""
     sub_samples: SubSamples | None = None
@@ -150,8 +153,8 @@ class LookSensor(_SensorBase):
     yaw_samples: YawSamples | None = None
     """Region model: yaw offsets averaged over each heading's sector. Default 1; 3 suits a
     real robot."""
-    fov_edge: Annotated[Degrees, Field(ge=0.0, le=90.0)] | None = None
-    """Region model: degrees over which detection fades at the edge of the field of view (the σ of
+    fov_edge: Annotated[Degrees, Field(ge=0.0, le=90.0)] | None = Field(default=None, alias="fov_edge_deg")
+    """Region model (``fov_edge_deg``): degrees over which detection fades at the edge of the field of view (the σ of
     a Gaussian edge). Default 0 (a step); 3 suits a real
     detector."""
     range_edge: Annotated[Length, Field(le=100.0)] | None = None
@@ -183,9 +186,9 @@ class LookSensor(_SensorBase):
     def _bins(cls, value: list[float] | None) -> list[float] | None:
         if value is not None:
             if not value:
-                raise ValueError("angle_bins needs at least one edge, e.g. [18, 30, 45]")
+                raise ValueError("angle_bins_deg needs at least one edge, e.g. [18, 30, 45]")
             if any(b >= a for a, b in zip(value[1:], value[:-1], strict=False)):
-                raise ValueError(f"angle_bins must be strictly increasing, got {value}")
+                raise ValueError(f"angle_bins_deg must be strictly increasing, got {value}")
         return value
 
     def effective_fov(self, headings: int) -> float:
@@ -204,10 +207,13 @@ class ScanSensor(_SensorBase):
     """Upper edges in meters: [0.2, 0.8, 1.1, 1.5] gives wall_0-0.2 ... wall_1.1-1.5 and no_wall."""
     error: Probability = 0.0
     """Probability of reading another bin, spread evenly over the others."""
-    beams: list[Annotated[Degrees, Field(gt=-360.0, lt=360.0)]] = Field(default_factory=lambda: [0.0])
-    """Directions of the beams in degrees, relative to the heading (clockwise positive), each read
-    independently with the same bins and error: ``[-90, 0, 90]`` looks left, ahead and right.
-    Multiples of 360/headings. The default ``[0]`` is one beam straight ahead."""
+    beams: list[Annotated[Degrees, Field(gt=-360.0, lt=360.0)]] = Field(
+        default_factory=lambda: [0.0], alias="beams_deg"
+    )
+    """Directions of the beams in degrees (``beams_deg``), relative to the heading, counter-clockwise
+    positive (REP 103), each read independently with the same bins and error: ``[90, 0, -90]`` looks
+    left, ahead and right. Multiples of 360/headings. The default ``[0]`` is one beam straight
+    ahead. The old key ``beams`` (degrees clockwise) is read as before, with a warning."""
 
     @field_validator("beams")
     @classmethod

@@ -222,7 +222,7 @@ def gridworld_yaml(world: GridWorld, *, seed: int) -> str:
         f"    false_negative: {LOOK_NOISE:g}",
     ]
     if world.seen_model is SeenModel.OBJECTS:
-        lines += [f"    range: {LOOK_RANGE_CELLS * CELL_SIZE:g}", f"    fov: {LOOK_FOV:g}"]
+        lines += [f"    range: {LOOK_RANGE_CELLS * CELL_SIZE:g}", f"    fov_deg: {LOOK_FOV:g}"]
     else:
         annotations = world.annotations()
         if annotations:

@@ -44,6 +44,9 @@ class Source:
     """Where a value that was not written at its own path was written: an alias (``b: *a``) maps
     ``("b",)`` to the anchor's path, a key merged in by ``<<: *base`` maps ``("m", "k")`` to
     ``("base", "k")``. Values are shared, not copied, so this stays as small as the file."""
+    renamed: dict[Path, Path] = field(default_factory=dict)
+    """A key the loader renamed before validation -> the key the file wrote (a map's old-form
+    ``beams`` is validated as ``beams_deg``): messages name, and point at, what the file wrote."""
 
     def locate(self, path: Path, *, key: bool = False) -> tuple[Path, tuple[int, int]]:
         """The part of ``path`` that exists in the file and its (line, column), both 1-based.
@@ -64,6 +67,9 @@ class Source:
         key_mark: tuple[int, int] | None = None
         for element in path:
             candidate = (*written, element)
+            if candidate in self.renamed:
+                candidate = self.renamed[candidate]
+                element = candidate[-1]
             if candidate not in values and candidate not in aliases and candidate not in keys:
                 if isinstance(element, (int, float)):
                     candidate = (*written, str(element))  # a key written as a number: paths spell it as text

@@ -9,11 +9,12 @@ from typing import Any, TypeVar
 
 from pydantic import BaseModel, ValidationError
 
-from beliefloc.errors import FieldError, InputFileError, Path
+from beliefloc.errors import FieldError, FieldErrors, InputFileError, Path
 from beliefloc.source.located import Source, data_at, gc_paused, shown_value
 
 _Model = TypeVar("_Model", bound=BaseModel)
-_MAX_ERRORS_SHOWN = 6
+MAX_ERRORS_SHOWN = 20
+"""The most problems of one file a message lists (then "... and N more problems")."""
 
 
 # --- validation -----------------------------------------------------------------------------------
@@ -34,12 +35,19 @@ def validate_source(
             return model_cls.model_validate(source.data, context=context)
     except FieldError as exc:
         raise error_cls(source.format(exc.path, exc.message, row=exc.row, column=exc.column)) from None
+    except FieldErrors as exc:
+        found = [source.format(e.path, e.message, row=e.row, column=e.column) for e in exc.errors]
+        raise error_cls(_listed(found)) from None
     except ValidationError as exc:
-        messages = [_describe(source, model_cls, error) for error in exc.errors()]
-        shown = messages[:_MAX_ERRORS_SHOWN]
-        if len(messages) > len(shown):
-            shown.append(f"... and {len(messages) - len(shown)} more problems")
-        raise error_cls("\n".join(shown)) from None
+        raise error_cls(_listed([_describe(source, model_cls, error) for error in exc.errors()])) from None
+
+
+def _listed(messages: list[str]) -> str:
+    """Every problem on its own line, at most :data:`MAX_ERRORS_SHOWN` of them."""
+    shown = messages[:MAX_ERRORS_SHOWN]
+    if len(messages) > len(shown):
+        shown.append(f"... and {len(messages) - len(shown)} more problems")
+    return "\n".join(shown)
 
 
 def refuse_field_name(model_cls: type[BaseModel], data: Any, name: str) -> None:
