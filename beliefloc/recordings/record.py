@@ -509,10 +509,10 @@ class _ScanLayout:
 
 
 def beam_angle(degrees: float) -> float:
-    """A Scan beam's direction in a LaserScan: the map file's degrees, clockwise from the heading
-    (:class:`~beliefloc.semantic_map.sections.ScanSensor`), as radians counter-clockwise from the
-    base's +x (REP 103), wrapped to [-pi, pi)."""
-    return (-math.radians(degrees) + math.pi) % (2 * math.pi) - math.pi
+    """A Scan beam's direction in a LaserScan: the map file's degrees, counter-clockwise from the
+    heading (``beams_deg``, :class:`~beliefloc.semantic_map.sections.ScanSensor`), as radians
+    counter-clockwise from the base's +x (REP 103), wrapped to [-pi, pi)."""
+    return (math.radians(degrees) + math.pi) % (2 * math.pi) - math.pi
 
 
 class EpisodeRecorder:
