@@ -208,7 +208,7 @@ def open_locked(path: Path) -> IO[bytes]:
     import fcntl
     import os
 
-    file = os.fdopen(os.open(path, os.O_RDWR | os.O_CREAT, 0o666), "r+b")
+    file = os.fdopen(os.open(path, os.O_RDWR | os.O_CREAT, 0o666), "r+b", buffering=0)  # a failed write: no buffer
     try:
         fcntl.flock(file.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
@@ -235,10 +235,14 @@ def _lock_holder(inode: int) -> int | None:
 
 
 class ResultsWriter:
-    """Writes a results file line by line, each flushed as it is written. A new file gets
+    """Writes a results file line by line, each written through as it is written. A new file gets
     ``head`` first; a resumed one (``resume``: what :func:`read_results` found) is cut back to its
     whole lines and continued. ``file``: the file :func:`open_locked` opened (else it is opened
-    and locked here)."""
+    and locked here). ``created``: the file did not exist before this run.
+
+    A write that fails (a full disk) leaves the file with whole lines only: cut back to the end of
+    the last whole result, or removed when this run created it and wrote no result; then an
+    :class:`~beliefloc.errors.OutputError` names the file and what it still holds."""
 
     def __init__(
         self,
@@ -246,14 +250,22 @@ class ResultsWriter:
         head: Mapping[str, Any],
         resume: ResultsContent | None = None,
         file: IO[bytes] | None = None,
+        *,
+        created: bool = False,
     ) -> None:
         self.path = path
         self._file: IO[bytes] = file if file is not None else open_locked(path)
+        self._created = created
         kept = 0 if resume is None else resume.kept_bytes
+        self._kept = kept
+        """Bytes of whole lines in the file."""
+        self._results = 0 if resume is None else len(resume.results)
         self._file.truncate(kept)
         self._file.seek(kept)
         if resume is None:
-            self.write(head)
+            self._write_line(head)
+        else:
+            self._created = False
 
     def still_there(self) -> bool:
         """Whether the file written is still at :attr:`path` (not removed or replaced meanwhile)."""
@@ -265,8 +277,44 @@ class ResultsWriter:
             return False
 
     def write(self, data: Any) -> None:
-        self._file.write((dumps(data) + "\n").encode("utf-8"))
-        self._file.flush()
+        """One result, as a line."""
+        self._write_line(data)
+        self._results += 1
+
+    def _write_line(self, data: Any) -> None:
+        import os
+
+        encoded = (dumps(data) + "\n").encode("utf-8")
+        line = memoryview(encoded)
+        fd = self._file.fileno()
+        try:
+            while line:
+                line = line[os.write(fd, line) :]
+        except OSError as exc:
+            self._cut_back(exc)
+        self._kept += len(encoded)
+
+    def _cut_back(self, exc: OSError) -> None:
+        """After a failed write: only whole lines stay (or no file, if this run made it and wrote no
+        result); an :class:`OutputError` saying so."""
+        import contextlib
+        import os
+
+        from beliefloc.errors import OutputError
+
+        reason = exc.strerror or str(exc)
+        if self._created and self._results == 0:
+            self.path.unlink(missing_ok=True)
+            self._file.close()
+            raise OutputError(f"{self.path}: cannot be written ({reason}); nothing was written", reason)
+        with contextlib.suppress(OSError):
+            os.ftruncate(self._file.fileno(), self._kept)
+        raise OutputError(
+            f"{self.path}: cannot be written ({reason}); the file keeps the {self._results:,} whole results "
+            "written before: make room and continue with --resume",
+            reason,
+        )
+
 
     def close(self) -> None:
         self._file.close()

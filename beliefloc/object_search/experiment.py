@@ -69,6 +69,16 @@ from beliefloc.object_search.settings import (
 from beliefloc.object_search.space import SearchSpace
 from beliefloc.object_search.trials import Stream, robot_domain, sample_known, trial_rng, unknown_objects
 from beliefloc.object_search.world import P_TYPICAL, SceneTarget, SimulatedTarget, World, sample_world, typical_rooms
+from beliefloc.source.record_fields import (
+    flag_field,
+    list_field,
+    mapping_field,
+    number_field,
+    optional_number_field,
+    optional_text_field,
+    text_field,
+    whole_field,
+)
 
 
 @dataclass(frozen=True)
@@ -238,19 +248,23 @@ class ArmOutcome:
         """The outcome :meth:`as_json` gave ``data``; its reported cell is read back with ``space``
         (None without: the statistics of :func:`summarize` do not need it); ``seconds`` NaN when
         the JSON has no clock values."""
-        reported = data["reported_cell"]
+        reported = optional_text_field(data, "reported_cell")
+        commits = list_field(data, "commits")
+        if not all(isinstance(f, list) and len(f) == 2 and all(isinstance(x, str) for x in f) for f in commits):
+            raise ValueError("commits: not a list of [object, room] pairs of names")
+        applied = data.get("operators_applied")
         return cls(
             arm=arm,
-            verdict=Verdict(data["verdict"]),
-            time=float(data["time"]),
-            steps=int(data["steps"]),
+            verdict=Verdict(text_field(data, "verdict")),
+            time=number_field(data, "time"),
+            steps=whole_field(data, "steps"),
             reported_cell=None if reported is None or space is None else space.parse_cell(reported),
-            error_cells=None if data["error_cells"] is None else float(data["error_cells"]),
-            accuracy=float(data["accuracy"]),
-            commits=tuple((str(obj), str(room)) for obj, room in data["commits"]),
-            seconds=math.nan if data["seconds"] is None else float(data["seconds"]),
-            operators_applied=None if data.get("operators_applied") is None else int(data["operators_applied"]),
-            processing_time=None if data.get("processing_time") is None else float(data["processing_time"]),
+            error_cells=optional_number_field(data, "error_cells"),
+            accuracy=number_field(data, "accuracy"),
+            commits=tuple((obj, room) for obj, room in commits),
+            seconds=math.nan if data["seconds"] is None else number_field(data, "seconds"),
+            operators_applied=None if applied is None else whole_field(data, "operators_applied"),
+            processing_time=None if data.get("processing_time") is None else number_field(data, "processing_time"),
         )
 
 
@@ -292,18 +306,25 @@ class TrialRecord:
     def from_json(cls, data: dict[str, Any], space: SearchSpace | None = None) -> TrialRecord:
         """The record :meth:`as_json` gave ``data``; its cells are read back with ``space`` (None
         without: enough for :func:`summarize`); ``seconds`` NaN when the JSON has no clock values."""
-        true_cell = data["true_cell"]
+        if not isinstance(data, dict):
+            raise ValueError(f"{str(data)[:40]!r} is not a JSON object")
+        true_cell = optional_text_field(data, "true_cell")
+        prior = mapping_field(data, "room_prior")
+        outcomes = mapping_field(data, "outcomes")
+        for arm, outcome in outcomes.items():
+            if not isinstance(outcome, dict):
+                raise ValueError(f"outcomes.{arm}: {str(outcome)[:40]!r} is not an object")
         return cls(
-            index=int(data["trial"]),
-            target=data["target"],
-            target_class=data["target_class"],
-            present=bool(data["present"]),
-            true_room=data["true_room"],
+            index=whole_field(data, "trial"),
+            target=text_field(data, "target"),
+            target_class=text_field(data, "target_class"),
+            present=flag_field(data, "present"),
+            true_room=optional_text_field(data, "true_room"),
             true_cell=None if true_cell is None or space is None else space.parse_cell(true_cell),
-            known=int(data["known"]),
-            room_prior=tuple(float(p) for p in data["room_prior"].values()),
-            outcomes=tuple(ArmOutcome.from_json(arm, o, space) for arm, o in data["outcomes"].items()),
-            seconds=math.nan if data["seconds"] is None else float(data["seconds"]),
+            known=whole_field(data, "known"),
+            room_prior=tuple(number_field(prior, room) for room in prior),
+            outcomes=tuple(ArmOutcome.from_json(arm, o, space) for arm, o in outcomes.items()),
+            seconds=math.nan if data["seconds"] is None else number_field(data, "seconds"),
         )
 
 

@@ -23,6 +23,7 @@ from beliefloc.pose import PoseEstimate, belief_pose
 from beliefloc.simulation.robot import SimulatedRobot
 from beliefloc.simulation.settings import DEFAULT_MAX_STEPS, StrategyName
 from beliefloc.simulation.strategies import EpisodeStatus, GiveUp, PlannerSettings, SharedWork, make_strategy
+from beliefloc.source.record_fields import flag_field, number_field, text_field, whole_field
 
 
 @dataclass(frozen=True)
@@ -77,51 +78,19 @@ class EpisodeRecord:
         if seconds is not None and not isinstance(seconds, list):
             raise ValueError(f"plan_seconds: {seconds!r} is not a list of numbers")
         return cls(
-            strategy=_text(data, "strategy"),
-            episode=_whole(data, "episode"),
-            start=_text(data, "start"),
-            final=_text(data, "final"),
-            true_final=_text(data, "true_final"),
-            correct=_flag(data, "correct"),
-            status=EpisodeStatus(_text(data, "status")),
-            cost=_number(data, "cost"),
-            steps=_whole(data, "steps"),
-            replans=_whole(data, "replans"),
-            plan_seconds=[_number({"plan_seconds": x}, "plan_seconds") for x in seconds or []],
-            max_belief=_number(data, "max_belief"),
+            strategy=text_field(data, "strategy"),
+            episode=whole_field(data, "episode"),
+            start=text_field(data, "start"),
+            final=text_field(data, "final"),
+            true_final=text_field(data, "true_final"),
+            correct=flag_field(data, "correct"),
+            status=EpisodeStatus(text_field(data, "status")),
+            cost=number_field(data, "cost"),
+            steps=whole_field(data, "steps"),
+            replans=whole_field(data, "replans"),
+            plan_seconds=[number_field({"plan_seconds": x}, "plan_seconds") for x in seconds or []],
+            max_belief=number_field(data, "max_belief"),
         )
-
-
-def _text(data: dict[str, Any], key: str) -> str:
-    """A string field of a record read back from a file: a number or a list is no name."""
-    value = data[key]
-    if not isinstance(value, str):
-        raise ValueError(f"{key}: {value!r} is not a string")
-    return value
-
-
-def _whole(data: dict[str, Any], key: str) -> int:
-    value = data[key]
-    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 2**62:
-        raise ValueError(f"{key}: {str(value)[:40]!r} is not a whole number from 0 to 2**62")
-    return value
-
-
-def _number(data: dict[str, Any], key: str) -> float:
-    value = data[key]
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise ValueError(f"{key}: {str(value)[:40]!r} is not a number")
-    number = float(value)  # an int of 400 digits: OverflowError, caught by the reader
-    if number != number or number in (float("inf"), float("-inf")):
-        raise ValueError(f"{key}: {value!r} is not a finite number")
-    return number
-
-
-def _flag(data: dict[str, Any], key: str) -> bool:
-    value = data[key]
-    if not isinstance(value, bool):
-        raise ValueError(f"{key}: {value!r} is not true or false")
-    return value
 
 
 OnStep = Callable[[EpisodeRecord, StepRecord, np.ndarray], None]
