@@ -41,7 +41,8 @@ from __future__ import annotations
 import math
 import statistics
 import time
-from collections.abc import Callable, Sequence
+from array import array
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -573,37 +574,66 @@ def run_trials(
     return records
 
 
-def summarize(records: Sequence[TrialRecord]) -> dict[str, ArmSummary]:
+def summarize(records: Iterable[TrialRecord]) -> dict[str, ArmSummary]:
     """Per arm, in the order the records first name them: trials, verdict counts, localisation time
     (mean, standard deviation, median), accuracy (mean, standard deviation), the error in cells of the
-    reported cells, steps, commits, and wall-clock seconds per search (:class:`ArmSummary`)."""
-    out: dict[str, ArmSummary] = {}
-    arms = list(dict.fromkeys(o.arm for r in records for o in r.outcomes))
-    for arm in arms:
-        mine = [o for r in records for o in r.outcomes if o.arm == arm]
-        times = [o.time for o in mine]
-        accuracies = [o.accuracy for o in mine]
-        errors = [o.error_cells for o in mine if o.error_cells is not None]
-        out[arm] = ArmSummary(
+    reported cells, steps, commits, and wall-clock seconds per search (:class:`ArmSummary`). One pass,
+    keeping only columns of numbers: ``summarize`` of a results file streams its records through here."""
+    tallies: dict[str, _ArmTally] = {}
+    for record in records:
+        for outcome in record.outcomes:
+            tally = tallies.get(outcome.arm)
+            if tally is None:
+                tally = tallies[outcome.arm] = _ArmTally()
+            tally.add(outcome)
+    return {arm: tally.summary(arm) for arm, tally in tallies.items()}
+
+
+class _ArmTally:
+    """One arm's searches so far, as counts and columns of numbers (8 bytes each)."""
+
+    def __init__(self) -> None:
+        self.verdicts = dict.fromkeys(Verdict, 0)
+        self.times, self.accuracies, self.errors = array("d"), array("d"), array("d")
+        self.steps, self.commits, self.seconds = array("d"), array("d"), array("d")
+        self.operators, self.processing = array("d"), array("d")
+
+    def add(self, o: ArmOutcome) -> None:
+        self.verdicts[o.verdict] += 1
+        self.times.append(o.time)
+        self.accuracies.append(o.accuracy)
+        if o.error_cells is not None:
+            self.errors.append(o.error_cells)
+        self.steps.append(o.steps)
+        self.commits.append(len(o.commits))
+        if not math.isnan(o.seconds):
+            self.seconds.append(o.seconds)
+        if o.operators_applied is not None:
+            self.operators.append(o.operators_applied)
+        if o.processing_time is not None:
+            self.processing.append(o.processing_time)
+
+    def summary(self, arm: str) -> ArmSummary:
+        times = self.times
+        return ArmSummary(
             arm=arm,
-            trials=len(mine),
-            found=sum(o.verdict is Verdict.FOUND for o in mine),
-            not_found=sum(o.verdict is Verdict.NOT_FOUND for o in mine),
-            time_limit=sum(o.verdict is Verdict.TIME_LIMIT for o in mine),
+            trials=len(times),
+            found=self.verdicts[Verdict.FOUND],
+            not_found=self.verdicts[Verdict.NOT_FOUND],
+            time_limit=self.verdicts[Verdict.TIME_LIMIT],
             mean_time=_mean(times),
             stdev_time=_stdev(times),
             median_time=statistics.median(times) if times else None,
-            mean_accuracy=_mean(accuracies),
-            stdev_accuracy=_stdev(accuracies),
-            mean_error_cells=_mean(errors),
-            within_4_cells=sum(e <= 4.0 for e in errors),
-            mean_steps=_mean([o.steps for o in mine]),
-            mean_commits=_mean([len(o.commits) for o in mine]),
-            mean_seconds=_mean([o.seconds for o in mine if not math.isnan(o.seconds)]),
-            mean_operators=_mean([o.operators_applied for o in mine if o.operators_applied is not None]),
-            mean_processing_time=_mean([o.processing_time for o in mine if o.processing_time is not None]),
+            mean_accuracy=_mean(self.accuracies),
+            stdev_accuracy=_stdev(self.accuracies),
+            mean_error_cells=_mean(self.errors),
+            within_4_cells=sum(e <= 4.0 for e in self.errors),
+            mean_steps=_mean(self.steps),
+            mean_commits=_mean(self.commits),
+            mean_seconds=_mean(self.seconds),
+            mean_operators=_mean(self.operators),
+            mean_processing_time=_mean(self.processing),
         )
-    return out
 
 
 def run_title(domain: str, trials: int, seed: int, settings: dict[str, Any]) -> str:

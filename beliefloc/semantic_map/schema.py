@@ -30,7 +30,7 @@ from beliefloc.semantic_map import observations
 from beliefloc.semantic_map.observations import ObservationSet, PartGroup, PartSpec
 from beliefloc.semantic_map.occupancy_grid import free_cells, rooms_from_mask, rooms_from_polygons
 from beliefloc.semantic_map.occupancy_section import grid_from_occupancy, landmark_cells, too_much_geometry
-from beliefloc.semantic_map.room_checks import check_rooms
+from beliefloc.semantic_map.room_checks import check_corner_count, check_rooms
 from beliefloc.semantic_map.sections import (
     BLOCKED,
     FREE,
@@ -110,6 +110,7 @@ class SemanticMap(StrictModel):
         if not isinstance(data, dict):
             return data
         _refuse_internal_names(data)
+        check_corner_count(data)
         context = info.context or {}
         occupancy: OccupancyMap | None = context.get("occupancy")
         if occupancy is not None:
