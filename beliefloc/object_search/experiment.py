@@ -77,6 +77,7 @@ from beliefloc.source.record_fields import (
     number_field,
     optional_number_field,
     optional_text_field,
+    shown,
     text_field,
     whole_field,
 )
@@ -308,13 +309,13 @@ class TrialRecord:
         """The record :meth:`as_json` gave ``data``; its cells are read back with ``space`` (None
         without: enough for :func:`summarize`); ``seconds`` NaN when the JSON has no clock values."""
         if not isinstance(data, dict):
-            raise ValueError(f"{str(data)[:40]!r} is not a JSON object")
+            raise ValueError(f"{shown(data)} is not a JSON object")
         true_cell = optional_text_field(data, "true_cell")
         prior = mapping_field(data, "room_prior")
         outcomes = mapping_field(data, "outcomes")
         for arm, outcome in outcomes.items():
             if not isinstance(outcome, dict):
-                raise ValueError(f"outcomes.{arm}: {str(outcome)[:40]!r} is not an object")
+                raise ValueError(f"outcomes.{arm}: {shown(outcome)} is not an object")
         return cls(
             index=whole_field(data, "trial"),
             target=text_field(data, "target"),
@@ -323,7 +324,7 @@ class TrialRecord:
             true_room=optional_text_field(data, "true_room"),
             true_cell=None if true_cell is None or space is None else space.parse_cell(true_cell),
             known=whole_field(data, "known"),
-            room_prior=tuple(number_field(prior, room) for room in prior),
+            room_prior=tuple(number_field(prior, room, f"room_prior.{room}") for room in prior),
             outcomes=tuple(ArmOutcome.from_json(arm, o, space) for arm, o in outcomes.items()),
             seconds=math.nan if data["seconds"] is None else number_field(data, "seconds"),
         )

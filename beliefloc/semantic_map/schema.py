@@ -195,7 +195,7 @@ class SemanticMap(StrictModel):
         self._check_occupancy()
         g = self.grid
         if self._occupancy is None:  # an occupancy map's grid was checked as its size was worked out
-            observations.check_grid(g.rows, g.cols, g.headings, ("grid",))
+            observations.check_grid(g.rows, g.cols, g.headings, ("grid",), states=False)
         self._check_layout()
         if not self.free.any():
             if self._occupancy is not None:
@@ -333,6 +333,9 @@ class SemanticMap(StrictModel):
         Then the work of Look's geometry (landmarks against the cells in range)."""
         n_states = int(self.free.sum()) * self.grid.headings
         observations.check_size(n_states, self.observation_sets(), MODEL_ENTRIES)
+        g = self.grid
+        turns = f" with {g.headings} headings" if g.headings > 1 else ""
+        observations.check_states(n_states, f"a {g.rows:,} × {g.cols:,} grid{turns}, its free cells", ("grid",))
         for action in self.observation_sets(named=True):
             observations.check_names(action)
         for name, sensor in self.sensors.items():

@@ -108,6 +108,13 @@ MODEL_ENTRIES = Limit("states × observations", 100_000_000, "BELIEFLOC_MAX_MODE
 each sensor part's table of readings (8 bytes an entry: 800 MB at the default). A map's size is
 checked against it before any table is allocated; a .pomdp file's when its header has been read."""
 
+MAP_STATES = Limit("states (cells × headings)", 4_000_000, "BELIEFLOC_MAX_MAP_STATES")
+"""The largest grid of a map: rows × columns × headings, counted before its cells are laid out (an
+occupancy image sets rows and columns: a 212 KB PNG of 7071 × 7071 pixels in cells of one pixel is 50
+million). A state costs about 250 bytes and 5 µs to compile and write, whatever its observations
+(measured: 8 million states in 19 s and 1.9 GB without sensors, 64 s and 2.4 GB with a scan and a
+look), so the default keeps any map within about 1 GB; a generated 10^6-state map fits."""
+
 MODEL_FILE_BYTES = Limit("bytes in a model or macro file, uncompressed", 4 * 1024**3, "BELIEFLOC_MAX_MODEL_BYTES")
 """.npz arrays are checked against it from their headers, before they are decompressed."""
 
