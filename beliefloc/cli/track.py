@@ -250,6 +250,8 @@ def _print_json_steps(model: Model, belief: np.ndarray, resolved: list[Step]) ->
     """What ``track --json`` prints, as :func:`print_json` would print it, built a step at a time in a
     temporary file (a log of a million steps is never held whole), then copied to stdout: a step
     whose observation is impossible leaves no half document on stdout."""
+    import json
+    import math
     import shutil
     import tempfile
 
@@ -257,12 +259,28 @@ def _print_json_steps(model: Model, belief: np.ndarray, resolved: list[Step]) ->
     from beliefloc.pose import pose_json
     from beliefloc.robots.tracking import track_beliefs
 
+    dumps = json.dumps
+    # each step's belief as json.dumps(..., indent=2) writes it, its keys escaped once (36 million
+    # values for a log of a million steps: through json's Python encoder that took 60 s of CPU)
+    keys = [f"        {dumps(name)}: " for name in model.states.names]
     final = belief
     with tempfile.TemporaryFile("w+", encoding="utf-8") as spool:
         write = spool.write
         write('{\n  "steps": [')
         for t in track_beliefs(model, belief, resolved):
-            write(("\n" if t.number == 1 else ",\n") + _indented(t.as_json(model), 4))
+            values = t.belief.tolist()
+            shown = {v: float.__repr__(v) for v in set(values)}  # a belief repeats few values: each written once
+            if not all(map(math.isfinite, shown)):
+                raise AssertionError(f"step {t.number}: the belief holds a value that is not a finite number")
+            probability = None if t.probability is None else float(t.probability)
+            write(
+                ("\n" if t.number == 1 else ",\n")
+                + f'    {{\n      "step": {dumps(t.step.text)},\n      "action": {dumps(t.step.action.name)},\n'
+                + f'      "observation": {dumps(t.step.observation)},\n'
+                + f'      "probability": {dumps(probability, allow_nan=False)},\n      "belief": {{\n'
+                + ",\n".join(map(str.__add__, keys, map(shown.__getitem__, values)))
+                + "\n      }\n    }"
+            )
             final = t.belief
         write("\n  ],\n")
         belief_text = _indented(by_state_name(model, final), 2).lstrip()
