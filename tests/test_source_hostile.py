@@ -265,7 +265,7 @@ def test_the_nesting_limit_is_inclusive_and_can_be_raised(monkeypatch: pytest.Mo
 def test_billion_laughs_is_refused_before_it_is_built() -> None:
     path = FUZZ / "billion-laughs.yaml"
     with pytest.raises(
-        LimitError, match=r"billion-laughs\.yaml:9:\d+: [\d,]+ YAML values \(after expanding alias"
+        LimitError, match=r"billion-laughs\.yaml:\d+:\d+: [\d,]+ YAML values \(after expanding alias"
     ) as info:
         read_source(path, MapError)
     assert "BELIEFLOC_MAX_YAML_NODES" in str(info.value)
@@ -306,7 +306,7 @@ FUZZ_CASES = [
     ("control-character.yaml", 2, 8, r"YAML syntax error: the control character #x0001 is not allowed"),
     ("unclosed-quote.yaml", 2, 7, r"YAML syntax error: the quote opened here is never closed"),
     ("deep-flow-65.yaml", 3, 70, r"65 levels of nesting is more than the limit of 64"),
-    ("billion-laughs.yaml", 9, 8, r"YAML values \(after expanding aliases\) is more than the limit"),
+    ("billion-laughs.yaml", 8, 16, r"YAML values \(after expanding aliases\) is more than the limit"),
 ]
 """tests/data/fuzz/yaml/: (file, line, column, what the message says)."""
 

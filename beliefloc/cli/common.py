@@ -499,7 +499,7 @@ def run_sweep(
             if created and out is not None:
                 out.unlink(missing_ok=True)  # nothing half written is left behind
         raise
-    writer = ResultsWriter(out, head, found, locked) if out is not None else None
+    writer = ResultsWriter(out, head, found, locked, created=created) if out is not None else None
     try:
         started = runs_on.run(sweep, indices) if indices else iter(())  # a pool starts before the bar's thread
         with sweep_progress(stderr_console(), f"{head['unit']}s", total, len(done), shown=progress) as advance:

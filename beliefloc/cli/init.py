@@ -270,24 +270,41 @@ def _write_new(target: Path, text: str, kind: str) -> str:
         raise OutputError(f"{target}: cannot be written ({exc.strerror or exc}); nothing was written") from None
     staged = Path(temporary)
     try:
-        os.chmod(temporary, usual_file_mode())
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as handle:
-            handle.write(text)
+        try:
+            os.chmod(temporary, usual_file_mode())
+            with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as handle:
+                handle.write(text)
+        except OSError as exc:  # a full disk: the temporary is removed below, the target never made
+            raise OutputError(f"{target}: cannot be written ({exc.strerror or exc}); nothing was written") from None
         summary = _check(staged, kind)
         try:
             os.link(staged, target)
         except FileExistsError:
             raise UsageError(f"{target}: already exists; init never overwrites a file: name another one") from None
         except OSError:  # a file system without hard links: create exclusively
-            try:
-                with open(target, "x", encoding="utf-8", newline="\n") as handle:
-                    handle.write(text)
-            except FileExistsError:
-                raise UsageError(f"{target}: already exists; init never overwrites a file: name another one") from None
+            _create_exclusively(target, text)
     finally:
         with contextlib.suppress(FileNotFoundError):
             staged.unlink()
     return summary
+
+
+def _create_exclusively(target: Path, text: str) -> None:
+    """``text`` written to a new file ``target``; on a full disk the part written is removed."""
+    from beliefloc.errors import OutputError
+
+    try:
+        handle = open(target, "x", encoding="utf-8", newline="\n")  # noqa: SIM115 - removed on failure below
+    except FileExistsError:
+        raise UsageError(f"{target}: already exists; init never overwrites a file: name another one") from None
+    except OSError as exc:
+        raise OutputError(f"{target}: cannot be written ({exc.strerror or exc}); nothing was written") from None
+    try:
+        with handle:
+            handle.write(text)
+    except OSError as exc:
+        target.unlink(missing_ok=True)
+        raise OutputError(f"{target}: cannot be written ({exc.strerror or exc}); nothing was written") from None
 
 
 def _check(path: Path, kind: str) -> str:

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Annotated, Any
 import typer
 from rich.markup import escape
 
-from beliefloc.cli.common import boundary, check_results, escape_controls, print_json
+from beliefloc.cli.common import boundary, escape_controls, print_json
 from beliefloc.cli.options import JsonOption
 from beliefloc.errors import UsageError
 from beliefloc.render import stderr_console, stdout_console
@@ -17,7 +17,7 @@ from beliefloc.render import stderr_console, stdout_console
 if TYPE_CHECKING:
     from rich.console import RenderableType
 
-    from beliefloc.files.results_file import ResultsContent
+    from beliefloc.files.results_file import ResultsScan
 
 
 @boundary
@@ -44,35 +44,34 @@ def summarize(
       beliefloc simulate maps/kitchen.yaml -n 20 --out kitchen.jsonl && beliefloc summarize kitchen.jsonl
       beliefloc search simulate domains/home.yaml -n 10 --out home.jsonl && beliefloc summarize home.jsonl --json
     """
-    from beliefloc.files.results_file import ResultsFileError, read_results
+    from beliefloc.files.results_file import ResultsFileError, scan_results
 
     if results_file.is_dir():
         raise UsageError(f"{results_file}: is a folder; name a results file (FILE.jsonl)")
     if not results_file.is_file():
         raise UsageError(f"{results_file}: no such file")
-    content = read_results(results_file)
-    command = str(content.header["command"])
+    scan = scan_results(results_file)
+    command = str(scan.header["command"])
     if command not in _SUMMARIES:
         shown = escape_controls(command)[:60]
         raise UsageError(f"{results_file}: written by '{shown}', which this beliefloc cannot summarize")
-    check_results(results_file, content)
-    try:
-        summary, table = _SUMMARIES[command](content)
+    try:  # one pass over the lines, each checked as it is read (the file is never held whole)
+        summary, table = _SUMMARIES[command](scan)
     except (KeyError, TypeError, ValueError, AttributeError) as exc:
         raise ResultsFileError(
             f"{results_file}: its header or a line lacks what a '{command}' results file holds ({exc!r})"
         ) from None
-    done, total = len(content.results), content.total
+    done, total = scan.count, scan.total
     if done < total:
         stderr_console().print(
-            escape(f"{results_file}: {done} of {total} {content.unit}s so far"), soft_wrap=True, highlight=False
+            escape(f"{results_file}: {done} of {total} {scan.unit}s so far"), soft_wrap=True, highlight=False
         )
     if json_output:
         print_json(
             {
                 "file": str(results_file),
                 "command": command,
-                "unit": content.unit,
+                "unit": scan.unit,
                 "done": done,
                 "total": total,
                 "summary": summary,
@@ -82,28 +81,31 @@ def summarize(
     stdout_console().print(table)
 
 
-def _simulate(content: ResultsContent) -> tuple[dict[str, Any], RenderableType]:
+def _simulate(scan: ResultsScan) -> tuple[dict[str, Any], RenderableType]:
+    from beliefloc.files.results_file import decoded_lines
     from beliefloc.render.plan import summary_table
-    from beliefloc.simulation.episode import records_from_results
+    from beliefloc.simulation.episode import records_of_result
     from beliefloc.simulation.episode import summarize as summarize_episodes
 
-    settings = content.header["settings"]
-    summary = summarize_episodes(records_from_results(content.results))
-    timings = bool(settings["timings"])
+    settings = scan.header["settings"]
+    timings, threshold = bool(settings["timings"]), float(settings["threshold"])
+    lines = decoded_lines(scan.path, "simulate", scan.lines(), lambda line: list(records_of_result(line)))
+    summary = summarize_episodes(record for records in lines for record in records)
     as_json = {name: s.as_json(timings=timings) for name, s in summary.items()}
-    return as_json, summary_table(summary, float(settings["threshold"]))
+    return as_json, summary_table(summary, threshold)
 
 
-def _search(content: ResultsContent) -> tuple[dict[str, Any], RenderableType]:
+def _search(scan: ResultsScan) -> tuple[dict[str, Any], RenderableType]:
+    from beliefloc.files.results_file import decoded_lines
     from beliefloc.object_search.experiment import TrialRecord, run_title
     from beliefloc.object_search.experiment import summarize as summarize_trials
     from beliefloc.render.search import trials_table
 
-    settings = content.header["settings"]
-    summary = summarize_trials([TrialRecord.from_json(result) for result in content.results])
+    settings = scan.header["settings"]
     timings = bool(settings["timings"])
+    title = run_title(str(settings["domain_name"]), scan.total, int(settings["seed"]), settings["trial_settings"])
+    summary = summarize_trials(decoded_lines(scan.path, "search simulate", scan.lines(), TrialRecord.from_json))
     as_json = {arm: s.as_json(timings=timings) for arm, s in summary.items()}
-    title = run_title(str(settings["domain_name"]), content.total, int(settings["seed"]), settings["trial_settings"])
     return as_json, trials_table(summary, escape(title))
 
 

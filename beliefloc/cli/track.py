@@ -8,13 +8,16 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from beliefloc.cli.common import boundary, initial_belief, open_model, print_json, warn_if_too_wide
+from beliefloc.cli.common import boundary, initial_belief, open_model, warn_if_too_wide
 from beliefloc.cli.options import BeliefOption, CompactOption, JsonOption, ModelArgument, TopOption
 from beliefloc.errors import UsageError
 from beliefloc.render import stdout_console
 
 if TYPE_CHECKING:
-    from beliefloc.robots.tracking import StepLine
+    import numpy as np
+
+    from beliefloc.model import Model
+    from beliefloc.robots.tracking import Step, StepLine
 
 
 StepsArgument = Annotated[
@@ -184,8 +187,6 @@ def track(
     ):
         if value is not None:
             raise UsageError(f"{name} goes with --bag RUN (a ROS recording)")
-    from beliefloc.belief import by_state_name
-    from beliefloc.pose import pose_json
     from beliefloc.render.belief_grid import belief_view
     from beliefloc.render.drawing import uses_color
     from beliefloc.render.state_tables import belief_summary, step_header, summary_line
@@ -196,15 +197,7 @@ def track(
     belief = initial_belief(model, belief_spec)
     resolved = resolve_steps(model, written)  # every step checked before the output starts
     if json_output:
-        tracked = list(track_beliefs(model, belief, resolved))
-        final = tracked[-1].belief
-        print_json(
-            {
-                "steps": [t.as_json(model) for t in tracked],
-                "belief": by_state_name(model, final),
-                "pose": pose_json(model, final),
-            }
-        )
+        _print_json_steps(model, belief, resolved)
         return
     console = stdout_console()
     color = uses_color(console)
@@ -266,6 +259,57 @@ def _track_bag(
         robot_radius_given=robot_radius is not None,
         record=record,
     )
+
+
+def _print_json_steps(model: Model, belief: np.ndarray, resolved: list[Step]) -> None:
+    """What ``track --json`` prints, as :func:`print_json` would print it, built a step at a time in a
+    temporary file (a log of a million steps is never held whole), then copied to stdout: a step
+    whose observation is impossible leaves no half document on stdout."""
+    import json
+    import math
+    import shutil
+    import tempfile
+
+    from beliefloc.belief import by_state_name
+    from beliefloc.pose import pose_json
+    from beliefloc.robots.tracking import track_beliefs
+
+    dumps = json.dumps
+    # each step's belief as json.dumps(..., indent=2) writes it, its keys escaped once (36 million
+    # values for a log of a million steps: through json's Python encoder that took 60 s of CPU)
+    keys = [f"        {dumps(name)}: " for name in model.states.names]
+    final = belief
+    with tempfile.TemporaryFile("w+", encoding="utf-8") as spool:
+        write = spool.write
+        write('{\n  "steps": [')
+        for t in track_beliefs(model, belief, resolved):
+            values = t.belief.tolist()
+            shown = {v: float.__repr__(v) for v in set(values)}  # a belief repeats few values: each written once
+            if not all(map(math.isfinite, shown)):
+                raise AssertionError(f"step {t.number}: the belief holds a value that is not a finite number")
+            probability = None if t.probability is None else float(t.probability)
+            write(
+                ("\n" if t.number == 1 else ",\n")
+                + f'    {{\n      "step": {dumps(t.step.text)},\n      "action": {dumps(t.step.action.name)},\n'
+                + f'      "observation": {dumps(t.step.observation)},\n'
+                + f'      "probability": {dumps(probability, allow_nan=False)},\n      "belief": {{\n'
+                + ",\n".join(map(str.__add__, keys, map(shown.__getitem__, values)))
+                + "\n      }\n    }"
+            )
+            final = t.belief
+        write("\n  ],\n")
+        belief_text = _indented(by_state_name(model, final), 2).lstrip()
+        write(f'  "belief": {belief_text},\n  "pose": {_indented(pose_json(model, final), 2).lstrip()}\n}}\n')
+        spool.seek(0)
+        shutil.copyfileobj(spool, sys.stdout)
+
+
+def _indented(value: object, spaces: int) -> str:
+    """``value`` as :func:`print_json` writes it inside a document, ``spaces`` deep."""
+    import json
+
+    pad = " " * spaces
+    return "\n".join(pad + line for line in json.dumps(value, indent=2, allow_nan=False).splitlines())
 
 
 def _steps(arguments: list[str] | None, steps_file: str | None) -> list[str] | list[StepLine]:

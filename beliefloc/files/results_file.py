@@ -16,10 +16,10 @@ Appending to a file is not atomic, by design: what was written stays, whatever h
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, Any, TypeVar
 
 from beliefloc import __version__
 from beliefloc.errors import InputFileError
@@ -82,52 +82,103 @@ class ResultsContent:
 
 
 def read_results(path: Path) -> ResultsContent:
-    """The header and the whole result lines of the results file ``path``.
+    """The header and the whole result lines of the results file ``path`` (for ``--resume``, which
+    continues after them; :func:`scan_results` reads them one at a time instead of holding them).
 
     A :class:`ResultsFileError` for a file that is not one (no beliefloc header on its first line),
     a damaged line before the last, or a result line out of order."""
+    scan = scan_results(path)
+    results = [line for _, line in scan.lines()]
+    return ResultsContent(scan.header, results, scan.kept_bytes, scan.torn)
+
+
+@dataclass
+class ResultsScan:
+    """A results file read one result line at a time (:meth:`lines`), for ``summarize`` of a file of
+    millions of lines: its memory does not grow with the file. The header is read and checked when
+    the scan is made; :attr:`count`, :attr:`kept_bytes` and :attr:`torn` are final once
+    :meth:`lines` has been gone through."""
+
+    path: Path
+    header: dict[str, Any]
+    header_bytes: int
+    count: int = 0
+    """Whole result lines read so far."""
+    kept_bytes: int = 0
+    torn: bool = False
+
+    @property
+    def unit(self) -> str:
+        return str(self.header["unit"])
+
+    @property
+    def total(self) -> int:
+        return int(self.header["total"])
+
+    def lines(self) -> Iterator[tuple[int, dict[str, Any]]]:
+        """``(line number, result)`` of every whole result line in unit order; a damaged line before
+        the last, a unit out of order or more units than the header's total is a :class:`ResultsFileError`;
+        a last line cut short (or not JSON) is left out and marks the scan :attr:`torn`."""
+        path, unit, total = self.path, self.unit, self.total
+        self.count, self.kept_bytes, self.torn = 0, self.header_bytes, False
+        with path.open("rb") as file:
+            file.seek(self.header_bytes)
+            number = 1
+            while True:
+                raw = file.readline()
+                if not raw:
+                    return
+                number += 1
+                if not raw.endswith(b"\n"):
+                    self.torn = True  # what follows the last newline: a line cut short
+                    return
+                line = _parse(raw)
+                if not isinstance(line, dict):
+                    if not file.read(1):
+                        self.torn = True  # the last line is damaged: redo its unit
+                        return
+                    raise ResultsFileError(f"{path}:{number}: not a JSON object: the file is damaged")
+                if line.get(unit) != self.count:
+                    found = _printable(repr(line.get(unit)))[:40]
+                    raise ResultsFileError(
+                        f"{path}:{number}: expected {unit} {self.count}, found {found}: the file is damaged"
+                    )
+                if self.count >= total:
+                    raise ResultsFileError(f"{path}: holds more than the {total} {unit}s of its header")
+                self.count += 1
+                self.kept_bytes += len(raw)
+                yield number, line
+
+
+def scan_results(path: Path) -> ResultsScan:
+    """The results file ``path`` with its header read and checked, its result lines to be read one at
+    a time (:meth:`ResultsScan.lines`). Errors as :func:`read_results`."""
     if not path.is_file():
         raise ResultsFileError(f"{path}: not a regular file")
     INPUT_BYTES.check(path.stat().st_size, str(path))
-    data = path.read_bytes()
-    lines = data.split(b"\n")
-    # every element but the last ended with a newline; the last is what follows the last newline
-    complete, tail = lines[:-1], lines[-1]
-    if not complete:
+    with path.open("rb") as file:
+        first = file.readline(HEADER_BYTES + 1)
+    if not first.endswith(b"\n"):
+        if len(first) > HEADER_BYTES:
+            raise ResultsFileError(f"{path}: its first line is longer than a header ({HEADER_BYTES:,} bytes)")
         raise ResultsFileError(f"{path}: not a beliefloc results file (no header line)")
-    head = _parse(complete[0])
+    head = _parse(first)
     if not isinstance(head, dict) or head.get("format") != FORMAT:
         raise ResultsFileError(f"{path}: not a beliefloc results file (its first line is no {FORMAT} header)")
     if head.get("format_version") != FORMAT_VERSION:
         raise ResultsFileError(
-            f"{path}: a results file of format version {head.get('format_version')!r}; "
+            f"{path}: a results file of format version {_printable(str(head.get('format_version')))[:40]}; "
             f"this beliefloc reads version {FORMAT_VERSION}"
         )
     for key in ("command", "unit", "total", "settings"):
         if key not in head:
             raise ResultsFileError(f"{path}: the header has no {key!r}")
     _check_header(path, head)
-    unit = str(head["unit"])
-    kept = len(complete[0]) + 1
-    results: list[dict[str, Any]] = []
-    torn = bool(tail)
-    for number, raw in enumerate(complete[1:], start=2):
-        line = _parse(raw)
-        last = number == len(complete)
-        if not isinstance(line, dict):
-            if last and not tail:
-                torn = True  # the last line is damaged: redo its unit
-                break
-            raise ResultsFileError(f"{path}:{number}: not a JSON object: the file is damaged")
-        if line.get(unit) != len(results):
-            raise ResultsFileError(
-                f"{path}:{number}: expected {unit} {len(results)}, found {line.get(unit)!r}: the file is damaged"
-            )
-        results.append(line)
-        kept += len(raw) + 1
-    if len(results) > int(head["total"]):
-        raise ResultsFileError(f"{path}: holds {len(results)} {unit}s, more than the {head['total']} of its header")
-    return ResultsContent(head, results, kept, torn)
+    return ResultsScan(path, head, len(first), kept_bytes=len(first))
+
+
+HEADER_BYTES = 16 * 1024 * 1024
+"""The longest header line read (a header holds the settings: a few kilobytes)."""
 
 
 def _check_header(path: Path, head: dict[str, Any]) -> None:
@@ -146,13 +197,26 @@ def _check_header(path: Path, head: dict[str, Any]) -> None:
 def check_lines(path: Path, content: ResultsContent, decode: Callable[[dict[str, Any]], object]) -> None:
     """Every result line decoded by ``decode`` (the command's record reader) before any work is
     done with the file: a :class:`ResultsFileError` naming the first line it refuses."""
-    for number, line in enumerate(content.results, start=2):
+    numbered = enumerate(content.results, start=2)
+    for _ in decoded_lines(path, str(content.header["command"]), numbered, decode):
+        pass
+
+
+T = TypeVar("T")
+
+
+def decoded_lines(
+    path: Path, command: str, numbered: Iterable[tuple[int, dict[str, Any]]], decode: Callable[[dict[str, Any]], T]
+) -> Iterator[T]:
+    """``decode`` (the command's record reader) of each ``(line number, result)``, as they come: a
+    :class:`ResultsFileError` naming the first line it refuses."""
+    for number, line in numbered:
         try:
-            decode(line)
+            yield decode(line)
         except (KeyError, TypeError, ValueError, AttributeError, OverflowError) as exc:
             what = f"no {exc.args[0]!r}" if isinstance(exc, KeyError) else str(exc)
             raise ResultsFileError(
-                f"{path}:{number}: not a {content.header['command']!r} result ({_printable(what)}): the file is damaged"
+                f"{path}:{number}: not a {command!r} result ({_printable(what)}): the file is damaged"
             ) from None
 
 
@@ -208,7 +272,7 @@ def open_locked(path: Path) -> IO[bytes]:
     import fcntl
     import os
 
-    file = os.fdopen(os.open(path, os.O_RDWR | os.O_CREAT, 0o666), "r+b")
+    file = os.fdopen(os.open(path, os.O_RDWR | os.O_CREAT, 0o666), "r+b", buffering=0)  # a failed write: no buffer
     try:
         fcntl.flock(file.fileno(), fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
@@ -235,10 +299,14 @@ def _lock_holder(inode: int) -> int | None:
 
 
 class ResultsWriter:
-    """Writes a results file line by line, each flushed as it is written. A new file gets
+    """Writes a results file line by line, each written through as it is written. A new file gets
     ``head`` first; a resumed one (``resume``: what :func:`read_results` found) is cut back to its
     whole lines and continued. ``file``: the file :func:`open_locked` opened (else it is opened
-    and locked here)."""
+    and locked here). ``created``: the file did not exist before this run.
+
+    A write that fails (a full disk) leaves the file with whole lines only: cut back to the end of
+    the last whole result, or removed when this run created it and wrote no result; then an
+    :class:`~beliefloc.errors.OutputError` names the file and what it still holds."""
 
     def __init__(
         self,
@@ -246,14 +314,22 @@ class ResultsWriter:
         head: Mapping[str, Any],
         resume: ResultsContent | None = None,
         file: IO[bytes] | None = None,
+        *,
+        created: bool = False,
     ) -> None:
         self.path = path
         self._file: IO[bytes] = file if file is not None else open_locked(path)
+        self._created = created
         kept = 0 if resume is None else resume.kept_bytes
+        self._kept = kept
+        """Bytes of whole lines in the file."""
+        self._results = 0 if resume is None else len(resume.results)
         self._file.truncate(kept)
         self._file.seek(kept)
         if resume is None:
-            self.write(head)
+            self._write_line(head)
+        else:
+            self._created = False
 
     def still_there(self) -> bool:
         """Whether the file written is still at :attr:`path` (not removed or replaced meanwhile)."""
@@ -265,8 +341,43 @@ class ResultsWriter:
             return False
 
     def write(self, data: Any) -> None:
-        self._file.write((dumps(data) + "\n").encode("utf-8"))
-        self._file.flush()
+        """One result, as a line."""
+        self._write_line(data)
+        self._results += 1
+
+    def _write_line(self, data: Any) -> None:
+        import os
+
+        encoded = (dumps(data) + "\n").encode("utf-8")
+        line = memoryview(encoded)
+        fd = self._file.fileno()
+        try:
+            while line:
+                line = line[os.write(fd, line) :]
+        except OSError as exc:
+            self._cut_back(exc)
+        self._kept += len(encoded)
+
+    def _cut_back(self, exc: OSError) -> None:
+        """After a failed write: only whole lines stay (or no file, if this run made it and wrote no
+        result); an :class:`OutputError` saying so."""
+        import contextlib
+        import os
+
+        from beliefloc.errors import OutputError
+
+        reason = exc.strerror or str(exc)
+        if self._created and self._results == 0:
+            self.path.unlink(missing_ok=True)
+            self._file.close()
+            raise OutputError(f"{self.path}: cannot be written ({reason}); nothing was written", reason)
+        with contextlib.suppress(OSError):
+            os.ftruncate(self._file.fileno(), self._kept)
+        raise OutputError(
+            f"{self.path}: cannot be written ({reason}); the file keeps the {self._results:,} whole results "
+            "written before: make room and continue with --resume",
+            reason,
+        )
 
     def close(self) -> None:
         self._file.close()

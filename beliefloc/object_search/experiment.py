@@ -41,7 +41,8 @@ from __future__ import annotations
 import math
 import statistics
 import time
-from collections.abc import Callable, Sequence
+from array import array
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -69,6 +70,17 @@ from beliefloc.object_search.settings import (
 from beliefloc.object_search.space import SearchSpace
 from beliefloc.object_search.trials import Stream, robot_domain, sample_known, trial_rng, unknown_objects
 from beliefloc.object_search.world import P_TYPICAL, SceneTarget, SimulatedTarget, World, sample_world, typical_rooms
+from beliefloc.source.record_fields import (
+    flag_field,
+    list_field,
+    mapping_field,
+    number_field,
+    optional_number_field,
+    optional_text_field,
+    shown,
+    text_field,
+    whole_field,
+)
 
 
 @dataclass(frozen=True)
@@ -238,19 +250,23 @@ class ArmOutcome:
         """The outcome :meth:`as_json` gave ``data``; its reported cell is read back with ``space``
         (None without: the statistics of :func:`summarize` do not need it); ``seconds`` NaN when
         the JSON has no clock values."""
-        reported = data["reported_cell"]
+        reported = optional_text_field(data, "reported_cell")
+        commits = list_field(data, "commits")
+        if not all(isinstance(f, list) and len(f) == 2 and all(isinstance(x, str) for x in f) for f in commits):
+            raise ValueError("commits: not a list of [object, room] pairs of names")
+        applied = data.get("operators_applied")
         return cls(
             arm=arm,
-            verdict=Verdict(data["verdict"]),
-            time=float(data["time"]),
-            steps=int(data["steps"]),
+            verdict=Verdict(text_field(data, "verdict")),
+            time=number_field(data, "time"),
+            steps=whole_field(data, "steps"),
             reported_cell=None if reported is None or space is None else space.parse_cell(reported),
-            error_cells=None if data["error_cells"] is None else float(data["error_cells"]),
-            accuracy=float(data["accuracy"]),
-            commits=tuple((str(obj), str(room)) for obj, room in data["commits"]),
-            seconds=math.nan if data["seconds"] is None else float(data["seconds"]),
-            operators_applied=None if data.get("operators_applied") is None else int(data["operators_applied"]),
-            processing_time=None if data.get("processing_time") is None else float(data["processing_time"]),
+            error_cells=optional_number_field(data, "error_cells"),
+            accuracy=number_field(data, "accuracy"),
+            commits=tuple((obj, room) for obj, room in commits),
+            seconds=math.nan if data["seconds"] is None else number_field(data, "seconds"),
+            operators_applied=None if applied is None else whole_field(data, "operators_applied"),
+            processing_time=None if data.get("processing_time") is None else number_field(data, "processing_time"),
         )
 
 
@@ -292,18 +308,25 @@ class TrialRecord:
     def from_json(cls, data: dict[str, Any], space: SearchSpace | None = None) -> TrialRecord:
         """The record :meth:`as_json` gave ``data``; its cells are read back with ``space`` (None
         without: enough for :func:`summarize`); ``seconds`` NaN when the JSON has no clock values."""
-        true_cell = data["true_cell"]
+        if not isinstance(data, dict):
+            raise ValueError(f"{shown(data)} is not a JSON object")
+        true_cell = optional_text_field(data, "true_cell")
+        prior = mapping_field(data, "room_prior")
+        outcomes = mapping_field(data, "outcomes")
+        for arm, outcome in outcomes.items():
+            if not isinstance(outcome, dict):
+                raise ValueError(f"outcomes.{arm}: {shown(outcome)} is not an object")
         return cls(
-            index=int(data["trial"]),
-            target=data["target"],
-            target_class=data["target_class"],
-            present=bool(data["present"]),
-            true_room=data["true_room"],
+            index=whole_field(data, "trial"),
+            target=text_field(data, "target"),
+            target_class=text_field(data, "target_class"),
+            present=flag_field(data, "present"),
+            true_room=optional_text_field(data, "true_room"),
             true_cell=None if true_cell is None or space is None else space.parse_cell(true_cell),
-            known=int(data["known"]),
-            room_prior=tuple(float(p) for p in data["room_prior"].values()),
-            outcomes=tuple(ArmOutcome.from_json(arm, o, space) for arm, o in data["outcomes"].items()),
-            seconds=math.nan if data["seconds"] is None else float(data["seconds"]),
+            known=whole_field(data, "known"),
+            room_prior=tuple(number_field(prior, room, f"room_prior.{room}") for room in prior),
+            outcomes=tuple(ArmOutcome.from_json(arm, o, space) for arm, o in outcomes.items()),
+            seconds=math.nan if data["seconds"] is None else number_field(data, "seconds"),
         )
 
 
@@ -552,37 +575,66 @@ def run_trials(
     return records
 
 
-def summarize(records: Sequence[TrialRecord]) -> dict[str, ArmSummary]:
+def summarize(records: Iterable[TrialRecord]) -> dict[str, ArmSummary]:
     """Per arm, in the order the records first name them: trials, verdict counts, localisation time
     (mean, standard deviation, median), accuracy (mean, standard deviation), the error in cells of the
-    reported cells, steps, commits, and wall-clock seconds per search (:class:`ArmSummary`)."""
-    out: dict[str, ArmSummary] = {}
-    arms = list(dict.fromkeys(o.arm for r in records for o in r.outcomes))
-    for arm in arms:
-        mine = [o for r in records for o in r.outcomes if o.arm == arm]
-        times = [o.time for o in mine]
-        accuracies = [o.accuracy for o in mine]
-        errors = [o.error_cells for o in mine if o.error_cells is not None]
-        out[arm] = ArmSummary(
+    reported cells, steps, commits, and wall-clock seconds per search (:class:`ArmSummary`). One pass,
+    keeping only columns of numbers: ``summarize`` of a results file streams its records through here."""
+    tallies: dict[str, _ArmTally] = {}
+    for record in records:
+        for outcome in record.outcomes:
+            tally = tallies.get(outcome.arm)
+            if tally is None:
+                tally = tallies[outcome.arm] = _ArmTally()
+            tally.add(outcome)
+    return {arm: tally.summary(arm) for arm, tally in tallies.items()}
+
+
+class _ArmTally:
+    """One arm's searches so far, as counts and columns of numbers (8 bytes each)."""
+
+    def __init__(self) -> None:
+        self.verdicts = dict.fromkeys(Verdict, 0)
+        self.times, self.accuracies, self.errors = array("d"), array("d"), array("d")
+        self.steps, self.commits, self.seconds = array("d"), array("d"), array("d")
+        self.operators, self.processing = array("d"), array("d")
+
+    def add(self, o: ArmOutcome) -> None:
+        self.verdicts[o.verdict] += 1
+        self.times.append(o.time)
+        self.accuracies.append(o.accuracy)
+        if o.error_cells is not None:
+            self.errors.append(o.error_cells)
+        self.steps.append(o.steps)
+        self.commits.append(len(o.commits))
+        if not math.isnan(o.seconds):
+            self.seconds.append(o.seconds)
+        if o.operators_applied is not None:
+            self.operators.append(o.operators_applied)
+        if o.processing_time is not None:
+            self.processing.append(o.processing_time)
+
+    def summary(self, arm: str) -> ArmSummary:
+        times = self.times
+        return ArmSummary(
             arm=arm,
-            trials=len(mine),
-            found=sum(o.verdict is Verdict.FOUND for o in mine),
-            not_found=sum(o.verdict is Verdict.NOT_FOUND for o in mine),
-            time_limit=sum(o.verdict is Verdict.TIME_LIMIT for o in mine),
+            trials=len(times),
+            found=self.verdicts[Verdict.FOUND],
+            not_found=self.verdicts[Verdict.NOT_FOUND],
+            time_limit=self.verdicts[Verdict.TIME_LIMIT],
             mean_time=_mean(times),
             stdev_time=_stdev(times),
             median_time=statistics.median(times) if times else None,
-            mean_accuracy=_mean(accuracies),
-            stdev_accuracy=_stdev(accuracies),
-            mean_error_cells=_mean(errors),
-            within_4_cells=sum(e <= 4.0 for e in errors),
-            mean_steps=_mean([o.steps for o in mine]),
-            mean_commits=_mean([len(o.commits) for o in mine]),
-            mean_seconds=_mean([o.seconds for o in mine if not math.isnan(o.seconds)]),
-            mean_operators=_mean([o.operators_applied for o in mine if o.operators_applied is not None]),
-            mean_processing_time=_mean([o.processing_time for o in mine if o.processing_time is not None]),
+            mean_accuracy=_mean(self.accuracies),
+            stdev_accuracy=_stdev(self.accuracies),
+            mean_error_cells=_mean(self.errors),
+            within_4_cells=sum(e <= 4.0 for e in self.errors),
+            mean_steps=_mean(self.steps),
+            mean_commits=_mean(self.commits),
+            mean_seconds=_mean(self.seconds),
+            mean_operators=_mean(self.operators),
+            mean_processing_time=_mean(self.processing),
         )
-    return out
 
 
 def run_title(domain: str, trials: int, seed: int, settings: dict[str, Any]) -> str:

@@ -48,7 +48,7 @@ from beliefloc.errors import DomainError, InvalidValueError
 from beliefloc.knowledge.domain import Domain
 from beliefloc.model import GridLayout
 from beliefloc.object_search.posterior import Detector
-from beliefloc.object_search.space import SearchSpace
+from beliefloc.object_search.space import SearchSpace, cell_numbers
 from beliefloc.semantic_map.geometry import viewing_angles_many
 
 CACHE_NUMBERS = 1 << 22
@@ -111,12 +111,13 @@ class MapSearchSpace(SearchSpace):
         saying what is there instead (a wall, another room, a free cell in no room)."""
         room, sep, where = text.rpartition(":")
         row_text, comma, col_text = where.partition(",")
-        if not comma or not row_text.strip().isdigit() or not col_text.strip().isdigit():
+        numbers = cell_numbers(row_text, col_text) if comma else None
+        if numbers is None:
             example = self.cell_name(self.start)
             raise InvalidValueError(f"{text!r}: write ROOM:ROW,COL in the map's rows and columns, e.g. {example}")
         if sep and room not in self.rooms:
             raise InvalidValueError(f"{text!r}: unknown room {room!r}; expected one of: {', '.join(self.rooms)}")
-        r, c = int(row_text), int(col_text)
+        r, c = numbers
         rows, cols = self.shape
         if not (r < rows and c < cols):
             raise InvalidValueError(f"{text!r}: [{r}, {c}] is outside the {rows}x{cols} grid of {self.map_name}")

@@ -40,6 +40,15 @@ if TYPE_CHECKING:
     from beliefloc.object_search.scene import SceneRates
 
 
+def cell_numbers(row_text: str, col_text: str) -> tuple[int, int] | None:
+    """The row and column of a cell written ``ROW,COL``, or None unless both are 1 to 18 ASCII digits
+    (``str.isdigit`` and ``int`` would also read ``١,١`` or ``²,³`` as a cell)."""
+    row, col = row_text.strip(), col_text.strip()
+    if not all(0 < len(t) <= 18 and t.isascii() and t.isdigit() for t in (row, col)):
+        return None
+    return int(row), int(col)
+
+
 @dataclass(frozen=True, eq=False)
 class SearchSpace:
     """Cells, rooms, views and distances of a domain's ``search:`` section."""
@@ -151,13 +160,14 @@ class SearchSpace:
         """``ROOM:ROW,COL`` -> cell index; :class:`InvalidValueError` naming what is wrong."""
         room, sep, where = text.partition(":")
         row_text, comma, col_text = where.partition(",")
-        if not sep or not comma or not row_text.strip().isdigit() or not col_text.strip().isdigit():
+        numbers = cell_numbers(row_text, col_text) if comma else None
+        if not sep or numbers is None:
             raise InvalidValueError(f"{text!r}: write ROOM:ROW,COL, e.g. study:2,3")
         if room not in self.rooms:
             raise InvalidValueError(f"{text!r}: unknown room {room!r}; expected one of: {', '.join(self.rooms)}")
         index = self.rooms.index(room)
         matches = np.flatnonzero(
-            (self.room_of_cell == index) & (self.local[:, 0] == int(row_text)) & (self.local[:, 1] == int(col_text))
+            (self.room_of_cell == index) & (self.local[:, 0] == numbers[0]) & (self.local[:, 1] == numbers[1])
         )
         if len(matches) == 0:
             rows, cols = self.room_shape(index)

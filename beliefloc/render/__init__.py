@@ -19,4 +19,4 @@ def stderr_console() -> Console:
 
 def _width() -> int | None:
     columns = os.environ.get("COLUMNS")
-    return int(columns) if columns and columns.isdigit() else None
+    return int(columns) if columns and columns.isascii() and columns.isdigit() and len(columns) < 6 else None

@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 
 from beliefloc.errors import FieldError, Path
 from beliefloc.model import NOTHING
-from beliefloc.source.limits import MODEL_ENTRIES, Limit
+from beliefloc.source.limits import MAP_STATES, MODEL_ENTRIES, Limit
 
 
 def label(value: float) -> str:
@@ -158,14 +158,27 @@ def check_size(n_states: int, sets: Sequence[ObservationSet], limit: Limit = MOD
     raise FieldError(biggest.where, _too_many(limit, total, f"{lead} ({detail})"))
 
 
-def check_grid(rows: int, cols: int, headings: int, where: Path, limit: Limit = MODEL_ENTRIES) -> None:
-    """Raise :class:`FieldError` when a grid has room for more states than ``limit`` allows (checked
-    before its cells are laid out)."""
+def check_grid(
+    rows: int, cols: int, headings: int, where: Path, limit: Limit = MODEL_ENTRIES, *, states: bool = True
+) -> None:
+    """Raise :class:`FieldError` when a grid has room for more states than ``limit`` allows, or more
+    cells × headings than :data:`~beliefloc.source.limits.MAP_STATES` (checked before its cells are
+    laid out; an occupancy map's grid, whose cells are laid over the pixels; ``states`` False: not the
+    latter, which a plain grid checks on its free cells, :func:`check_states`)."""
     upper = rows * cols * headings
+    turns = f" with {headings} headings" if headings > 1 else ""
     if upper > limit.value:
-        turns = f" with {headings} headings" if headings > 1 else ""
         lead = f"a {rows:,} × {cols:,} grid{turns} has room for {upper:,} states, each with an observation"
         raise FieldError(where, _too_many(limit, upper, lead))
+    if states:
+        check_states(upper, f"a {rows:,} × {cols:,} grid{turns}", where)
+
+
+def check_states(count: int, lead: str, where: Path) -> None:
+    """Raise :class:`FieldError` when a map has more states (or room for more: cells × headings)
+    than :data:`~beliefloc.source.limits.MAP_STATES`."""
+    if count > MAP_STATES.value:
+        raise FieldError(where, _too_many(MAP_STATES, count, lead))
 
 
 def _too_many(limit: Limit, count: int, lead: str) -> str:

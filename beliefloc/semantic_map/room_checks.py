@@ -4,14 +4,14 @@ cells, no two rooms overlapping; each error names the field where it was written
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
 from beliefloc.errors import FieldError
 from beliefloc.semantic_map.occupancy_section import map_extent, too_much_geometry
 from beliefloc.semantic_map.sections import BLOCKED, FREE, NO_ROOM, Grid, RoomRectangle, Rooms, grid_lines
-from beliefloc.source.limits import GEOMETRY_TESTS
+from beliefloc.source.limits import GEOMETRY_TESTS, POLYGON_CORNERS
 
 if TYPE_CHECKING:
     from beliefloc.semantic_map.occupancy_map import OccupancyMap
@@ -99,6 +99,26 @@ def _check_room_mask(smap: RoomsOfAMap) -> None:
                 f"no cell of the map has its centre on a pixel of value {value} in {spec.mask}: room {name!r} "
                 "would be empty (the mask's values are what Nav2 publishes for it: its YAML must say mode: raw "
                 "for a pixel painted grey k to be value k)",
+            )
+
+
+def check_corner_count(data: Any) -> None:
+    """The corners of a map's room polygons (``rooms: {polygons: {name: [[x, y], ...]}}``) as
+    written, counted before any is validated or laid over the cells: refused past
+    :data:`~beliefloc.source.limits.POLYGON_CORNERS` at the room whose corners cross it."""
+    rooms = data.get("rooms") if isinstance(data, dict) else None
+    polygons = rooms.get("polygons") if isinstance(rooms, dict) else None
+    if not isinstance(polygons, dict):
+        return
+    limit, total = POLYGON_CORNERS.value, 0
+    for name, vertices in polygons.items():
+        total += len(vertices) if isinstance(vertices, list) else 0
+        if total > limit:
+            raise FieldError(
+                ("rooms", "polygons", name),
+                f"the room polygons have {total:,} corners up to room {str(name)[:40]!r}, more than the limit "
+                f"of {limit:,} {POLYGON_CORNERS.what} in one map; if the input is what you meant, raise it with "
+                f"the environment variable {POLYGON_CORNERS.variable}=N",
             )
 
 

@@ -30,7 +30,7 @@ from beliefloc.semantic_map import angles, observations
 from beliefloc.semantic_map.observations import ObservationSet, PartGroup, PartSpec
 from beliefloc.semantic_map.occupancy_grid import free_cells, rooms_from_mask, rooms_from_polygons
 from beliefloc.semantic_map.occupancy_section import grid_from_occupancy, landmark_cells, too_much_geometry
-from beliefloc.semantic_map.room_checks import check_rooms
+from beliefloc.semantic_map.room_checks import check_corner_count, check_rooms
 from beliefloc.semantic_map.sections import (
     BLOCKED,
     FREE,
@@ -111,6 +111,7 @@ class SemanticMap(StrictModel):
         if not isinstance(data, dict):
             return data
         _refuse_internal_names(data)
+        check_corner_count(data)
         context = info.context or {}
         data, old_forms = angles.new_form(data)
         if isinstance(context.get("old_forms"), list):
@@ -199,7 +200,7 @@ class SemanticMap(StrictModel):
         self._warn_units(context.get("unit_warnings"))
         g = self.grid
         if self._occupancy is None:  # an occupancy map's grid was checked as its size was worked out
-            observations.check_grid(g.rows, g.cols, g.headings, ("grid",))
+            observations.check_grid(g.rows, g.cols, g.headings, ("grid",), states=False)
         self._check_layout()
         if not self.free.any():
             if self._occupancy is not None:
@@ -357,6 +358,9 @@ class SemanticMap(StrictModel):
         Then the work of Look's geometry (landmarks against the cells in range)."""
         n_states = int(self.free.sum()) * self.grid.headings
         observations.check_size(n_states, self.observation_sets(), MODEL_ENTRIES)
+        g = self.grid
+        turns = f" with {g.headings} headings" if g.headings > 1 else ""
+        observations.check_states(n_states, f"a {g.rows:,} × {g.cols:,} grid{turns}, its free cells", ("grid",))
         for action in self.observation_sets(named=True):
             observations.check_names(action)
         for name, sensor in self.sensors.items():

@@ -9,7 +9,8 @@ budget exceeded), or a step limit. Records are plain data; statistics are comput
 from __future__ import annotations
 
 import statistics
-from collections.abc import Callable, Sequence
+from array import array
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
@@ -23,6 +24,7 @@ from beliefloc.pose import PoseEstimate, belief_pose
 from beliefloc.simulation.robot import SimulatedRobot
 from beliefloc.simulation.settings import DEFAULT_MAX_STEPS, StrategyName
 from beliefloc.simulation.strategies import EpisodeStatus, GiveUp, PlannerSettings, SharedWork, make_strategy
+from beliefloc.source.record_fields import flag_field, number_field, text_field, whole_field
 
 
 @dataclass(frozen=True)
@@ -77,51 +79,19 @@ class EpisodeRecord:
         if seconds is not None and not isinstance(seconds, list):
             raise ValueError(f"plan_seconds: {seconds!r} is not a list of numbers")
         return cls(
-            strategy=_text(data, "strategy"),
-            episode=_whole(data, "episode"),
-            start=_text(data, "start"),
-            final=_text(data, "final"),
-            true_final=_text(data, "true_final"),
-            correct=_flag(data, "correct"),
-            status=EpisodeStatus(_text(data, "status")),
-            cost=_number(data, "cost"),
-            steps=_whole(data, "steps"),
-            replans=_whole(data, "replans"),
-            plan_seconds=[_number({"plan_seconds": x}, "plan_seconds") for x in seconds or []],
-            max_belief=_number(data, "max_belief"),
+            strategy=text_field(data, "strategy"),
+            episode=whole_field(data, "episode"),
+            start=text_field(data, "start"),
+            final=text_field(data, "final"),
+            true_final=text_field(data, "true_final"),
+            correct=flag_field(data, "correct"),
+            status=EpisodeStatus(text_field(data, "status")),
+            cost=number_field(data, "cost"),
+            steps=whole_field(data, "steps"),
+            replans=whole_field(data, "replans"),
+            plan_seconds=[number_field({"plan_seconds": x}, "plan_seconds") for x in seconds or []],
+            max_belief=number_field(data, "max_belief"),
         )
-
-
-def _text(data: dict[str, Any], key: str) -> str:
-    """A string field of a record read back from a file: a number or a list is no name."""
-    value = data[key]
-    if not isinstance(value, str):
-        raise ValueError(f"{key}: {value!r} is not a string")
-    return value
-
-
-def _whole(data: dict[str, Any], key: str) -> int:
-    value = data[key]
-    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= 2**62:
-        raise ValueError(f"{key}: {str(value)[:40]!r} is not a whole number from 0 to 2**62")
-    return value
-
-
-def _number(data: dict[str, Any], key: str) -> float:
-    value = data[key]
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise ValueError(f"{key}: {str(value)[:40]!r} is not a number")
-    number = float(value)  # an int of 400 digits: OverflowError, caught by the reader
-    if number != number or number in (float("inf"), float("-inf")):
-        raise ValueError(f"{key}: {value!r} is not a finite number")
-    return number
-
-
-def _flag(data: dict[str, Any], key: str) -> bool:
-    value = data[key]
-    if not isinstance(value, bool):
-        raise ValueError(f"{key}: {value!r} is not true or false")
-    return value
 
 
 OnStep = Callable[[EpisodeRecord, StepRecord, np.ndarray], None]
@@ -336,15 +306,17 @@ class EpisodeSweep:
         return run
 
 
-def records_from_results(results: Sequence[dict[str, Any]]) -> list[EpisodeRecord]:
+def records_from_results(results: Iterable[dict[str, Any]]) -> list[EpisodeRecord]:
     """The records of :class:`EpisodeSweep` results, in order (:meth:`EpisodeRecord.from_json`)."""
-    out: list[EpisodeRecord] = []
-    for result in results:
-        records = result["records"]
-        if not isinstance(records, list) or not records:
-            raise ValueError(f"records: {str(records)[:40]!r} is not a list of episode records")
-        out.extend(EpisodeRecord.from_json(data) for data in records)
-    return out
+    return [record for result in results for record in records_of_result(result)]
+
+
+def records_of_result(result: dict[str, Any]) -> Iterator[EpisodeRecord]:
+    """The records of one :class:`EpisodeSweep` result (a line of a results file), one per strategy."""
+    records = result["records"]
+    if not isinstance(records, list) or not records:
+        raise ValueError(f"records: {str(records)[:40]!r} is not a list of episode records")
+    return (EpisodeRecord.from_json(data) for data in records)
 
 
 @dataclass(frozen=True)
@@ -375,27 +347,58 @@ class StrategySummary:
         return data
 
 
-def summarize(records: Sequence[EpisodeRecord]) -> dict[str, StrategySummary]:
-    """Per strategy, in the order the records name them: see :class:`StrategySummary`."""
-    out: dict[str, StrategySummary] = {}
-    for name in dict.fromkeys(r.strategy for r in records):
-        mine = [r for r in records if r.strategy == name]
-        localized = [r for r in mine if r.status is EpisodeStatus.LOCALIZED]
-        per_episode_plan = [statistics.fmean(r.plan_seconds) for r in mine if r.plan_seconds]
-        failed = sorted({r.status.value for r in mine if r.status is not EpisodeStatus.LOCALIZED})
-        out[name] = StrategySummary(
-            episodes=len(mine),
-            localized=len(localized),
-            correct=sum(r.correct for r in localized),
-            failures={s: sum(r.status.value == s for r in mine) for s in failed},
-            mean_plan_seconds=_mean(per_episode_plan),
-            stdev_plan_seconds=_stdev(per_episode_plan),
-            mean_replans=_mean([r.replans for r in mine]),
-            mean_cost=_mean([r.cost for r in localized]),
-            stdev_cost=_stdev([r.cost for r in localized]),
-            mean_steps=_mean([r.steps for r in localized]),
+def summarize(records: Iterable[EpisodeRecord]) -> dict[str, StrategySummary]:
+    """Per strategy, in the order the records name them: see :class:`StrategySummary`. One pass,
+    keeping only the numbers the statistics need (8 bytes each): ``summarize`` of a results file of
+    millions of episodes streams its records through here."""
+    tallies: dict[str, _Tally] = {}
+    for record in records:
+        tally = tallies.get(record.strategy)
+        if tally is None:
+            tally = tallies[record.strategy] = _Tally()
+        tally.add(record)
+    return {name: tally.summary() for name, tally in tallies.items()}
+
+
+class _Tally:
+    """One strategy's episodes so far, as counts and columns of numbers."""
+
+    def __init__(self) -> None:
+        self.episodes = self.localized = self.correct = 0
+        self.failures: dict[str, int] = {}
+        self.plan = array("d")
+        """Per episode with plan calls, the mean of their seconds."""
+        self.replans = array("d")
+        self.cost = array("d")
+        """Of the localized episodes, as are the steps."""
+        self.steps = array("d")
+
+    def add(self, r: EpisodeRecord) -> None:
+        self.episodes += 1
+        if r.plan_seconds:
+            self.plan.append(statistics.fmean(r.plan_seconds))
+        self.replans.append(r.replans)
+        if r.status is EpisodeStatus.LOCALIZED:
+            self.localized += 1
+            self.correct += r.correct
+            self.cost.append(r.cost)
+            self.steps.append(r.steps)
+        else:
+            self.failures[r.status.value] = self.failures.get(r.status.value, 0) + 1
+
+    def summary(self) -> StrategySummary:
+        return StrategySummary(
+            episodes=self.episodes,
+            localized=self.localized,
+            correct=self.correct,
+            failures={s: self.failures[s] for s in sorted(self.failures)},
+            mean_plan_seconds=_mean(self.plan),
+            stdev_plan_seconds=_stdev(self.plan),
+            mean_replans=_mean(self.replans),
+            mean_cost=_mean(self.cost),
+            stdev_cost=_stdev(self.cost),
+            mean_steps=_mean(self.steps),
         )
-    return out
 
 
 def _mean(values: Sequence[float]) -> float | None:

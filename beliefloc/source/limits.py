@@ -92,14 +92,28 @@ INPUT_BYTES = Limit("bytes in an input file", 256 * 1024 * 1024, "BELIEFLOC_MAX_
 NESTING = Limit("levels of nesting", 64, "BELIEFLOC_MAX_NESTING")
 """YAML and JSON structure depth (a map needs 5); deeper input crashes native parsers."""
 
-YAML_NODES = Limit("YAML values (after expanding aliases)", 20_000_000, "BELIEFLOC_MAX_YAML_NODES")
+YAML_NODES = Limit("YAML values (after expanding aliases)", 4_000_000, "BELIEFLOC_MAX_YAML_NODES")
 """Values built from one YAML file, counting each use of an alias (``*name``) in full: a ten-line
-file of nested aliases would otherwise expand to gigabytes."""
+file of nested aliases would otherwise expand to gigabytes. Each value read keeps its line and
+column, about 0.3 KB and 4 µs a value (measured: 3,000,000 values in 11 s and 1.0 GB, 7,000,000 in
+32 s and 2.1 GB), so the default keeps the reading of any file within about 20 s and 1.5 GB; a
+generated 10^6-state map holds 0.7 million values."""
+
+POLYGON_CORNERS = Limit("corners of room polygons", 100_000, "BELIEFLOC_MAX_POLYGON_CORNERS")
+"""Corners of all the room polygons of one map (``rooms: {polygons: ...}``), counted before any is
+read as a number or laid over the cells; a floor plan's rooms have tens to thousands."""
 
 MODEL_ENTRIES = Limit("states × observations", 100_000_000, "BELIEFLOC_MAX_MODEL_ENTRIES")
 """The largest model: states times the observations of every action, summed over the actions, plus
 each sensor part's table of readings (8 bytes an entry: 800 MB at the default). A map's size is
 checked against it before any table is allocated; a .pomdp file's when its header has been read."""
+
+MAP_STATES = Limit("states (cells × headings)", 4_000_000, "BELIEFLOC_MAX_MAP_STATES")
+"""The largest grid of a map: rows × columns × headings, counted before its cells are laid out (an
+occupancy image sets rows and columns: a 212 KB PNG of 7071 × 7071 pixels in cells of one pixel is 50
+million). A state costs about 250 bytes and 5 µs to compile and write, whatever its observations
+(measured: 8 million states in 19 s and 1.9 GB without sensors, 64 s and 2.4 GB with a scan and a
+look), so the default keeps any map within about 1 GB; a generated 10^6-state map fits."""
 
 MODEL_FILE_BYTES = Limit("bytes in a model or macro file, uncompressed", 4 * 1024**3, "BELIEFLOC_MAX_MODEL_BYTES")
 """.npz arrays are checked against it from their headers, before they are decompressed."""
