@@ -342,3 +342,28 @@ def test_summary_tables_fit_80_columns_without_cutting_a_header() -> None:
     assert "not localized: ec2-macros: 2 budget_exceeded, 1 step_limit" in " ".join(plan_lines)
     assert any(line.startswith("pomdp ") for line in search_lines)  # one arm: the policy; the title has the rest
     assert "revision reuse" in " ".join(search_lines)
+
+
+@pytest.mark.parametrize("width", [20, 80])
+def test_print_lines_prints_what_one_print_a_line_prints(width: int) -> None:
+    """The plain fast path of a file console gives the same text as rich, long lines wrapped."""
+    import io
+
+    from rich.console import Console
+    from rich.text import Text
+
+    from beliefloc.render import print_lines
+
+    lines = [
+        Text("step 1: forward", style="bold"),
+        Text(),
+        Text("a line much longer than twenty cells, wrapped"),
+        Text("x"),
+    ]
+    fast, slow = io.StringIO(), io.StringIO()
+    print_lines(Console(file=fast, width=width, highlight=False), lines)
+    reference = Console(file=slow, width=width, highlight=False)
+    for line in lines:
+        reference.print(line)
+    assert fast.getvalue() == slow.getvalue()
+    assert ("wrapped\n" in fast.getvalue()) and (fast.getvalue().count("\n") > len(lines)) == (width == 20)

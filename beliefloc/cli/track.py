@@ -11,7 +11,7 @@ import typer
 from beliefloc.cli.common import boundary, initial_belief, open_model, warn_if_too_wide
 from beliefloc.cli.options import BeliefOption, CompactOption, JsonOption, ModelArgument, TopOption
 from beliefloc.errors import UsageError
-from beliefloc.render import stdout_console
+from beliefloc.render import print_lines, stdout_console
 
 if TYPE_CHECKING:
     import numpy as np
@@ -187,6 +187,8 @@ def track(
     ):
         if value is not None:
             raise UsageError(f"{name} goes with --bag RUN (a ROS recording)")
+    from rich.text import Text
+
     from beliefloc.render.belief_grid import belief_view
     from beliefloc.render.drawing import uses_color
     from beliefloc.render.state_tables import belief_summary, step_header, summary_line
@@ -203,10 +205,21 @@ def track(
     color = uses_color(console)
     width = console.width
     warn_if_too_wide(model.grid, compact, width, color)
+    # --final-only: a step is two lines, and a steps file may hold a million steps (print_lines)
+    batch: list[Text] = []
     for t in track_beliefs(model, belief, resolved):
+        header = step_header(t.number, t.step.text, t.step.action.name, t.step.observation, t.probability)
+        if final_only and t.number < len(resolved):
+            batch.extend([Text()] * (t.number > 1) + [header, summary_line(model, t.belief)])
+            if len(batch) >= _BATCH_LINES:
+                print_lines(console, batch)
+                batch.clear()
+            continue
+        print_lines(console, batch)
+        batch.clear()
         if t.number > 1:
             console.print()
-        console.print(step_header(t.number, t.step.text, t.step.action.name, t.step.observation, t.probability))
+        console.print(header)
         if t.number == len(resolved):
             view = belief_view(model, t.belief, compact=compact, width=width, color=color, top=top)
             console.print(view, crop=False)
@@ -217,6 +230,9 @@ def track(
         else:
             view = belief_view(model, t.belief, compact=compact, width=width, color=color, top=0, legend=False)
             console.print(view, crop=False)
+
+
+_BATCH_LINES = 3000
 
 
 def _track_bag(

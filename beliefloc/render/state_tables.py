@@ -60,7 +60,7 @@ def top_states_table(model: Model, belief: np.ndarray, *, top: int = 10, color: 
 def summary_line(model: Model, belief: np.ndarray) -> Text:
     """``most likely 1,0  p = 0.4444 (tied with 1 other)   entropy 1.042 nats``."""
     state, p = most_likely(belief)
-    ties = int(np.count_nonzero(np.isclose(belief, p, rtol=1e-9, atol=0.0))) - 1
+    ties = int(np.count_nonzero(np.abs(belief - p) <= 1e-9 * abs(p))) - 1  # np.isclose(rtol=1e-9, atol=0), cheaper
     h = entropy(belief)
     text = Text("most likely ")
     text.append(model.states.name(state), style="bold red")
