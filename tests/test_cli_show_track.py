@@ -289,3 +289,18 @@ def test_show_and_track_a_model_without_grid(runner: CliRunner, monkeypatch: pyt
     assert result.exit_code == 0, result.output
     assert "step 2: stay=none   p(none | stay, b) = 1" in result.stdout
     assert result.stdout.count("most likely kitchen") == 2
+
+
+def test_a_long_log_prints_a_line_per_step_and_one_map(runner: CliRunner, tmp_path: Path) -> None:
+    """Past DRAW_EVERY_STEP_UP_TO steps, track prints as --final-only does, and says so."""
+    from beliefloc.cli.track import DRAW_EVERY_STEP_UP_TO
+
+    log = tmp_path / "long.log"
+    log.write_text("look=window_seen\nright\n" * (DRAW_EVERY_STEP_UP_TO // 2 + 1), encoding="utf-8")
+    result = runner.invoke(app, ["track", WINDOW, "--steps", str(log)])
+    assert result.exit_code == 0, result.output
+    quiet = runner.invoke(app, ["track", WINDOW, "--steps", str(log), "--final-only"])
+    assert result.stdout == quiet.stdout
+    steps = DRAW_EVERY_STEP_UP_TO + 2
+    assert result.stdout.count("\nstep ") + 1 == steps and result.stdout.count("shade") == 1  # one map, the last
+    assert f"{steps:,} steps (more than" in result.stderr

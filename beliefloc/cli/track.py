@@ -8,7 +8,7 @@ from typing import TYPE_CHECKING, Annotated
 
 import typer
 
-from beliefloc.cli.common import boundary, initial_belief, open_model, warn_if_too_wide
+from beliefloc.cli.common import boundary, initial_belief, open_model, warn, warn_if_too_wide
 from beliefloc.cli.options import BeliefOption, CompactOption, JsonOption, ModelArgument, TopOption
 from beliefloc.errors import UsageError
 from beliefloc.render import print_lines, stdout_console
@@ -141,7 +141,8 @@ def track(
 ) -> None:
     """Localize over a log: apply each action and observation to the belief (Bayes filter).
 
-    Prints the belief after every step, with p(o | a, b), the probability of what was observed;
+    Prints the belief after every step, with p(o | a, b), the probability of what was observed (a
+    log of more than 1,000 steps: a one-line summary per step and the final belief drawn);
     --json also gives the final belief's most likely state as a map-frame pose with a covariance.
 
     With --bag RUN, the log is a ROS recording (LaserScan, odometry, /tf_static) and MAP an occupancy
@@ -201,6 +202,12 @@ def track(
     if json_output:
         _print_json_steps(model, belief, resolved)
         return
+    if not final_only and len(resolved) > DRAW_EVERY_STEP_UP_TO:
+        final_only = True
+        warn(
+            f"{len(resolved):,} steps (more than {DRAW_EVERY_STEP_UP_TO:,}): each step gets its one-line summary "
+            "and only the final belief its map, as with --final-only; --json gives every belief"
+        )
     console = stdout_console()
     color = uses_color(console)
     width = console.width
@@ -233,6 +240,9 @@ def track(
 
 
 _BATCH_LINES = 3000
+DRAW_EVERY_STEP_UP_TO = 1000
+"""Without --final-only, a log of more steps than this prints as with it (a map per step of a
+million-step log would be hours of output no one reads)."""
 
 
 def _track_bag(
