@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 from rich.console import Group, RenderableType
+from rich.control import strip_control_codes
 from rich.table import Table
 from rich.text import Text
 
@@ -62,10 +63,11 @@ def summary_line(model: Model, belief: np.ndarray) -> Text:
     state, p = most_likely(belief)
     ties = int(np.count_nonzero(np.abs(belief - p) <= 1e-9 * abs(p))) - 1  # np.isclose(rtol=1e-9, atol=0), cheaper
     h = entropy(belief)
-    text = Text("most likely ")
-    text.append(model.states.name(state), style="bold red")
+    name = strip_control_codes(model.states.name(state))  # as Text does, so the span fits
     tie = f" (tied with {ties} other{'s' if ties > 1 else ''})" if ties else ""
-    text.append(f"  p = {p:.4g}{tie}   entropy {h:.4g} nats")
+    # one Text from the whole line, its styles as spans: track prints a line per step of long logs
+    text = Text(f"most likely {name}  p = {p:.4g}{tie}   entropy {h:.4g} nats")
+    text.stylize("bold red", 12, 12 + len(name))
     return text
 
 
@@ -79,11 +81,10 @@ def belief_summary(model: Model, belief: np.ndarray, *, top: int = 5, color: boo
 
 def step_header(number: int, step: str, action: str, observation: str | None, probability: float | None) -> Text:
     """``step 2: look=window_seen   p(window_seen | look, b) = 0.45``."""
-    text = Text()
-    text.append(f"step {number}: ", style="bold")
-    text.append(step, style="bold")
+    head = strip_control_codes(f"step {number}: {step}")  # as Text does, so the span fits
     if observation is None or probability is None:
-        text.append("   nothing observed: prediction only")
+        text = Text(f"{head}   nothing observed: prediction only")
     else:
-        text.append(f"   p({observation} | {action}, b) = {probability:.4g}")
+        text = Text(f"{head}   p({observation} | {action}, b) = {probability:.4g}")
+    text.stylize("bold", 0, len(head))
     return text
