@@ -186,6 +186,8 @@ CASES = [
     ),
 ]
 VALID = {"unseen_class.yaml"}
+ELSEWHERE = {"polygon_corners_over_limit.yaml", "occupancy_8m_states.yaml"}
+"""Corpus files whose cases need a lowered limit or seconds of work: tests/test_hostile_round3_bounds.py."""
 
 
 def _message_ok(text: str, path: Path | str, case: Case) -> None:
@@ -197,7 +199,7 @@ def _message_ok(text: str, path: Path | str, case: Case) -> None:
 
 
 def test_every_corpus_file_has_a_case():
-    assert sorted(p.name for p in FUZZ.glob("*.yaml")) == sorted({c.file for c in CASES} | VALID)
+    assert sorted(p.name for p in FUZZ.glob("*.yaml")) == sorted({c.file for c in CASES} | VALID | ELSEWHERE)
 
 
 @pytest.mark.parametrize("case", CASES, ids=str)
