@@ -43,7 +43,7 @@ from beliefloc.robots.readings import RawReading, ReadingBinner
 from beliefloc.robots.surprise import DeclarationCheck, SurpriseCheck, respread
 from beliefloc.simulation.robot import SimulatedRobot
 from beliefloc.simulation.settings import DEFAULT_MAX_STEPS, StrategyName
-from beliefloc.simulation.strategies import EpisodeStatus, GiveUp, PlannerSettings, PlanningStrategy
+from beliefloc.simulation.strategies import EpisodeStatus, GiveUp, PlannerSettings, PlanningStrategy, Strategy
 
 
 @dataclass(frozen=True)
@@ -147,15 +147,29 @@ def localize(
     on_step: OnStep | None = None,
     surprise: SurpriseCheck | None = None,
     recoveries: int = DEFAULT_RECOVERIES,
+    strategy: Callable[[], Strategy] | None = None,
 ) -> Localization:
     """Plan, act, perceive and replan until one state holds ``settings.threshold`` (see the module).
+
+    ``strategy``: makes the strategy that chooses the actions (any of ``simulate``'s,
+    :func:`beliefloc.simulation.strategies.make_strategy`); a fresh one after every re-spread, since a
+    policy planned for the belief before it does not hold for the belief after. None: best-first with
+    replanning (:class:`PlanningStrategy`), ``localize``'s own.
 
     A reply the binner cannot use raises :class:`ReplyError` naming the action; an observation the
     model says cannot happen ends the loop with ``IMPOSSIBLE_OBSERVATION`` (the belief before it is
     kept), as do no plan, a planner out of budget and ``max_steps`` actions, each with its status.
     """
     settings = settings or PlannerSettings()
-    strategy = PlanningStrategy(StrategyName.BESTFIRST.value, model, settings, evaluator or SuccessorEvaluator(model))
+    chosen = settings
+
+    def best_first() -> Strategy:
+        return PlanningStrategy(StrategyName.BESTFIRST.value, model, chosen, evaluator or SuccessorEvaluator(model))
+
+    make = strategy or best_first
+    chooser = make()
+    done_seconds: list[float] = []
+    done_replans = 0
     steps, cost, reason = 0, 0.0, ""
     status = EpisodeStatus.LOCALIZED
     check = surprise if surprise is not None else SurpriseCheck()
@@ -166,14 +180,13 @@ def localize(
         if steps >= max_steps:
             status, reason = EpisodeStatus.STEP_LIMIT, f"{steps} actions done, the most allowed"
             break
-        decision = strategy.next_action(belief)
+        decision = chooser.next_action(belief)
         if isinstance(decision, GiveUp):
             status, reason = decision.status, _GIVE_UP_REASONS.get(decision.status, "")
             break
-        planned = strategy.current_step
-        assert planned is not None
+        planned = chooser.current_step if isinstance(chooser, PlanningStrategy) else None
         action = model.action(decision)
-        command = Command(steps + 1, action, planned.observation_index, strategy.new_plan)
+        command = Command(steps + 1, action, None if planned is None else planned.observation_index, chooser.new_plan)
         readings = robot.act(command)
         try:
             observation = binner.observation(action, readings)
@@ -205,12 +218,20 @@ def localize(
                         "re-spread(s): the world is not the map's model (a kidnapped robot, an unmapped "
                         "obstacle, or sensors noisier than it says)"
                     )
+                    if on_step is not None:  # the action was done: its step is shown, then the loop ends
+                        on_step(LocalizeStep(command, observation, probability, belief))
                     break
                 belief = respread(belief)
                 check.reset()
                 declaration.start(belief)
                 recovered += 1
-        strategy.observed(decision, observation, belief)  # a re-spread belief is not the planned one: replan
+                done_seconds += chooser.plan_seconds
+                done_replans += chooser.replans + 1
+                chooser = make()  # a re-spread belief is not the planned one: plan afresh
+                if on_step is not None:
+                    on_step(LocalizeStep(command, observation, probability, belief))
+                continue
+        chooser.observed(decision, observation, belief)  # an unexpected observation: the plan is dropped
         if on_step is not None:
             on_step(LocalizeStep(command, observation, probability, belief))
     return Localization(
@@ -218,8 +239,8 @@ def localize(
         belief,
         steps,
         cost,
-        strategy.replans,
-        tuple(strategy.plan_seconds),
+        done_replans + chooser.replans,
+        tuple(done_seconds + chooser.plan_seconds),
         reason,
         check.confidence,
         recovered,
