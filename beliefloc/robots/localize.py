@@ -26,6 +26,7 @@ The loop ends with an honest :class:`~beliefloc.simulation.strategies.EpisodeSta
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol
@@ -34,11 +35,11 @@ import numpy as np
 
 from beliefloc.belief import correct, most_likely
 from beliefloc.errors import ImpossibleObservationError, InvalidValueError, ReplyError
-from beliefloc.model import Action, Model
+from beliefloc.model import Action, GridLayout, Model
 from beliefloc.planning.best_first import PlanResult
 from beliefloc.planning.successors import SuccessorEvaluator
 from beliefloc.pose import pose_json
-from beliefloc.robots.odometry import ReportingRobot, predict_reported
+from beliefloc.robots.odometry import MotionReport, ReportingRobot, predict_reported
 from beliefloc.robots.readings import RawReading, ReadingBinner
 from beliefloc.robots.surprise import DeclarationCheck, SurpriseCheck, respread
 from beliefloc.simulation.robot import SimulatedRobot
@@ -148,6 +149,8 @@ def localize(
     surprise: SurpriseCheck | None = None,
     recoveries: int = DEFAULT_RECOVERIES,
     strategy: Callable[[], Strategy] | None = None,
+    repeat_readings: bool = False,
+    rng: np.random.Generator | None = None,
 ) -> Localization:
     """Plan, act, perceive and replan until one state holds ``settings.threshold`` (see the module).
 
@@ -155,6 +158,14 @@ def localize(
     :func:`beliefloc.simulation.strategies.make_strategy`); a fresh one after every re-spread, since a
     policy planned for the belief before it does not hold for the belief after. None: best-first with
     replanning (:class:`PlanningStrategy`), ``localize``'s own.
+
+    **One reading per place** (unless ``repeat_readings``): a perception action already read since
+    the last move is not sent again. The model treats two readings as independent given the state,
+    but a robot that has not moved reads the same pose again: its second reading repeats the first
+    one's offset from the cell centre and heading, and counting it twice makes the belief surer than
+    the evidence (the hallway: two Looks from one spot declared a pose 150° off). When the strategy
+    asks for such a reading, the loop makes a move instead (drawn from ``rng``, seeded: ``0`` when
+    None) and starts a fresh strategy from the belief after it.
 
     A reply the binner cannot use raises :class:`ReplyError` naming the action; an observation the
     model says cannot happen ends the loop with ``IMPOSSIBLE_OBSERVATION`` (the belief before it is
@@ -176,6 +187,9 @@ def localize(
     declaration = DeclarationCheck()
     declaration.start(belief)
     recovered = 0
+    read_here: set[str] = set()  # the perception actions read since the last move
+    moves = model.actuation_actions
+    draw = rng if rng is not None else np.random.default_rng(0)
     while belief.max() < settings.threshold or not declaration.explains(belief):
         if steps >= max_steps:
             status, reason = EpisodeStatus.STEP_LIMIT, f"{steps} actions done, the most allowed"
@@ -186,6 +200,9 @@ def localize(
             break
         planned = chooser.current_step if isinstance(chooser, PlanningStrategy) else None
         action = model.action(decision)
+        substituted = not repeat_readings and action.name in read_here and bool(moves)
+        if substituted:  # the same reading again from the same place: move instead (see above)
+            action, planned = moves[int(draw.integers(len(moves)))], None
         command = Command(steps + 1, action, None if planned is None else planned.observation_index, chooser.new_plan)
         readings = robot.act(command)
         try:
@@ -205,6 +222,15 @@ def localize(
             break
         steps += 1
         cost += action.cost
+        if action.is_actuation:
+            if moved(report, model.grid):
+                read_here.clear()
+        else:
+            read_here.add(action.name)
+        if substituted:
+            done_seconds += chooser.plan_seconds
+            done_replans += chooser.replans + 1
+            chooser = make()  # its plan expected the reading, not this move: plan afresh
         if expected is not None and observation is not None:
             check.observe(expected, observation)
             declaration.observe(action, probability, belief)
@@ -231,6 +257,10 @@ def localize(
                 if on_step is not None:
                     on_step(LocalizeStep(command, observation, probability, belief))
                 continue
+        if substituted:
+            if on_step is not None:
+                on_step(LocalizeStep(command, observation, probability, belief))
+            continue
         chooser.observed(decision, observation, belief)  # an unexpected observation: the plan is dropped
         if on_step is not None:
             on_step(LocalizeStep(command, observation, probability, belief))
@@ -245,6 +275,20 @@ def localize(
         check.confidence,
         recovered,
     )
+
+
+def moved(report: MotionReport | None, grid: GridLayout | None) -> bool:
+    """Whether a move took the robot somewhere its sensors read anew: unknown (protocol 1) counts as
+    moved; a reported odometry of at least a quarter cell or a quarter heading sector; a blocked
+    flag without odometry counts as not moved."""
+    if report is None:
+        return True
+    if report.odometry is None:
+        return report.blocked is not True
+    dx, dy, dyaw = report.odometry
+    cell = grid.cell_size if grid is not None else 0.0
+    sector = 2 * math.pi / grid.headings if grid is not None and grid.headings > 1 else math.inf
+    return math.hypot(dx, dy) >= cell / 4 or abs(dyaw) >= sector / 4
 
 
 class SimulatedReadingRobot:

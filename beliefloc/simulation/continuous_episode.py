@@ -46,6 +46,8 @@ from beliefloc.simulation.strategies import EpisodeStatus, PlannerSettings, Shar
 WRONG_CELLS = 1.5
 """An episode declared localized is wrong when the true pose is more than this many cells from the
 reported state's centre (or more than one heading sector from its heading)."""
+MOVES_STREAM = 26
+"""The third key of the generator of the moves ``localize`` makes instead of a repeated reading."""
 DEFAULT_ROBOT_RADIUS = 0.1
 """Metres: the robot's disc when the map gives no ``robot_radius`` (a hand-drawn grid)."""
 
@@ -162,7 +164,15 @@ class ContinuousSetup:
                 on_step(record, record.trace[-1], done.belief)
 
         outcome = localize(
-            model, start_belief, reading, binner, settings=settings, max_steps=max_steps, on_step=step, strategy=make
+            model,
+            start_belief,
+            reading,
+            binner,
+            settings=settings,
+            max_steps=max_steps,
+            on_step=step,
+            strategy=make,
+            rng=np.random.default_rng([seed, episode, MOVES_STREAM]),
         )
         state, probability = most_likely(outcome.belief)
         true_state = state_at(grid, robot.pose)
