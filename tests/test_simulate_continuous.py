@@ -10,8 +10,12 @@ import numpy as np
 import pytest
 
 from beliefloc import compile_model, load_map
+from beliefloc.belief import uniform
 from beliefloc.cli.app import app
 from beliefloc.model import Model
+from beliefloc.robots.localize import Command, localize, moved
+from beliefloc.robots.odometry import MotionReport
+from beliefloc.robots.readings import ReadingBinner
 from beliefloc.simulation.continuous_episode import ContinuousSetup, heading_of, is_wrong, pose_errors, state_at
 from beliefloc.simulation.episode import ContinuousOutcome, EpisodeRecord, EpisodeSweep, records_from_results
 from beliefloc.simulation.strategies import EpisodeStatus, PlannerSettings, SharedWork
@@ -169,3 +173,68 @@ def test_continuous_options_out_of_place_are_refused(runner, extra: list[str], s
     result = runner.invoke(app, ["simulate", KITCHEN, "-n", "1", *extra])
     assert result.exit_code == 2 and says in result.stderr
     assert "Traceback" not in result.output
+
+
+# --- one reading per place (localize) ------------------------------------------------------------
+
+
+class _Still:
+    """A robot that never moves (every move blocked, odometry 0) and reads the same thing every time:
+    what a robot in a corner reading one spot would answer."""
+
+    def __init__(self, readings: dict[str, object], report: MotionReport) -> None:
+        self.readings = readings
+        self.report = report
+        self.commands: list[Command] = []
+        self._last: Command | None = None
+
+    def act(self, command: Command) -> dict[str, object]:
+        self.commands.append(command)
+        self._last = command
+        action = command.action
+        return {} if action.is_actuation else {action.name: self.readings[action.name]}
+
+    def motion_report(self) -> MotionReport | None:
+        assert self._last is not None
+        return self.report if self._last.action.is_actuation else None
+
+
+def _runs_of_the_same_reading(commands: list[Command], still: bool) -> int:
+    """How often a perception action repeats one already taken at this place (``still``: no move moves)."""
+    here: set[str] = set()
+    repeats = 0
+    for c in commands:
+        name = c.action.name
+        if c.action.is_actuation and not still:
+            here.clear()
+            continue
+        repeats += name in here
+        here.add(name)
+    return repeats
+
+
+@pytest.mark.parametrize("report", [MotionReport((0.0, 0.0, 0.0), True), MotionReport(None, True)])
+def test_a_robot_that_cannot_move_is_never_read_twice_nor_declared_on_repeats(report: MotionReport) -> None:
+    smap = load_map(MAPS / "kitchen.yaml")
+    model = compile_model(smap)
+    binner = ReadingBinner(smap, model)
+    robot = _Still({"look": ["chair"], "scan": 0.6}, report)
+    outcome = localize(model, uniform(model.n_states), robot, binner, max_steps=30)
+    assert _runs_of_the_same_reading(robot.commands, still=True) == 0
+    assert not outcome.localized  # one look and one scan from one spot do not localize in the kitchen
+    # the same robot, the readings counted as independent (the grid world's assumption): repeats happen
+    again = _Still({"look": ["chair"], "scan": 0.6}, report)
+    localize(model, uniform(model.n_states), again, binner, max_steps=30, repeat_readings=True)
+    assert _runs_of_the_same_reading(again.commands, still=True) > 0
+
+
+def test_moved_says_whether_the_sensors_read_a_new_place() -> None:
+    grid = compile_model(load_map(MAPS / "kitchen.yaml")).grid
+    assert grid is not None
+    quarter = grid.cell_size / 4
+    assert moved(None, grid)  # protocol 1: the robot is taken at its word
+    assert moved(MotionReport(None, False), grid) and not moved(MotionReport(None, True), grid)
+    assert moved(MotionReport((quarter, 0.0, 0.0), True), grid)  # stopped partway, but somewhere new
+    assert not moved(MotionReport((quarter / 2, 0.0, 0.0), False), grid)
+    assert moved(MotionReport((0.0, 0.0, math.radians(90) / 4), False), grid)
+    assert not moved(MotionReport((0.0, 0.0, math.radians(5)), False), grid)

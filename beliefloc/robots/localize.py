@@ -163,9 +163,11 @@ def localize(
     the last move is not sent again. The model treats two readings as independent given the state,
     but a robot that has not moved reads the same pose again: its second reading repeats the first
     one's offset from the cell centre and heading, and counting it twice makes the belief surer than
-    the evidence (the hallway: two Looks from one spot declared a pose 150° off). When the strategy
-    asks for such a reading, the loop makes a move instead (drawn from ``rng``, seeded: ``0`` when
-    None) and starts a fresh strategy from the belief after it.
+    the evidence (the hallway: two Looks from one spot declared a pose 150° off). Likewise a move
+    the robot reported blocked where it stood (:func:`moved`) is not sent again from there: the
+    belief is the same, and a planner that does not know the wall would ask for it forever. When the
+    strategy asks for either, the loop makes another move instead (drawn from ``rng``, seeded: ``0``
+    when None) and starts a fresh strategy from the belief after it.
 
     A reply the binner cannot use raises :class:`ReplyError` naming the action; an observation the
     model says cannot happen ends the loop with ``IMPOSSIBLE_OBSERVATION`` (the belief before it is
@@ -187,7 +189,7 @@ def localize(
     declaration = DeclarationCheck()
     declaration.start(belief)
     recovered = 0
-    read_here: set[str] = set()  # the perception actions read since the last move
+    read_here: set[str] = set()  # the readings taken, and the moves blocked, since the robot last moved
     moves = model.actuation_actions
     draw = rng if rng is not None else np.random.default_rng(0)
     while belief.max() < settings.threshold or not declaration.explains(belief):
@@ -200,9 +202,14 @@ def localize(
             break
         planned = chooser.current_step if isinstance(chooser, PlanningStrategy) else None
         action = model.action(decision)
-        substituted = not repeat_readings and action.name in read_here and bool(moves)
+        untried = [m for m in moves if m.name not in read_here]
+        substituted = not repeat_readings and action.name in read_here
+        if substituted and not untried:
+            status = EpisodeStatus.NO_PLAN
+            reason = "every reading was taken where the robot stands and every move was blocked: nothing more to learn"
+            break
         if substituted:  # the same reading again from the same place: move instead (see above)
-            action, planned = moves[int(draw.integers(len(moves)))], None
+            action, planned = untried[int(draw.integers(len(untried)))], None
         command = Command(steps + 1, action, None if planned is None else planned.observation_index, chooser.new_plan)
         readings = robot.act(command)
         try:
@@ -222,10 +229,9 @@ def localize(
             break
         steps += 1
         cost += action.cost
-        if action.is_actuation:
-            if moved(report, model.grid):
-                read_here.clear()
-        else:
+        if action.is_actuation and moved(report, model.grid):
+            read_here.clear()
+        else:  # a reading taken here, or a move that left the robot where it was (blocked)
             read_here.add(action.name)
         if substituted:
             done_seconds += chooser.plan_seconds
