@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
@@ -151,6 +151,7 @@ def localize(
     strategy: Callable[[], Strategy] | None = None,
     repeat_readings: bool = False,
     rng: np.random.Generator | None = None,
+    confirm: bool = False,
 ) -> Localization:
     """Plan, act, perceive and replan until one state holds ``settings.threshold`` (see the module).
 
@@ -168,6 +169,13 @@ def localize(
     belief is the same, and a planner that does not know the wall would ask for it forever. When the
     strategy asks for either, the loop makes another move instead (drawn from ``rng``, seeded: ``0``
     when None) and starts a fresh strategy from the belief after it.
+
+    **Confirmation** (``confirm``): a belief that reaches the threshold is not declared at once. The
+    robot first makes a move (drawn from ``rng``) and takes a reading from where it lands; the state
+    is declared only if the belief still holds the threshold (and the declaration check passes)
+    after it. One reading that only a wrong state explains -- an off-grid pose read as another
+    cell's, a landmark where the map has none -- lifts a belief over the threshold; a second one,
+    from another place, rarely agrees with the same wrong state.
 
     A reply the binner cannot use raises :class:`ReplyError` naming the action; an observation the
     model says cannot happen ends the loop with ``IMPOSSIBLE_OBSERVATION`` (the belief before it is
@@ -189,26 +197,44 @@ def localize(
     declaration = DeclarationCheck()
     declaration.start(belief)
     recovered = 0
-    read_here: set[str] = set()  # the readings taken, and the moves blocked, since the robot last moved
+    places = Places(model.grid)  # the readings taken, and the moves blocked, and where
     moves = model.actuation_actions
     draw = rng if rng is not None else np.random.default_rng(0)
-    while belief.max() < settings.threshold or not declaration.explains(belief):
+    confirmed = not confirm
+    confirming = False  # a confirmation move was made; its reading comes next
+    while not (belief.max() >= settings.threshold and declaration.explains(belief) and confirmed):
         if steps >= max_steps:
             status, reason = EpisodeStatus.STEP_LIMIT, f"{steps} actions done, the most allowed"
             break
-        decision = chooser.next_action(belief)
-        if isinstance(decision, GiveUp):
-            status, reason = decision.status, _GIVE_UP_REASONS.get(decision.status, "")
-            break
-        planned = chooser.current_step if isinstance(chooser, PlanningStrategy) else None
-        action = model.action(decision)
+        read_here = places.here()
         untried = [m for m in moves if m.name not in read_here]
-        substituted = not repeat_readings and action.name in read_here
-        if substituted and not untried:
+        forced: Action | None = None
+        if confirm and (confirming or belief.max() >= settings.threshold):
+            unread = [a for a in model.perception_actions if a.name not in read_here]
+            if confirming and unread:  # the move was made: its reading
+                forced = unread[int(draw.integers(len(unread)))]
+            elif untried:  # at the threshold: move first (or again, when the move left the robot in place)
+                forced = untried[int(draw.integers(len(untried)))]
+            else:
+                status = EpisodeStatus.NO_PLAN
+                reason = "the belief reached the threshold, but every move was blocked: the state cannot be confirmed"
+                break
+        if forced is not None:
+            decision, action, planned = forced.name, forced, None
+        else:
+            choice = chooser.next_action(belief)
+            if isinstance(choice, GiveUp):
+                status, reason = choice.status, _GIVE_UP_REASONS.get(choice.status, "")
+                break
+            decision = choice
+            planned = chooser.current_step if isinstance(chooser, PlanningStrategy) else None
+            action = model.action(decision)
+        substituted = forced is not None or (not repeat_readings and action.name in read_here)
+        if substituted and forced is None and not untried:
             status = EpisodeStatus.NO_PLAN
             reason = "every reading was taken where the robot stands and every move was blocked: nothing more to learn"
             break
-        if substituted:  # the same reading again from the same place: move instead (see above)
+        if substituted and forced is None:  # the same reading again from the same place: move instead (see above)
             action, planned = untried[int(draw.integers(len(untried)))], None
         command = Command(steps + 1, action, None if planned is None else planned.observation_index, chooser.new_plan)
         readings = robot.act(command)
@@ -230,9 +256,15 @@ def localize(
         steps += 1
         cost += action.cost
         if action.is_actuation and moved(report, model.grid):
-            read_here.clear()
+            places.after_move(report)
         else:  # a reading taken here, or a move that left the robot where it was (blocked)
-            read_here.add(action.name)
+            places.add(action.name)
+        if forced is not None:
+            confirming = forced.is_actuation and moved(report, model.grid)
+            # the reading after the move: the belief now stands (still at the threshold) or falls
+            confirmed = not forced.is_actuation and belief.max() >= settings.threshold
+        elif belief.max() < settings.threshold:
+            confirmed = not confirm
         if substituted:
             done_seconds += chooser.plan_seconds
             done_replans += chooser.replans + 1
@@ -281,6 +313,44 @@ def localize(
         check.confidence,
         recovered,
     )
+
+
+@dataclass
+class Places:
+    """Where the robot has read what, by its odometry (relative to where the loop began): a reading
+    from within a quarter cell and a quarter heading sector of an earlier one of the same action is
+    taken *here* again, even when the robot moved away and came back (turned and turned back). A move
+    without odometry (protocol 1) is taken at its word: the robot is somewhere new, the memory is
+    forgotten."""
+
+    grid: GridLayout | None
+    pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    done: list[tuple[str, float, float, float]] = field(default_factory=list)
+
+    def after_move(self, report: MotionReport | None) -> None:
+        if report is None or report.odometry is None:
+            if report is None or report.blocked is not True:
+                self.done.clear()
+            return
+        dx, dy, dyaw = report.odometry
+        x, y, yaw = self.pose
+        c, s = math.cos(yaw), math.sin(yaw)
+        self.pose = (x + c * dx - s * dy, y + s * dx + c * dy, yaw + dyaw)
+
+    def add(self, name: str) -> None:
+        self.done.append((name, *self.pose))
+
+    def here(self) -> set[str]:
+        """The actions already done from (near) the present pose."""
+        grid = self.grid
+        cell = grid.cell_size / 4 if grid is not None else 0.0
+        sector = (2 * math.pi / grid.headings if grid is not None and grid.headings > 1 else math.inf) / 4
+        x, y, yaw = self.pose
+        return {
+            name
+            for name, px, py, pyaw in self.done
+            if math.hypot(px - x, py - y) < cell and abs(math.remainder(pyaw - yaw, 2 * math.pi)) < sector
+        }
 
 
 def moved(report: MotionReport | None, grid: GridLayout | None) -> bool:

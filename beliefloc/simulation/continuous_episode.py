@@ -66,6 +66,9 @@ class ContinuousSetup:
     range_noise: float = 0.02
     """Metres: standard deviation of a range reading's error."""
     range_max: float = 12.0
+    confirm: bool = True
+    """``localize``'s confirmation: a belief at the threshold is declared only if it still holds it
+    after a move and a reading from where the robot lands."""
     report_odometry: bool = True
     """Replies carry the wheels' odometry and the blocked flag (False: protocol 1, readings only)."""
     _cache: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
@@ -173,6 +176,7 @@ class ContinuousSetup:
             on_step=step,
             strategy=make,
             rng=np.random.default_rng([seed, episode, MOVES_STREAM]),
+            confirm=self.confirm,
         )
         state, probability = most_likely(outcome.belief)
         true_state = state_at(grid, robot.pose)
