@@ -13,11 +13,12 @@ from beliefloc import compile_model, load_map
 from beliefloc.belief import uniform
 from beliefloc.cli.app import app
 from beliefloc.model import Model
-from beliefloc.robots.localize import Command, localize, moved
+from beliefloc.robots.localize import Command, Places, SimulatedReadingRobot, localize, moved
 from beliefloc.robots.odometry import MotionReport
 from beliefloc.robots.readings import ReadingBinner
 from beliefloc.simulation.continuous_episode import ContinuousSetup, heading_of, is_wrong, pose_errors, state_at
 from beliefloc.simulation.episode import ContinuousOutcome, EpisodeRecord, EpisodeSweep, records_from_results
+from beliefloc.simulation.robot import SimulatedRobot
 from beliefloc.simulation.strategies import EpisodeStatus, PlannerSettings, SharedWork
 
 from .conftest import MAPS
@@ -238,3 +239,42 @@ def test_moved_says_whether_the_sensors_read_a_new_place() -> None:
     assert not moved(MotionReport((quarter / 2, 0.0, 0.0), False), grid)
     assert moved(MotionReport((0.0, 0.0, math.radians(90) / 4), False), grid)
     assert not moved(MotionReport((0.0, 0.0, math.radians(5)), False), grid)
+
+
+def test_places_remember_a_reading_when_the_robot_turns_back() -> None:
+    grid = compile_model(load_map(MAPS / "kitchen.yaml")).grid
+    places = Places(grid)
+    places.add("scan")
+    quarter_turn = math.pi / 2
+    places.after_move(MotionReport((0.0, 0.0, quarter_turn), False))
+    assert places.here() == set()  # facing another way: a new view
+    places.after_move(MotionReport((0.0, 0.0, -quarter_turn + 0.05), False))
+    assert places.here() == {"scan"}  # turned back: the same view
+    places.after_move(MotionReport((1.2, 0.0, 0.0), False))
+    assert places.here() == set()
+    places.after_move(None)  # protocol 1: somewhere new, nothing remembered
+    assert places.done == []
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_confirmation_moves_and_reads_again_before_declaring(seed: int) -> None:
+    smap = load_map(MAPS / "kitchen.yaml")
+    model = compile_model(smap)
+    binner = ReadingBinner(smap, model)
+    world = SimulatedRobot(
+        model, int(np.random.default_rng(seed).integers(model.n_states)), np.random.default_rng(seed)
+    )
+    steps: list[tuple[bool, float]] = []
+    outcome = localize(
+        model,
+        uniform(model.n_states),
+        SimulatedReadingRobot(world, binner),
+        binner,
+        confirm=True,
+        on_step=lambda step: steps.append((step.command.action.is_actuation, float(step.belief.max()))),
+    )
+    assert outcome.localized and int(np.argmax(outcome.belief)) == world.state
+    first = next(i for i, (_, p) in enumerate(steps) if p >= 0.95)
+    after = [move for move, _ in steps[first + 1 :]]
+    assert after and after[0]  # a move first,
+    assert not after[-1]  # and the declaration follows a reading
