@@ -278,3 +278,20 @@ def test_confirmation_moves_and_reads_again_before_declaring(seed: int) -> None:
     after = [move for move, _ in steps[first + 1 :]]
     assert after and after[0]  # a move first,
     assert not after[-1]  # and the declaration follows a reading
+
+
+def test_localize_confirm_on_the_command_line_moves_and_reads_before_declaring(runner) -> None:
+    """window-2x2-perfect: Look sees nothing, a move right localizes (p = 1); with --confirm the robot
+    is sent one more move and one more Look before the result."""
+    replies = [{"look": []}, {}, {}, {"look": []}]
+    text = "".join(json.dumps({"seq": k + 1, "readings": r}) + "\n" for k, r in enumerate(replies))
+    plain = runner.invoke(app, ["localize", str(MAPS / "window-2x2-perfect.yaml"), "--quiet"], input=text)
+    sent = [json.loads(line) for line in plain.stdout.splitlines()]
+    assert plain.exit_code == 0 and [m["message"] for m in sent] == ["action", "action", "result"]
+    confirmed = runner.invoke(
+        app, ["localize", str(MAPS / "window-2x2-perfect.yaml"), "--quiet", "--confirm"], input=text
+    )
+    sent = [json.loads(line) for line in confirmed.stdout.splitlines()]
+    actions = [m for m in sent if m["message"] == "action"]
+    assert [a["kind"] for a in actions[2:]] == ["actuation", "perception"]
+    assert sent[-1]["message"] == "result" and sent[-1]["steps"] == 4
