@@ -1,29 +1,32 @@
 """Off the grid (issue 26): localize a continuous simulated robot, started anywhere, and count the
 confident wrong answers.
 
-Each episode: a true pose uniform over the continuous free space (where the robot's disc fits) with
-a uniform yaw; motion noise 5 % of the distance and 2° per turn (``MotionError``), range noise 2 cm;
-optional clutter (a share of beams reading a random range). The robot answers ``localize``'s commands
-through :class:`beliefloc.robots.continuous_robot.ContinuousReadingRobot` -- the same robot interface
-as the line protocol -- with odometry and the blocked flag (``--protocol-1``: readings only). The
-record of each episode: status, steps, cost, the true pose at the end, the position and yaw error of
-the reported pose, and *confidently wrong* (declared localized, the true pose more than 1.5 cells from
-the reported state's centre or more than one heading sector from its heading).
+Each episode is ``simulate --continuous``'s (:mod:`beliefloc.simulation.continuous_episode`): a true
+pose uniform over the continuous free space (where the robot's disc fits) with a uniform yaw; motion
+noise 5 % of the distance and 2° per turn, range noise 2 cm; optional clutter (a share of beams
+reading a random range). The robot answers through
+:class:`beliefloc.robots.continuous_robot.ContinuousReadingRobot` -- the robot interface of the line
+protocol -- with odometry and the blocked flag (``--protocol-1``: readings only), and the episode is
+``localize``'s loop with the strategy named. The record of each episode: status, steps, cost, the true
+pose at the end, the position and yaw error of the reported pose, and *confidently wrong* (declared
+localized, the true pose more than 1.5 cells from the reported state's centre or more than one
+heading sector from its heading).
 
-Run by hand (slow)::
+Printed per map, strategy and clutter: localized %, confidently wrong, mean cost (of the localized
+episodes), statuses, and the calibration table: among the episodes declared localized at p in a
+band, the fraction wrong with its 95 % Clopper-Pearson interval, beside 1 - p.
 
-    PYTHONPATH=$PWD python benchmarks/bench_offgrid.py --maps kitchen tb3-sandbox --episodes 20
-    PYTHONPATH=$PWD python benchmarks/bench_offgrid.py --maps kitchen --episodes 20 --clutter 0.1
+Run by hand (slow; one process)::
 
-Only ``localize``'s strategy (best-first with replanning) is run: ``contingent`` and ``ec2-macros``
-are not wired into ``localize`` yet.
+    PYTHONPATH=$PWD python benchmarks/bench_offgrid.py --maps kitchen tb3-sandbox --episodes 30
+    PYTHONPATH=$PWD python benchmarks/bench_offgrid.py --maps hallway --strategies bestfirst contingent \\
+        ec2-macros --clutter 0 0.1 --episodes 30 --json offgrid.json
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 import time
 from pathlib import Path
@@ -32,35 +35,20 @@ import numpy as np
 
 from beliefloc import compile_model, load_map
 from beliefloc.belief import uniform
-from beliefloc.continuous.world import Clutter, ContinuousRobot, ContinuousWorld, LaserSpec, MotionError, WorldConfig
-from beliefloc.model import wrap_angle
-from beliefloc.pose import pose_json
-from beliefloc.robots.continuous_robot import ContinuousReadingRobot
-from beliefloc.robots.localize import localize
-from beliefloc.robots.readings import ReadingBinner
-from beliefloc.semantic_map import regions
+from beliefloc.errors import BeliefLocError
 from beliefloc.semantic_map.schema import SemanticMap
+from beliefloc.simulation.continuous_episode import ContinuousSetup
+from beliefloc.simulation.settings import StrategyName
+from beliefloc.simulation.strategies import PlannerSettings, SharedWork, make_strategy
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from stats import clopper_pearson
 
 MAPS = Path(__file__).resolve().parent.parent / "maps"
-
-
-def world_of(smap: SemanticMap, clutter: float, rng: np.random.Generator) -> ContinuousWorld:
-    laser = LaserSpec(range_sd=0.02, range_max=12.0, range_min=0.01, mount=(0.0, 0.0, 0.0))
-    config = WorldConfig(
-        laser=laser,
-        motion_error=MotionError(translation=0.05, rotation=0.0, per_turn=math.radians(2.0), per_metre=0.0),
-        clutter=Clutter(spurious=clutter),
-        robot_radius=0.1,
-    )
-    occupancy = smap.occupancy_map
-    if occupancy is not None:
-        return ContinuousWorld(occupancy, config, rng)
-    image = regions.blocked_image(~smap.free, smap.grid.cell_size)  # hand-drawn: the blocked cells
-    return ContinuousWorld(image, config, rng)
-
-
 REAL_SCAN = {"sub_samples": 3, "yaw_samples": 3, "sigma": 0.03, "random": 0.05, "short": 0.1}
 REAL_LOOK = {"sub_samples": 3, "yaw_samples": 3, "fov_edge": 3.0, "range_edge": 0.2}
+BANDS = ((0.95, 0.99), (0.99, 0.999), (0.999, 1.0 + 1e-12))
+"""The calibration table's bands of the declared probability."""
 
 
 def with_region_model(smap: SemanticMap) -> SemanticMap:
@@ -72,80 +60,113 @@ def with_region_model(smap: SemanticMap) -> SemanticMap:
     return smap.model_copy(update={"sensors": sensors})
 
 
-def episode(
-    name: str, seed: int, clutter: float, protocol_1: bool, max_steps: int, region: bool = False
-) -> dict[str, object]:
+def run_map(
+    name: str, strategies: list[str], clutters: list[float], episodes: int, args: argparse.Namespace
+) -> list[dict[str, object]]:
     smap = load_map(MAPS / f"{name}.yaml")
-    if region:
+    if args.region:
         smap = with_region_model(smap)
-    model = compile_model(smap)
-    binner = ReadingBinner(smap, model)
-    rng = np.random.default_rng(seed)
-    world = world_of(smap, clutter, rng)
-    start = world.random_poses(1)[0]
-    robot = ContinuousRobot(world, start)
-    reading = ContinuousReadingRobot(robot, smap, binner, report_odometry=not protocol_1, report_blocked=not protocol_1)
     t0 = time.perf_counter()
-    outcome = localize(model, uniform(model.n_states), reading, binner, max_steps=max_steps)
-    seconds = time.perf_counter() - t0
-    grid = model.grid
-    assert grid is not None
-    pose = pose_json(model, outcome.belief)
-    x, y, yaw = (float(v) for v in robot.pose)
-    position_error = math.hypot(pose["x"] - x, pose["y"] - y)
-    yaw_error = abs(float(wrap_angle(pose["yaw"] - yaw))) if grid.headings > 1 else 0.0
-    wrong = position_error > 1.5 * grid.cell_size or yaw_error > 2 * math.pi / grid.headings
-    return {
-        "map": name,
-        "seed": seed,
-        "status": outcome.status.value,
-        "localized": outcome.localized,
-        "probability": float(outcome.belief.max()),
-        "steps": outcome.steps,
-        "cost": outcome.cost,
-        "recoveries": outcome.recoveries,
-        "model_confidence": outcome.model_confidence,
-        "true_pose": [x, y, yaw],
-        "position_error": position_error,
-        "yaw_error": yaw_error,
-        "confidently_wrong": bool(outcome.localized and wrong),
-        "wrong_if_declared": bool(wrong),
-        "seconds": seconds,
-    }
+    model = compile_model(smap)
+    compile_seconds = time.perf_counter() - t0
+    shared = SharedWork.for_model(model)
+    settings = PlannerSettings(time_limit=args.time_limit)
+    start = uniform(model.n_states)
+    rows: list[dict[str, object]] = []
+    print(f"{name}: {model.n_states} states, compiled in {compile_seconds:.1f} s", flush=True)
+    for clutter in clutters:
+        setup = ContinuousSetup(smap, clutter=clutter, report_odometry=not args.protocol_1)
+        for strategy in strategies:
+            try:  # ec2-macros builds its macro table first: a region model on an occupancy map has none
+                make_strategy(StrategyName(strategy), settings, shared, np.random.default_rng(0))
+            except BeliefLocError as exc:
+                print(f"{name} {strategy} clutter {clutter:g}: not run: {exc}", flush=True)
+                continue
+            mine = []
+            for e in range(args.first, args.first + episodes):
+                t = time.perf_counter()
+                record = setup.run(
+                    model,
+                    strategy,
+                    seed=args.seed,
+                    episode=e,
+                    start_belief=start,
+                    settings=settings,
+                    shared=shared,
+                    max_steps=args.max_steps,
+                )
+                c = record.continuous
+                assert c is not None
+                row = {
+                    "map": name,
+                    "strategy": strategy,
+                    "clutter": clutter,
+                    "episode": e,
+                    "status": record.status.value,
+                    "localized": record.status.value == "localized",
+                    "probability": record.max_belief,
+                    "steps": record.steps,
+                    "cost": record.cost,
+                    **c.as_json(),
+                    "seconds": time.perf_counter() - t,
+                }
+                mine.append(row)
+                if args.verbose and row["confidently_wrong"]:
+                    print(f"  WRONG: episode {e}: {json.dumps(row)}", flush=True)
+            report(name, strategy, clutter, mine)
+            rows.extend(mine)
+    return rows
+
+
+def report(name: str, strategy: str, clutter: float, rows: list[dict[str, object]]) -> None:
+    n = len(rows)
+    declared = [r for r in rows if r["localized"]]
+    wrong = sum(bool(r["confidently_wrong"]) for r in rows)
+    statuses: dict[str, int] = {}
+    for r in rows:
+        statuses[str(r["status"])] = statuses.get(str(r["status"]), 0) + 1
+    costs = [float(r["cost"]) for r in declared]  # type: ignore[arg-type]
+    cost = f"{np.mean(costs):.1f}" if costs else "-"
+    secs = np.mean([float(r["seconds"]) for r in rows])  # type: ignore[arg-type]
+    print(
+        f"{name} {strategy} clutter {clutter:g}: {n} episodes, localized {len(declared)} "
+        f"({100 * len(declared) / n:.0f} %), confidently wrong {wrong}, mean cost {cost}, "
+        f"{secs:.2f} s/episode, statuses {statuses}",
+        flush=True,
+    )
+    for low, high in BANDS:
+        band = [r for r in declared if low <= float(r["probability"]) < high]  # type: ignore[arg-type]
+        if not band:
+            continue
+        k = sum(bool(r["confidently_wrong"]) for r in band)
+        lo, hi = clopper_pearson(k, len(band))
+        print(
+            f"  calibration p in [{low:g}, {min(high, 1.0):g}]: {len(band)} declared, {k} wrong "
+            f"({k / len(band):.3f}, 95 % CI {lo:.3f}-{hi:.3f}); 1 - p at most {1 - low:.3f}",
+            flush=True,
+        )
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--maps", nargs="+", default=["kitchen", "tb3-sandbox"])
-    parser.add_argument("--episodes", type=int, default=20)
-    parser.add_argument("--clutter", type=float, default=0.0, help="share of beams reading clutter")
+    parser.add_argument("--maps", nargs="+", default=["kitchen", "hallway", "depot", "tb3-sandbox"])
+    parser.add_argument("--strategies", nargs="+", default=["bestfirst", "contingent", "ec2-macros"])
+    parser.add_argument("--clutter", nargs="+", type=float, default=[0.0, 0.1], help="shares of beams reading clutter")
+    parser.add_argument("--episodes", type=int, default=30)
+    parser.add_argument("--first", type=int, default=0, help="the first episode's number")
+    parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--protocol-1", action="store_true", help="replies carry readings only")
     parser.add_argument("--max-steps", type=int, default=60)
+    parser.add_argument("--time-limit", type=float, default=2.0, help="seconds per plan call")
     parser.add_argument("--region", action="store_true", help="region models at the real-robot values")
+    parser.add_argument("--verbose", action="store_true", help="print every confidently wrong episode")
     parser.add_argument("--json", type=Path, help="write the episode records here")
     args = parser.parse_args(argv)
-    records = []
+    records: list[dict[str, object]] = []
     for name in args.maps:
-        rows = [
-            episode(name, seed, args.clutter, args.protocol_1, args.max_steps, args.region)
-            for seed in range(args.episodes)
-        ]
-        records.extend(rows)
-        n = len(rows)
-        localized = sum(bool(r["localized"]) for r in rows)
-        wrong = sum(bool(r["confidently_wrong"]) for r in rows)
-        statuses: dict[str, int] = {}
-        for r in rows:
-            statuses[str(r["status"])] = statuses.get(str(r["status"]), 0) + 1
-        cost = np.mean([float(r["cost"]) for r in rows])  # type: ignore[arg-type]
-        secs = np.mean([float(r["seconds"]) for r in rows])  # type: ignore[arg-type]
-        print(
-            f"{name}: {n} episodes, localized {localized} ({100 * localized / n:.0f} %), confidently wrong {wrong}, "
-            f"mean cost {cost:.1f}, {secs:.2f} s/episode, statuses {statuses}"
-        )
-        declared = [r for r in rows if r["localized"]]
-        if declared:
-            print(f"  calibration: {len(declared)} declared at p >= 0.95, {wrong} wrong (at most 1 - p ≈ 5 % expected)")
+        records.extend(run_map(name, args.strategies, args.clutter, args.episodes, args))
+    wrong = sum(bool(r["confidently_wrong"]) for r in records)
+    print(f"all: {len(records)} episodes, confidently wrong {wrong}")
     if args.json is not None:
         args.json.write_text(json.dumps(records, indent=1), encoding="utf-8")
     return 0

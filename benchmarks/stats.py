@@ -99,3 +99,16 @@ def paired_means(pairs: Sequence[tuple[float, float]], *, wins: bool = False) ->
         cheaper, dearer = win_counts(pairs)
         text += f"; cheaper {cheaper}, dearer {dearer}"
     return text + ")"
+
+
+def clopper_pearson(k: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
+    """The exact (Clopper-Pearson) two-sided interval of a proportion: ``k`` successes of ``n``
+    (``(0, 1)`` for ``n = 0``)."""
+    if n == 0:
+        return 0.0, 1.0
+    from scipy.stats import beta
+
+    alpha = 1.0 - confidence
+    low = 0.0 if k == 0 else float(beta.ppf(alpha / 2, k, n - k + 1))
+    high = 1.0 if k == n else float(beta.ppf(1 - alpha / 2, k + 1, n - k))
+    return low, high

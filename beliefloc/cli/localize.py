@@ -126,6 +126,15 @@ def localize(
     max_steps: Annotated[
         int, typer.Option("--max-steps", parser=whole(low=1), metavar="N", help="Stop after this many actions.")
     ] = DEFAULT_MAX_STEPS,
+    confirm: Annotated[
+        bool,
+        typer.Option(
+            "--confirm",
+            help="Declare a belief that reaches the threshold only if it still holds it after a move and a "
+            "reading from where the move leads (docs/localize-protocol.md, Surprise): a robot off the cell "
+            "centres is not declared on one reading that only a wrong state explains.",
+        ),
+    ] = False,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
     reply_timeout: Annotated[
         float,
@@ -252,7 +261,9 @@ def localize(
     else:
         robot = LineRobot(binner, _timed_reader(reply_timeout), _write_line, source="stdin")
         try:
-            outcome = run(model, start, robot, binner, settings=settings, max_steps=max_steps, on_step=on_step)
+            outcome = run(
+                model, start, robot, binner, settings=settings, max_steps=max_steps, on_step=on_step, confirm=confirm
+            )
         except ReplyError as exc:
             _try_send(robot, error_message(str(exc)))
             raise

@@ -70,6 +70,7 @@ if TYPE_CHECKING:
     from beliefloc.recordings.record import EpisodeRecorder
     from beliefloc.render.picture_episode import TraceRecorder
     from beliefloc.semantic_map import SemanticMap
+    from beliefloc.simulation.continuous_episode import ContinuousSetup
     from beliefloc.simulation.episode import EpisodeRecord, EpisodeSweep, StepRecord
 
 """``--record-frames``: a GIF of 200 frames at 0.6 s a frame lasts two minutes."""
@@ -140,6 +141,28 @@ def simulate(
             show_default=False,
         ),
     ] = None,
+    continuous: Annotated[
+        bool,
+        typer.Option(
+            "--continuous",
+            help="Episodes against a continuous simulated robot instead of one drawn from the model: a true pose "
+            "anywhere in free space with any yaw, motion noise (5 % of a move's length, 2° a turn), ray-cast ranges "
+            "(2 cm noise), detections by field of view, range and line of sight; it answers as a robot on "
+            "localize's line protocol would (readings, odometry, blocked), and each episode runs localize's loop "
+            "(surprise check, re-spread, 'inconsistent'). Records carry the true pose, the reported state's "
+            "position and yaw error, and whether the episode was confidently wrong.",
+        ),
+    ] = False,
+    clutter: Annotated[
+        float,
+        typer.Option(
+            "--clutter",
+            min=0.0,
+            max=0.99,
+            metavar="FRACTION",
+            help="With --continuous: the share of Scan beams that read a random range (unmapped obstacles).",
+        ),
+    ] = 0.0,
     show: Annotated[bool, typer.Option("--show", help="Print the belief grid after every step.")] = False,
     record: Annotated[
         Path | None,
@@ -193,6 +216,7 @@ def simulate(
       beliefloc simulate maps/kitchen.yaml -n 3 --record episode.gif --record-episode 2
       beliefloc simulate maps/kitchen.yaml -n 40 --workers 2 --out kitchen.jsonl --no-timings
       beliefloc simulate maps/kitchen.yaml -n 60 --workers 2 --out kitchen-60.jsonl --resume
+      beliefloc simulate maps/kitchen.yaml -n 3 --continuous --clutter 0.1 -s bestfirst -s ec2-macros   # exits 1
     """
     from beliefloc.files.results_file import header
     from beliefloc.render.belief_grid import belief_view
@@ -216,7 +240,10 @@ def simulate(
     _check_in_process(show, record, resume, workers, scheduler)
     check_sweep_options(workers, scheduler, out_file, resume, tuple(inputs))
     recording = _recording(record, record_episode, record_frames, episodes, inputs)
-    model, smap = open_with_map(map_file) if recording is not None else (open_model(map_file), None)
+    _check_continuous(continuous, clutter, world, start)
+    wants_map = recording is not None or continuous
+    model, smap = open_with_map(map_file) if wants_map else (open_model(map_file), None)
+    robot = _continuous_robot(map_file, model, smap, clutter) if continuous else None
     start_belief = initial_belief(model, belief, smap)
     refuse_unreachable(model, start_belief, threshold, json_output)
     start_state = None if start in ("random", "prior") else model.states.index(start)
@@ -299,6 +326,7 @@ def simulate(
         settings=settings,
         max_steps=max_steps,
         timings=timings,
+        robot=robot,
     )
     hooked = (show and not json_output) or recorder is not None
     results = run_sweep(
@@ -307,7 +335,12 @@ def simulate(
         scheduler=scheduler,
         out=out_file,
         resume=resume,
-        head=header("simulate", "episode", episodes, _settings(map_file, world, macros, belief, start, sweep)),
+        head=header(
+            "simulate",
+            "episode",
+            episodes,
+            _settings(map_file, world, macros, belief, start, sweep, continuous, clutter),
+        ),
         serial_start=((lambda: sweep.runner(on_step=on_any_step, on_episode=on_episode)) if hooked else None),
         progress=not show,
     )
@@ -325,6 +358,8 @@ def simulate(
             for r in records:
                 out.print(_episode_line(r))
         out.print(summary_table(summary, threshold))
+        if continuous:
+            out.print(_continuous_line(records))
     if recording is not None and recorder is not None:
         _write_recording(model, smap, recorder, recording, stderr_console() if json_output else out)
     if any(r.status is not EpisodeStatus.LOCALIZED for r in records):
@@ -364,10 +399,18 @@ def _check_in_process(show: bool, record: Path | None, resume: bool, workers: in
 
 
 def _settings(
-    map_file: Path, world: Path | None, macros: Path | None, belief: str, start: str, sweep: EpisodeSweep
+    map_file: Path,
+    world: Path | None,
+    macros: Path | None,
+    belief: str,
+    start: str,
+    sweep: EpisodeSweep,
+    continuous: bool = False,
+    clutter: float = 0.0,
 ) -> dict[str, object]:
     """What decides a run's results, for the header of its --out file: the inputs (and their bytes'
-    digests), the strategies and every planner setting."""
+    digests), the strategies and every planner setting (and, for a continuous robot only, its
+    clutter: the header of a grid run is as before)."""
     from beliefloc.files.results_file import digest
 
     settings = sweep.settings
@@ -390,7 +433,40 @@ def _settings(
         "gamma": settings.gamma,
         "max_steps": sweep.max_steps,
         "timings": sweep.timings,
+        **({"continuous": {"clutter": clutter}} if continuous else {}),
     }
+
+
+def _check_continuous(continuous: bool, clutter: float, world: Path | None, start: str) -> None:
+    """--continuous's company: its own robot and starts; --clutter only with it."""
+    if not continuous:
+        if clutter:
+            raise UsageError(f"--clutter {clutter:g}: is for the continuous robot; add --continuous")
+        return
+    if world is not None:
+        raise UsageError(f"--world {world}: --continuous simulates its own robot on the map; leave out one of them")
+    if start != "random":
+        raise UsageError(
+            f"--start {start}: a continuous robot starts anywhere in free space with any yaw; leave out --start"
+        )
+
+
+def _continuous_robot(map_file: Path, model: Model, smap: SemanticMap | None, clutter: float) -> ContinuousSetup:
+    from beliefloc.simulation.continuous_episode import ContinuousSetup
+
+    if smap is None or model.grid is None:
+        raise UsageError(f"--continuous: {map_file} is a model without its map; give the map file (.yaml)")
+    return ContinuousSetup(smap, clutter=clutter)
+
+
+def _continuous_line(records: list[EpisodeRecord]) -> str:
+    """Per strategy: how many episodes were confidently wrong, and the mean errors of the localized ones."""
+    parts = []
+    for name in dict.fromkeys(r.strategy for r in records):
+        mine = [r.continuous for r in records if r.strategy == name and r.continuous is not None]
+        wrong = sum(c.confidently_wrong for c in mine)
+        parts.append(f"{name}: confidently wrong {wrong} of {len(mine)}")
+    return escape("continuous robot: " + "; ".join(parts))
 
 
 @dataclass(frozen=True)

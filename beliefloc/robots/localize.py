@@ -26,24 +26,25 @@ The loop ends with an honest :class:`~beliefloc.simulation.strategies.EpisodeSta
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 import numpy as np
 
 from beliefloc.belief import correct, most_likely
 from beliefloc.errors import ImpossibleObservationError, InvalidValueError, ReplyError
-from beliefloc.model import Action, Model
+from beliefloc.model import Action, GridLayout, Model
 from beliefloc.planning.best_first import PlanResult
 from beliefloc.planning.successors import SuccessorEvaluator
 from beliefloc.pose import pose_json
-from beliefloc.robots.odometry import ReportingRobot, predict_reported
+from beliefloc.robots.odometry import MotionReport, ReportingRobot, predict_reported
 from beliefloc.robots.readings import RawReading, ReadingBinner
 from beliefloc.robots.surprise import DeclarationCheck, SurpriseCheck, respread
 from beliefloc.simulation.robot import SimulatedRobot
 from beliefloc.simulation.settings import DEFAULT_MAX_STEPS, StrategyName
-from beliefloc.simulation.strategies import EpisodeStatus, GiveUp, PlannerSettings, PlanningStrategy
+from beliefloc.simulation.strategies import EpisodeStatus, GiveUp, PlannerSettings, PlanningStrategy, Strategy
 
 
 @dataclass(frozen=True)
@@ -147,33 +148,95 @@ def localize(
     on_step: OnStep | None = None,
     surprise: SurpriseCheck | None = None,
     recoveries: int = DEFAULT_RECOVERIES,
+    strategy: Callable[[], Strategy] | None = None,
+    repeat_readings: bool = False,
+    rng: np.random.Generator | None = None,
+    confirm: bool = False,
 ) -> Localization:
     """Plan, act, perceive and replan until one state holds ``settings.threshold`` (see the module).
+
+    ``strategy``: makes the strategy that chooses the actions (any of ``simulate``'s,
+    :func:`beliefloc.simulation.strategies.make_strategy`); a fresh one after every re-spread, since a
+    policy planned for the belief before it does not hold for the belief after. None: best-first with
+    replanning (:class:`PlanningStrategy`), ``localize``'s own.
+
+    **One reading per place** (unless ``repeat_readings``): a perception action already read since
+    the last move is not sent again. The model treats two readings as independent given the state,
+    but a robot that has not moved reads the same pose again: its second reading repeats the first
+    one's offset from the cell centre and heading, and counting it twice makes the belief surer than
+    the evidence (the hallway: two Looks from one spot declared a pose 150° off). Likewise a move
+    the robot reported blocked where it stood (:func:`moved`) is not sent again from there: the
+    belief is the same, and a planner that does not know the wall would ask for it forever. When the
+    strategy asks for either, the loop makes another move instead (drawn from ``rng``, seeded: ``0``
+    when None) and starts a fresh strategy from the belief after it.
+
+    **Confirmation** (``confirm``): a belief that reaches the threshold is not declared at once. The
+    robot first makes a move (drawn from ``rng``) and takes a reading from where it lands; the state
+    is declared only if the belief still holds the threshold (and the declaration check passes)
+    after it. One reading that only a wrong state explains -- an off-grid pose read as another
+    cell's, a landmark where the map has none -- lifts a belief over the threshold; a second one,
+    from another place, rarely agrees with the same wrong state.
 
     A reply the binner cannot use raises :class:`ReplyError` naming the action; an observation the
     model says cannot happen ends the loop with ``IMPOSSIBLE_OBSERVATION`` (the belief before it is
     kept), as do no plan, a planner out of budget and ``max_steps`` actions, each with its status.
     """
     settings = settings or PlannerSettings()
-    strategy = PlanningStrategy(StrategyName.BESTFIRST.value, model, settings, evaluator or SuccessorEvaluator(model))
+    chosen = settings
+
+    def best_first() -> Strategy:
+        return PlanningStrategy(StrategyName.BESTFIRST.value, model, chosen, evaluator or SuccessorEvaluator(model))
+
+    make = strategy or best_first
+    chooser = make()
+    done_seconds: list[float] = []
+    done_replans = 0
     steps, cost, reason = 0, 0.0, ""
     status = EpisodeStatus.LOCALIZED
     check = surprise if surprise is not None else SurpriseCheck()
     declaration = DeclarationCheck()
     declaration.start(belief)
     recovered = 0
-    while belief.max() < settings.threshold or not declaration.explains(belief):
+    places = Places(model.grid)  # the readings taken, and the moves blocked, and where
+    moves = model.actuation_actions
+    draw = rng if rng is not None else np.random.default_rng(0)
+    confirmed = not confirm
+    confirming = False  # a confirmation move was made; its reading comes next
+    while not (belief.max() >= settings.threshold and declaration.explains(belief) and confirmed):
         if steps >= max_steps:
             status, reason = EpisodeStatus.STEP_LIMIT, f"{steps} actions done, the most allowed"
             break
-        decision = strategy.next_action(belief)
-        if isinstance(decision, GiveUp):
-            status, reason = decision.status, _GIVE_UP_REASONS.get(decision.status, "")
+        read_here = places.here()
+        untried = [m for m in moves if m.name not in read_here]
+        forced: Action | None = None
+        if confirm and (confirming or belief.max() >= settings.threshold):
+            unread = [a for a in model.perception_actions if a.name not in read_here]
+            if confirming and unread:  # the move was made: its reading
+                forced = unread[int(draw.integers(len(unread)))]
+            elif untried:  # at the threshold: move first (or again, when the move left the robot in place)
+                forced = untried[int(draw.integers(len(untried)))]
+            else:
+                status = EpisodeStatus.NO_PLAN
+                reason = "the belief reached the threshold, but every move was blocked: the state cannot be confirmed"
+                break
+        if forced is not None:
+            decision, action, planned = forced.name, forced, None
+        else:
+            choice = chooser.next_action(belief)
+            if isinstance(choice, GiveUp):
+                status, reason = choice.status, _GIVE_UP_REASONS.get(choice.status, "")
+                break
+            decision = choice
+            planned = chooser.current_step if isinstance(chooser, PlanningStrategy) else None
+            action = model.action(decision)
+        substituted = forced is not None or (not repeat_readings and action.name in read_here)
+        if substituted and forced is None and not untried:
+            status = EpisodeStatus.NO_PLAN
+            reason = "every reading was taken where the robot stands and every move was blocked: nothing more to learn"
             break
-        planned = strategy.current_step
-        assert planned is not None
-        action = model.action(decision)
-        command = Command(steps + 1, action, planned.observation_index, strategy.new_plan)
+        if substituted and forced is None:  # the same reading again from the same place: move instead (see above)
+            action, planned = untried[int(draw.integers(len(untried)))], None
+        command = Command(steps + 1, action, None if planned is None else planned.observation_index, chooser.new_plan)
         readings = robot.act(command)
         try:
             observation = binner.observation(action, readings)
@@ -192,6 +255,20 @@ def localize(
             break
         steps += 1
         cost += action.cost
+        if action.is_actuation and moved(report, model.grid):
+            places.after_move(report)
+        else:  # a reading taken here, or a move that left the robot where it was (blocked)
+            places.add(action.name)
+        if forced is not None:
+            confirming = forced.is_actuation and moved(report, model.grid)
+            # the reading after the move: the belief now stands (still at the threshold) or falls
+            confirmed = not forced.is_actuation and belief.max() >= settings.threshold
+        elif belief.max() < settings.threshold:
+            confirmed = not confirm
+        if substituted:
+            done_seconds += chooser.plan_seconds
+            done_replans += chooser.replans + 1
+            chooser = make()  # its plan expected the reading, not this move: plan afresh
         if expected is not None and observation is not None:
             check.observe(expected, observation)
             declaration.observe(action, probability, belief)
@@ -205,12 +282,24 @@ def localize(
                         "re-spread(s): the world is not the map's model (a kidnapped robot, an unmapped "
                         "obstacle, or sensors noisier than it says)"
                     )
+                    if on_step is not None:  # the action was done: its step is shown, then the loop ends
+                        on_step(LocalizeStep(command, observation, probability, belief))
                     break
                 belief = respread(belief)
                 check.reset()
                 declaration.start(belief)
                 recovered += 1
-        strategy.observed(decision, observation, belief)  # a re-spread belief is not the planned one: replan
+                done_seconds += chooser.plan_seconds
+                done_replans += chooser.replans + 1
+                chooser = make()  # a re-spread belief is not the planned one: plan afresh
+                if on_step is not None:
+                    on_step(LocalizeStep(command, observation, probability, belief))
+                continue
+        if substituted:
+            if on_step is not None:
+                on_step(LocalizeStep(command, observation, probability, belief))
+            continue
+        chooser.observed(decision, observation, belief)  # an unexpected observation: the plan is dropped
         if on_step is not None:
             on_step(LocalizeStep(command, observation, probability, belief))
     return Localization(
@@ -218,12 +307,64 @@ def localize(
         belief,
         steps,
         cost,
-        strategy.replans,
-        tuple(strategy.plan_seconds),
+        done_replans + chooser.replans,
+        tuple(done_seconds + chooser.plan_seconds),
         reason,
         check.confidence,
         recovered,
     )
+
+
+@dataclass
+class Places:
+    """Where the robot has read what, by its odometry (relative to where the loop began): a reading
+    from within a quarter cell and a quarter heading sector of an earlier one of the same action is
+    taken *here* again, even when the robot moved away and came back (turned and turned back). A move
+    without odometry (protocol 1) is taken at its word: the robot is somewhere new, the memory is
+    forgotten."""
+
+    grid: GridLayout | None
+    pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    done: list[tuple[str, float, float, float]] = field(default_factory=list)
+
+    def after_move(self, report: MotionReport | None) -> None:
+        if report is None or report.odometry is None:
+            if report is None or report.blocked is not True:
+                self.done.clear()
+            return
+        dx, dy, dyaw = report.odometry
+        x, y, yaw = self.pose
+        c, s = math.cos(yaw), math.sin(yaw)
+        self.pose = (x + c * dx - s * dy, y + s * dx + c * dy, yaw + dyaw)
+
+    def add(self, name: str) -> None:
+        self.done.append((name, *self.pose))
+
+    def here(self) -> set[str]:
+        """The actions already done from (near) the present pose."""
+        grid = self.grid
+        cell = grid.cell_size / 4 if grid is not None else 0.0
+        sector = (2 * math.pi / grid.headings if grid is not None and grid.headings > 1 else math.inf) / 4
+        x, y, yaw = self.pose
+        return {
+            name
+            for name, px, py, pyaw in self.done
+            if math.hypot(px - x, py - y) < cell and abs(math.remainder(pyaw - yaw, 2 * math.pi)) < sector
+        }
+
+
+def moved(report: MotionReport | None, grid: GridLayout | None) -> bool:
+    """Whether a move took the robot somewhere its sensors read anew: unknown (protocol 1) counts as
+    moved; a reported odometry of at least a quarter cell or a quarter heading sector; a blocked
+    flag without odometry counts as not moved."""
+    if report is None:
+        return True
+    if report.odometry is None:
+        return report.blocked is not True
+    dx, dy, dyaw = report.odometry
+    cell = grid.cell_size if grid is not None else 0.0
+    sector = 2 * math.pi / grid.headings if grid is not None and grid.headings > 1 else math.inf
+    return math.hypot(dx, dy) >= cell / 4 or abs(dyaw) >= sector / 4
 
 
 class SimulatedReadingRobot:

@@ -8,11 +8,12 @@ budget exceeded), or a step limit. Records are plain data; statistics are comput
 
 from __future__ import annotations
 
+import math
 import statistics
 from array import array
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import asdict, dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -38,6 +39,88 @@ class StepRecord:
     """The plan made before this step (the first plan, or a replan), if any."""
 
 
+@dataclass(frozen=True)
+class ContinuousOutcome:
+    """How an episode against a continuous robot ended (``simulate --continuous``,
+    :mod:`beliefloc.simulation.continuous_episode`): where the robot truly was, and how far the
+    reported state (the most likely one) is from it."""
+
+    start_pose: tuple[float, float, float]
+    """The true start pose ``(x, y, yaw)``: map-frame metres and radians."""
+    true_pose: tuple[float, float, float]
+    """The true pose at the end."""
+    position_error: float
+    """Metres from the reported state's cell centre to the true position."""
+    yaw_error: float
+    """Radians from the reported state's heading to the true yaw (0 with one heading)."""
+    confidently_wrong: bool
+    """Declared localized, yet the true pose is more than 1.5 cells or one heading sector from the
+    reported state: the worst outcome there is."""
+    model_confidence: float
+    """How well the last readings fit the belief, in [0, 1] (``localize``'s)."""
+    recoveries: int
+    """How many times the readings stopped fitting and the belief was re-spread."""
+
+    def as_json(self) -> dict[str, Any]:
+        return {
+            "start_pose": list(self.start_pose),
+            "true_pose": list(self.true_pose),
+            "position_error": self.position_error,
+            "yaw_error": self.yaw_error,
+            "confidently_wrong": self.confidently_wrong,
+            "model_confidence": self.model_confidence,
+            "recoveries": self.recoveries,
+        }
+
+    @classmethod
+    def from_json(cls, data: object) -> ContinuousOutcome:
+        """Strictly: every field there, of its type, finite; nothing else."""
+        if not isinstance(data, dict):
+            raise ValueError(f"continuous: {str(data)[:40]!r} is not an object")
+        fields = (
+            "start_pose",
+            "true_pose",
+            "position_error",
+            "yaw_error",
+            "confidently_wrong",
+            "model_confidence",
+            "recoveries",
+        )
+        extra = sorted(set(data) - set(fields))
+        if extra:
+            raise ValueError(f"continuous: unknown field {extra[0][:40]!r}")
+        poses = []
+        for key in ("start_pose", "true_pose"):
+            value = data[key]
+            if not isinstance(value, list) or len(value) != 3:
+                raise ValueError(f"continuous.{key}: {str(value)[:40]!r} is not a list [x, y, yaw]")
+            x, y, yaw = (number_field({f"continuous.{key}": v}, f"continuous.{key}") for v in value)
+            poses.append((x, y, yaw))
+        errors = [
+            number_field({f"continuous.{k}": data[k]}, f"continuous.{k}") for k in ("position_error", "yaw_error")
+        ]
+        if errors[0] < 0:
+            raise ValueError(f"continuous.position_error: {errors[0]!r} is not a distance >= 0")
+        if not 0 <= errors[1] <= math.pi + 1e-9:
+            raise ValueError(f"continuous.yaw_error: {errors[1]!r} is not an angle from 0 to pi")
+        confidence = number_field(
+            {"continuous.model_confidence": data["model_confidence"]}, "continuous.model_confidence"
+        )
+        if not 0.0 <= confidence <= 1.0:
+            raise ValueError(f"continuous.model_confidence: {confidence!r} is not in [0, 1]")
+        return cls(
+            start_pose=poses[0],
+            true_pose=poses[1],
+            position_error=errors[0],
+            yaw_error=errors[1],
+            confidently_wrong=flag_field(
+                {"continuous.confidently_wrong": data["confidently_wrong"]}, "continuous.confidently_wrong"
+            ),
+            model_confidence=confidence,
+            recoveries=whole_field({"continuous.recoveries": data["recoveries"]}, "continuous.recoveries"),
+        )
+
+
 @dataclass
 class EpisodeRecord:
     strategy: str
@@ -58,14 +141,21 @@ class EpisodeRecord:
     pose: PoseEstimate | None = None
     """The final belief as a pose: its most likely state's (:attr:`final`) and its covariance;
     None for a model without a grid."""
+    continuous: ContinuousOutcome | None = None
+    """An episode against a continuous robot: its true poses and errors (None on the grid; then
+    :attr:`start` and :attr:`true_final` name the states holding the true poses, ``"-"`` where none does)."""
 
     def as_json(self, *, timings: bool = True) -> dict[str, Any]:
         """What ``simulate --json`` prints per episode; without ``timings`` no clock value.
-        ``"pose"`` is :meth:`PoseEstimate.as_json` of the final belief (null without a grid)."""
+        ``"pose"`` is :meth:`PoseEstimate.as_json` of the final belief (null without a grid);
+        ``"continuous"`` (:meth:`ContinuousOutcome.as_json`) only for an episode against a continuous robot."""
         data = asdict(self)
         data.pop("trace")
+        data.pop("continuous")
         data["status"] = self.status.value
         data["pose"] = None if self.pose is None else self.pose.as_json()
+        if self.continuous is not None:
+            data["continuous"] = self.continuous.as_json()
         if not timings:
             data["plan_seconds"] = None
         return data
@@ -91,6 +181,7 @@ class EpisodeRecord:
             replans=whole_field(data, "replans"),
             plan_seconds=[number_field({"plan_seconds": x}, "plan_seconds") for x in seconds or []],
             max_belief=number_field(data, "max_belief"),
+            continuous=ContinuousOutcome.from_json(data["continuous"]) if "continuous" in data else None,
         )
 
 
@@ -241,6 +332,25 @@ def run_experiment(
     return records
 
 
+class EpisodeRunner(Protocol):
+    """Runs one episode against a robot of its own instead of the model's simulated one
+    (:class:`beliefloc.simulation.continuous_episode.ContinuousSetup`: ``simulate --continuous``)."""
+
+    def run(
+        self,
+        model: Model,
+        strategy: str,
+        *,
+        seed: int,
+        episode: int,
+        start_belief: np.ndarray,
+        settings: PlannerSettings,
+        shared: SharedWork,
+        max_steps: int,
+        on_step: OnStep | None = None,
+    ) -> EpisodeRecord: ...
+
+
 @dataclass(frozen=True)
 class EpisodeSweep:
     """Paired episodes as a sweep (:mod:`beliefloc.simulation.sweep`): unit ``e`` is episode ``e`` of every
@@ -259,6 +369,9 @@ class EpisodeSweep:
     max_steps: int = DEFAULT_MAX_STEPS
     timings: bool = True
     """Keep the wall-clock values in the results (off: byte-identical reruns)."""
+    robot: EpisodeRunner | None = None
+    """Episodes against this robot (a continuous one) instead of one sampled from the model; the
+    start is then the runner's (``start`` and ``start_distribution`` are not used)."""
 
     def paired(
         self,
@@ -274,6 +387,22 @@ class EpisodeSweep:
         state = start_state(model, self.seed, episode, start=self.start, start_distribution=self.start_distribution)
         records = []
         for name in self.strategies:
+            if self.robot is not None:
+                record = self.robot.run(
+                    model,
+                    name,
+                    seed=self.seed,
+                    episode=episode,
+                    start_belief=belief,
+                    settings=self.settings or PlannerSettings(),
+                    shared=shared,
+                    max_steps=self.max_steps,
+                    on_step=on_step,
+                )
+                records.append(record)
+                if on_episode is not None:
+                    on_episode(record)
+                continue
             record = run_episode(
                 model,
                 name,

@@ -1,0 +1,255 @@
+"""Episodes against a continuous simulated robot (``simulate --continuous``, issue 26).
+
+The grid episode (:func:`beliefloc.simulation.episode.run_episode`) samples the robot from the
+planner's own model: it can never show what the model leaves out. Here the robot is a
+:class:`~beliefloc.continuous.world.ContinuousRobot`: a true pose anywhere in free space (where its
+disc fits) with any yaw, noisy motion stopped where the map blocks it, ray-cast Scan ranges with
+range noise and optional clutter (a share of beams reading a random range), Look detections by field
+of view, range and line of sight. It answers through
+:class:`~beliefloc.robots.continuous_robot.ContinuousReadingRobot` -- the robot interface the line
+protocol uses -- and the episode is ``localize``'s loop (:func:`beliefloc.robots.localize.localize`:
+odometry and blocked flag in the replies, the surprise check, re-spread and ``inconsistent``) with
+any of ``simulate``'s strategies choosing the actions.
+
+Each record carries :class:`~beliefloc.simulation.episode.ContinuousOutcome`: the start and final
+true poses, the position and yaw error of the reported state, and whether the episode was
+*confidently wrong*: declared localized with the true pose more than
+:data:`WRONG_CELLS` cells from the reported state's centre or more than one heading sector from its
+heading.
+
+Random numbers: the start pose from the episode's start generator, the world's noise from its world
+generator, the strategy's from its own (:func:`beliefloc.simulation.episode.episode_rngs`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from beliefloc.belief import most_likely
+from beliefloc.continuous.world import Clutter, ContinuousRobot, ContinuousWorld, LaserSpec, MotionError, WorldConfig
+from beliefloc.errors import InvalidValueError
+from beliefloc.model import GridLayout, Model, wrap_angle
+from beliefloc.pose import belief_pose
+from beliefloc.robots.continuous_robot import ContinuousReadingRobot
+from beliefloc.robots.localize import LocalizeStep, localize
+from beliefloc.robots.readings import ReadingBinner
+from beliefloc.semantic_map import regions
+from beliefloc.semantic_map.schema import SemanticMap
+from beliefloc.simulation.episode import ContinuousOutcome, EpisodeRecord, OnStep, StepRecord, episode_rngs
+from beliefloc.simulation.settings import StrategyName
+from beliefloc.simulation.strategies import EpisodeStatus, PlannerSettings, SharedWork, Strategy, make_strategy
+
+WRONG_CELLS = 1.5
+"""An episode declared localized is wrong when the true pose is more than this many cells from the
+reported state's centre (or more than one heading sector from its heading)."""
+MOVES_STREAM = 26
+"""The third key of the generator of the moves ``localize`` makes instead of a repeated reading."""
+DEFAULT_ROBOT_RADIUS = 0.1
+"""Metres: the robot's disc when the map gives no ``robot_radius`` (a hand-drawn grid)."""
+
+
+@dataclass(frozen=True)
+class ContinuousSetup:
+    """The continuous world of ``simulate --continuous``: the map and the noise of the robot."""
+
+    smap: SemanticMap
+    clutter: float = 0.0
+    """Share of Scan beams that read a uniformly random range instead of the true one."""
+    translation_noise: float = 0.05
+    """Standard deviation of a move's length error, relative (0.05: 5 % of the distance)."""
+    turn_noise: float = math.radians(2.0)
+    """Radians: standard deviation of the yaw error of every command that turns."""
+    range_noise: float = 0.02
+    """Metres: standard deviation of a range reading's error."""
+    range_max: float = 12.0
+    confirm: bool = True
+    """``localize``'s confirmation: a belief at the threshold is declared only if it still holds it
+    after a move and a reading from where the robot lands."""
+    report_odometry: bool = True
+    """Replies carry the wheels' odometry and the blocked flag (False: protocol 1, readings only)."""
+    _cache: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if not (math.isfinite(self.clutter) and 0.0 <= self.clutter < 1.0):
+            raise InvalidValueError(f"clutter: {self.clutter!r} is not a fraction from 0 up to (not including) 1")
+        for name in ("translation_noise", "turn_noise", "range_noise"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and 0.0 <= value <= 1.0):
+                raise InvalidValueError(f"{name}: {value!r} is not a number from 0 to 1")
+        if self.smap.grid is None:
+            raise InvalidValueError(f"map {self.smap.name!r}: a continuous robot needs a map with a grid")
+
+    def __getstate__(self) -> dict[str, Any]:  # the cache is rebuilt by each worker
+        state = dict(self.__dict__)
+        state["_cache"] = {}
+        return state
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+
+    @property
+    def config(self) -> WorldConfig:
+        radius = self.smap.grid.robot_radius if self.smap.grid is not None else None
+        return WorldConfig(
+            laser=LaserSpec(range_sd=self.range_noise, range_max=self.range_max, range_min=0.01, mount=(0.0, 0.0, 0.0)),
+            motion_error=MotionError(
+                translation=self.translation_noise, rotation=0.0, per_turn=self.turn_noise, per_metre=0.0
+            ),
+            clutter=Clutter(spurious=self.clutter),
+            robot_radius=DEFAULT_ROBOT_RADIUS if not radius else float(radius),
+        )
+
+    def world(self, rng: np.random.Generator) -> ContinuousWorld:
+        """The world (built once per process: its clearance map is the slow part), drawing from ``rng``."""
+        world = self._cache.get("world")
+        if world is None:
+            world = world_of(self.smap, self.config, rng)
+            self._cache["world"] = world
+        world.rng = rng
+        return world
+
+    def binner(self, model: Model) -> ReadingBinner:
+        binner = self._cache.get("binner")
+        if binner is None or binner.model is not model:
+            binner = ReadingBinner(self.smap, model)
+            self._cache["binner"] = binner
+        return binner
+
+    def run(
+        self,
+        model: Model,
+        strategy: str,
+        *,
+        seed: int,
+        episode: int,
+        start_belief: np.ndarray,
+        settings: PlannerSettings,
+        shared: SharedWork,
+        max_steps: int,
+        on_step: OnStep | None = None,
+    ) -> EpisodeRecord:
+        """One episode of ``strategy`` against the continuous robot (see the module)."""
+        grid = model.grid
+        if grid is None:
+            raise InvalidValueError(f"model {model.name!r} has no grid: a continuous robot cannot stand on it")
+        start_rng, world_rng, strategy_rng = episode_rngs(seed, episode)
+        start = self.world(start_rng).random_poses(1)[0]
+        world = self.world(world_rng)
+        robot = ContinuousRobot(world, start)
+        binner = self.binner(model)
+        reading = ContinuousReadingRobot(
+            robot, self.smap, binner, report_odometry=self.report_odometry, report_blocked=self.report_odometry
+        )
+        name = StrategyName(strategy)
+
+        def make() -> Strategy:
+            return make_strategy(name, settings, shared, strategy_rng)
+
+        record = EpisodeRecord(
+            name.value, episode, _state_name(model, start), "", "", False, EpisodeStatus.LOCALIZED, 0.0, 0, 0, [], 0.0
+        )
+
+        def step(done: LocalizeStep) -> None:
+            record.steps += 1
+            action = done.command.action
+            observation = None if done.observation is None else action.observation.name(done.observation)
+            true_state = _state_name(model, robot.pose)
+            record.trace.append(
+                StepRecord(
+                    action.name, observation, done.probability, float(done.belief.max()), true_state, done.command.plan
+                )
+            )
+            if on_step is not None:
+                on_step(record, record.trace[-1], done.belief)
+
+        outcome = localize(
+            model,
+            start_belief,
+            reading,
+            binner,
+            settings=settings,
+            max_steps=max_steps,
+            on_step=step,
+            strategy=make,
+            rng=np.random.default_rng([seed, episode, MOVES_STREAM]),
+            confirm=self.confirm,
+        )
+        state, probability = most_likely(outcome.belief)
+        true_state = state_at(grid, robot.pose)
+        record.final = model.states.name(state)
+        record.true_final = _state_name(model, robot.pose)
+        record.correct = state == true_state
+        record.status = outcome.status
+        record.cost = outcome.cost
+        record.steps = outcome.steps
+        record.replans = outcome.replans
+        record.plan_seconds = list(outcome.plan_seconds)
+        record.max_belief = probability
+        record.pose = belief_pose(model, outcome.belief)
+        position_error, yaw_error = pose_errors(grid, state, robot.pose)
+        record.continuous = ContinuousOutcome(
+            start_pose=_triple(start),
+            true_pose=_triple(robot.pose),
+            position_error=position_error,
+            yaw_error=yaw_error,
+            confidently_wrong=outcome.localized and is_wrong(grid, position_error, yaw_error),
+            model_confidence=outcome.model_confidence,
+            recoveries=outcome.recoveries,
+        )
+        return record
+
+
+def world_of(smap: SemanticMap, config: WorldConfig, rng: np.random.Generator) -> ContinuousWorld:
+    """The continuous world of ``smap``: its occupancy image, or for a hand-drawn grid the image of
+    its blocked cells (one pixel a cell, the grid's frame)."""
+    occupancy = smap.occupancy_map
+    if occupancy is not None:
+        return ContinuousWorld(occupancy, config, rng)
+    return ContinuousWorld(regions.blocked_image(~smap.free, smap.grid.cell_size), config, rng)
+
+
+def heading_of(grid: GridLayout, yaw: float) -> int:
+    """The heading sector holding map-frame ``yaw`` (0 with one heading)."""
+    if grid.headings == 1:
+        return 0
+    step = 2 * math.pi / grid.headings
+    return round((grid.frame.yaw + math.pi / 2 - yaw) / step) % grid.headings
+
+
+def state_at(grid: GridLayout, pose: np.ndarray) -> int:
+    """The state whose region holds the continuous ``pose`` (x, y, yaw); -1 when its cell is no state."""
+    row, col = grid.cell_at(float(pose[0]), float(pose[1]))
+    return grid.state_of(int(row), int(col), heading_of(grid, float(pose[2])))
+
+
+def pose_errors(grid: GridLayout, state: int, pose: np.ndarray) -> tuple[float, float]:
+    """Metres from state ``state``'s cell centre to ``pose``, and radians from its heading's yaw
+    (0 with one heading: the yaw is not estimated)."""
+    row, col, heading = grid.cell_heading(state)
+    cx, cy = grid.cell_centre(row, col)
+    position = math.hypot(float(cx) - float(pose[0]), float(cy) - float(pose[1]))
+    if grid.headings == 1:
+        return position, 0.0
+    return position, abs(float(wrap_angle(float(grid.heading_yaw(heading)) - float(pose[2]))))
+
+
+def is_wrong(grid: GridLayout, position_error: float, yaw_error: float) -> bool:
+    """More than :data:`WRONG_CELLS` cells or one heading sector from the reported state."""
+    sector = 2 * math.pi / grid.headings if grid.headings > 1 else math.inf
+    return position_error > WRONG_CELLS * grid.cell_size or yaw_error > sector
+
+
+def _state_name(model: Model, pose: np.ndarray) -> str:
+    """The name of the state holding ``pose``; ``"-"`` when the robot stands where no state is."""
+    assert model.grid is not None
+    state = state_at(model.grid, pose)
+    return "-" if state < 0 else model.states.name(state)
+
+
+def _triple(pose: np.ndarray) -> tuple[float, float, float]:
+    x, y, yaw = (float(v) for v in pose)
+    return (x, y, yaw)
