@@ -104,9 +104,14 @@ def resolve_steps(model: Model, texts: Sequence[str | StepLine]) -> list[Step]:
     their joint reading, otherwise ``none``; without an observation the step is a prediction only.
     """
     steps = []
+    known: dict[str, Step] = {}  # a long log repeats a few steps: each text is checked once
     for number, written in enumerate(texts, start=1):
         text, label = (written.text, written.label) if isinstance(written, StepLine) else (written, "")
         label = label or f"step {number} {text!r}"
+        same = known.get(text)
+        if same is not None:
+            steps.append(Step(text, same.action, same.observation, same.index, label))
+            continue
         try:
             name, observation = parse_step(text)
             action = model.action(name)
@@ -122,6 +127,7 @@ def resolve_steps(model: Model, texts: Sequence[str | StepLine]) -> list[Step]:
         except InvalidValueError as exc:
             raise InvalidValueError(f"{label}: {exc}") from None
         steps.append(Step(text, action, observation, index, label))
+        known[text] = steps[-1]
     return steps
 
 
