@@ -292,9 +292,10 @@ def _print_json_steps(model: Model, belief: np.ndarray, resolved: list[Step]) ->
     temporary file (a log of a million steps is never held whole), then copied to stdout: a step
     whose observation is impossible leaves no half document on stdout."""
     import json
-    import math
     import shutil
     import tempfile
+
+    import numpy as np
 
     from beliefloc.belief import by_state_name
     from beliefloc.pose import pose_json
@@ -309,17 +310,16 @@ def _print_json_steps(model: Model, belief: np.ndarray, resolved: list[Step]) ->
         write = spool.write
         write('{\n  "steps": [')
         for t in track_beliefs(model, belief, resolved):
-            values = t.belief.tolist()
-            shown = {v: float.__repr__(v) for v in set(values)}  # a belief repeats few values: each written once
-            if not all(map(math.isfinite, shown)):
+            if not np.isfinite(t.belief).all():
                 raise AssertionError(f"step {t.number}: the belief holds a value that is not a finite number")
+            shown = dumps(t.belief.tolist())[1:-1].split(", ")  # float.__repr__ of each, by json's C encoder
             probability = None if t.probability is None else float(t.probability)
             write(
                 ("\n" if t.number == 1 else ",\n")
                 + f'    {{\n      "step": {dumps(t.step.text)},\n      "action": {dumps(t.step.action.name)},\n'
                 + f'      "observation": {dumps(t.step.observation)},\n'
                 + f'      "probability": {dumps(probability, allow_nan=False)},\n      "belief": {{\n'
-                + ",\n".join(map(str.__add__, keys, map(shown.__getitem__, values)))
+                + ",\n".join(map(str.__add__, keys, shown))
                 + "\n      }\n    }"
             )
             final = t.belief
