@@ -399,23 +399,20 @@ class EpisodeSweep:
                     max_steps=self.max_steps,
                     on_step=on_step,
                 )
-                records.append(record)
-                if on_episode is not None:
-                    on_episode(record)
-                continue
-            record = run_episode(
-                model,
-                name,
-                state,
-                belief,
-                seed=self.seed,
-                episode=episode,
-                world=self.world,
-                settings=self.settings,
-                shared=shared,
-                max_steps=self.max_steps,
-                on_step=on_step,
-            )
+            else:
+                record = run_episode(
+                    model,
+                    name,
+                    state,
+                    belief,
+                    seed=self.seed,
+                    episode=episode,
+                    world=self.world,
+                    settings=self.settings,
+                    shared=shared,
+                    max_steps=self.max_steps,
+                    on_step=on_step,
+                )
             records.append(record)
             if on_episode is not None:
                 on_episode(record)
