@@ -223,11 +223,45 @@ def region_look(
     seen", then one column (no ``angle_bins``) or one per angle bin. ``landmarks_xy`` in grid-frame
     metres."""
     poses, weight = sub_poses(layout, image, spec)
-    n, K = weight.shape
+    sub = look_distribution(
+        image,
+        poses,
+        weight > 0,
+        landmarks_xy,
+        layout.headings == 1,
+        fov,
+        view_range,
+        occlusion,
+        angle_bins,
+        fov_edge,
+        range_edge,
+    )
+    out: np.ndarray = np.einsum("nk,nkv->nv", weight, sub)
+    return out
+
+
+def look_distribution(
+    image: OccupancyImage,
+    poses: np.ndarray,
+    stands: np.ndarray,
+    landmarks_xy: np.ndarray,
+    all_round: bool,
+    fov: float,
+    view_range: float | None,
+    occlusion: bool,
+    angle_bins: np.ndarray | None,
+    fov_edge: float,
+    range_edge: float,
+) -> np.ndarray:
+    """A class's Look reading distribution at each pose: ``poses[..., (x, y, yaw)]`` in the grid
+    frame, ``stands[...]`` where a pose is one the robot can be in (elsewhere: nothing seen);
+    ``all_round``: a map with one heading (every viewing angle is 0). Shape ``poses.shape[:-1] +
+    (n_values,)``: column 0 "not seen", then one column (no ``angle_bins``) or one per angle bin."""
+    shape = poses.shape[:-1]
     n_values = 1 + (len(angle_bins) if angle_bins is not None else 1)
     if len(landmarks_xy) == 0:
-        out = np.zeros((n, n_values))
-        out[:, 0] = 1.0
+        out = np.zeros(shape + (n_values,))
+        out[..., 0] = 1.0
         return out
     x, y, yaw = poses[..., 0], poses[..., 1], poses[..., 2]
     probs, angles = [], []
@@ -235,13 +269,13 @@ def region_look(
     for lx, ly in landmarks_xy:
         dx, dy = lx - x, ly - y
         d = np.hypot(dx, dy)
-        if layout.headings == 1:
+        if all_round:
             a = np.zeros_like(d)
         else:
             a = np.abs(np.degrees(np.angle(np.exp(1j * (np.arctan2(dy, dx) - yaw)))))
         a = np.where(d < 1e-9, 0.0, a)
         p = detection_probability(d, a, fov, view_range, fov_edge, range_edge)
-        p = np.where(weight > 0, p, 0.0)
+        p = np.where(stands, p, 0.0)
         if occlusion:
             look = p > 0
             if view_range is not None:
@@ -254,15 +288,15 @@ def region_look(
             p[look] = q
         probs.append(p)
         angles.append(a)
-    P = np.stack(probs, axis=-1)  # (n, K, L)
+    P = np.stack(probs, axis=-1)  # (..., L)
     A = np.stack(angles, axis=-1)
     order = np.argsort(A, axis=-1)
     P_sorted = np.take_along_axis(P, order, axis=-1)
     A_sorted = np.take_along_axis(A, order, axis=-1)
     miss = np.cumprod(1.0 - P_sorted, axis=-1)
-    before = np.concatenate([np.ones((n, K, 1)), miss[..., :-1]], axis=-1)
+    before = np.concatenate([np.ones(shape + (1,)), miss[..., :-1]], axis=-1)
     first = P_sorted * before  # P(the smallest-angle detected landmark is this one)
-    sub = np.zeros((n, K, n_values))
+    sub = np.zeros(shape + (n_values,))
     sub[..., 0] = miss[..., -1]
     if angle_bins is None:
         sub[..., 1] = first.sum(axis=-1)
@@ -272,5 +306,4 @@ def region_look(
         for v in range(1, n_values):
             sub[..., v] = (first * ((col == v) & inside)).sum(axis=-1)
         sub[..., 0] += (first * ~inside).sum(axis=-1)  # beyond the last bin: not reported
-    out2: np.ndarray = np.einsum("nk,nkv->nv", weight, sub)
-    return out2
+    return sub
