@@ -236,6 +236,8 @@ def predict_grid(
     delta: tuple[float, float, float],
     noise: OdometryNoise,
     free: np.ndarray | None = None,
+    *,
+    normalize: bool = True,
 ) -> np.ndarray:
     """The belief after the odometry ``delta``: ``bel'(s') = sum_s p(s' | s, delta) bel(s)``.
 
@@ -243,7 +245,7 @@ def predict_grid(
     ``yaws[k]``: heading ``k``'s yaw in the *grid* frame (x along the columns, y up the rows),
     evenly spaced around the circle (either direction); ``cell_size`` in metres; ``free[r, c]``
     (optional): the cells the robot can be in -- mass moved elsewhere is dropped and the rest
-    renormalised (a robot does not drive into walls).
+    renormalised (a robot does not drive into walls); ``normalize=False`` keeps the mass as moved.
 
     Per heading ``k``: the displacement ``R(yaws[k]) (dx, dy)`` in cells and its covariance (the
     along-track variance ``sd_trans²`` and cross-track ``(trans sd_rot1)²`` of
@@ -285,7 +287,7 @@ def predict_grid(
     if free is not None:
         moved *= free[None, :, :]
     total = moved.sum()
-    if total > 0:
+    if normalize and total > 0:
         moved /= total
     return moved
 

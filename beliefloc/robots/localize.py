@@ -33,15 +33,16 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from beliefloc.belief import correct, most_likely
+from beliefloc.belief import most_likely
 from beliefloc.errors import ImpossibleObservationError, InvalidValueError, ReplyError
 from beliefloc.model import Action, GridLayout, Model
 from beliefloc.planning.best_first import PlanResult
 from beliefloc.planning.successors import SuccessorEvaluator
 from beliefloc.pose import pose_json
-from beliefloc.robots.odometry import MotionReport, ReportingRobot, predict_reported
+from beliefloc.robots.belief_filter import BeliefFilter, ModelFilter
+from beliefloc.robots.odometry import MotionReport, ReportingRobot
 from beliefloc.robots.readings import RawReading, ReadingBinner
-from beliefloc.robots.surprise import DeclarationCheck, SurpriseCheck, respread
+from beliefloc.robots.surprise import DeclarationCheck, SurpriseCheck
 from beliefloc.simulation.robot import SimulatedRobot
 from beliefloc.simulation.settings import DEFAULT_MAX_STEPS, StrategyName
 from beliefloc.simulation.strategies import EpisodeStatus, GiveUp, PlannerSettings, PlanningStrategy, Strategy
@@ -152,6 +153,7 @@ def localize(
     repeat_readings: bool = False,
     rng: np.random.Generator | None = None,
     confirm: bool = False,
+    belief_filter: BeliefFilter | None = None,
 ) -> Localization:
     """Plan, act, perceive and replan until one state holds ``settings.threshold`` (see the module).
 
@@ -177,6 +179,11 @@ def localize(
     cell's, a landmark where the map has none -- lifts a belief over the threshold; a second one,
     from another place, rarely agrees with the same wrong state.
 
+    **The belief** between actions is ``belief_filter``'s (:mod:`beliefloc.robots.belief_filter`):
+    None is the model's own (``T_a`` and ``O_a`` over its states); a
+    :class:`~beliefloc.robots.belief_filter.LatticeFilter` follows a real robot's pose finer than
+    the states. The planner and the threshold see the model's belief either way.
+
     A reply the binner cannot use raises :class:`ReplyError` naming the action; an observation the
     model says cannot happen ends the loop with ``IMPOSSIBLE_OBSERVATION`` (the belief before it is
     kept), as do no plan, a planner out of budget and ``max_steps`` actions, each with its status.
@@ -194,22 +201,24 @@ def localize(
     steps, cost, reason = 0, 0.0, ""
     status = EpisodeStatus.LOCALIZED
     check = surprise if surprise is not None else SurpriseCheck()
+    tracker: BeliefFilter = belief_filter if belief_filter is not None else ModelFilter(model)
+    belief = tracker.start(belief)
     declaration = DeclarationCheck()
-    declaration.start(belief)
+    declaration.start(tracker.peak())
     recovered = 0
     places = Places(model.grid)  # the readings taken, and the moves blocked, and where
     moves = model.actuation_actions
     draw = rng if rng is not None else np.random.default_rng(0)
     confirmed = not confirm
     confirming = False  # a confirmation move was made; its reading comes next
-    while not (belief.max() >= settings.threshold and declaration.explains(belief) and confirmed):
+    while not (tracker.peak() >= settings.threshold and declaration.explains(tracker.peak()) and confirmed):
         if steps >= max_steps:
             status, reason = EpisodeStatus.STEP_LIMIT, f"{steps} actions done, the most allowed"
             break
         read_here = places.here()
         untried = [m for m in moves if m.name not in read_here]
         forced: Action | None = None
-        if confirm and (confirming or belief.max() >= settings.threshold):
+        if confirm and (confirming or tracker.peak() >= settings.threshold):
             unread = [a for a in model.perception_actions if a.name not in read_here]
             if confirming and unread:  # the move was made: its reading
                 forced = unread[int(draw.integers(len(unread)))]
@@ -244,12 +253,15 @@ def localize(
             raise ReplyError(f"the reply to action {command.seq} ({action.name}): {exc}") from None
         report = robot.motion_report() if isinstance(robot, ReportingRobot) else None
         try:
-            predicted = predict_reported(action, belief, report, model.grid)
+            tracker.predict(action, report)
         except InvalidValueError as exc:
             raise ReplyError(f"the reply to action {command.seq} ({action.name}): {exc}") from None
-        expected = action.observation.probabilities(predicted) if observation is not None else None
+        except ImpossibleObservationError as exc:
+            status, reason = EpisodeStatus.IMPOSSIBLE_OBSERVATION, f"action {command.seq}: {exc}"
+            break
+        expected = tracker.probabilities(action) if observation is not None else None
         try:
-            belief, probability = correct(action, predicted, observation)
+            belief, probability = tracker.correct(action, observation)
         except ImpossibleObservationError as exc:
             status, reason = EpisodeStatus.IMPOSSIBLE_OBSERVATION, f"action {command.seq}: {exc}"
             break
@@ -262,8 +274,8 @@ def localize(
         if forced is not None:
             confirming = forced.is_actuation and moved(report, model.grid)
             # the reading after the move: the belief now stands (still at the threshold) or falls
-            confirmed = not forced.is_actuation and belief.max() >= settings.threshold
-        elif belief.max() < settings.threshold:
+            confirmed = not forced.is_actuation and tracker.peak() >= settings.threshold
+        elif tracker.peak() < settings.threshold:
             confirmed = not confirm
         if substituted:
             done_seconds += chooser.plan_seconds
@@ -271,23 +283,23 @@ def localize(
             chooser = make()  # its plan expected the reading, not this move: plan afresh
         if expected is not None and observation is not None:
             check.observe(expected, observation)
-            declaration.observe(action, probability, belief)
-            if not check.fits or (belief.max() >= settings.threshold and not declaration.explains(belief)):
+            declaration.observe(probability, tracker.expected_log_likelihood(action))
+            if not check.fits or (tracker.peak() >= settings.threshold and not declaration.explains(tracker.peak())):
                 if recovered >= recoveries:
                     status = EpisodeStatus.INCONSISTENT
                     reason = (
                         f"action {command.seq}: the readings stopped fitting the belief (fit {check.fit:.2g} over the "
                         f"last {len(check.ratios)} readings; the most likely state's path explains them "
-                        f"{declaration.deficit(belief):.1f} nats worse than expected) after {recovered} "
+                        f"{declaration.deficit(tracker.peak()):.1f} nats worse than expected) after {recovered} "
                         "re-spread(s): the world is not the map's model (a kidnapped robot, an unmapped "
                         "obstacle, or sensors noisier than it says)"
                     )
                     if on_step is not None:  # the action was done: its step is shown, then the loop ends
                         on_step(LocalizeStep(command, observation, probability, belief))
                     break
-                belief = respread(belief)
+                belief = tracker.respread()
                 check.reset()
-                declaration.start(belief)
+                declaration.start(tracker.peak())
                 recovered += 1
                 done_seconds += chooser.plan_seconds
                 done_replans += chooser.replans + 1

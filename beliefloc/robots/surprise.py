@@ -136,21 +136,23 @@ class DeclarationCheck:
     expected: float = 0.0
     log_prior_max: float = 0.0
 
-    def start(self, belief: np.ndarray) -> None:
-        """Start (again) from ``belief``: the readings before it are forgotten."""
+    def start(self, peak: float) -> None:
+        """Start (again) from a belief whose most likely state holds ``peak``: the readings before
+        it are forgotten."""
         self.log_evidence, self.expected = 0.0, 0.0
-        self.log_prior_max = math.log(float(belief.max()))
+        self.log_prior_max = math.log(peak)
 
-    def observe(self, action: Action, probability: float, posterior: np.ndarray) -> None:
-        """Record a reading of probability ``probability`` under the belief before it, and the
-        belief after it."""
+    def observe(self, probability: float, expected: float) -> None:
+        """Record a reading of probability ``probability`` under the belief before it, and the mean
+        log-likelihood of such a reading under the belief after it (:func:`expected_log_likelihood`)."""
         self.log_evidence += math.log(probability) if probability > 0 else -math.inf
-        self.expected += expected_log_likelihood(action, posterior)
+        self.expected += expected
 
-    def deficit(self, belief: np.ndarray) -> float:
-        """Expected minus actual log-likelihood of the readings on the most likely state's path."""
-        actual = self.log_evidence + math.log(float(belief.max())) - self.log_prior_max
+    def deficit(self, peak: float) -> float:
+        """Expected minus actual log-likelihood of the readings on the path of the most likely state,
+        which now holds ``peak``."""
+        actual = self.log_evidence + math.log(peak) - self.log_prior_max
         return self.expected - actual
 
-    def explains(self, belief: np.ndarray) -> bool:
-        return self.deficit(belief) <= self.limit
+    def explains(self, peak: float) -> bool:
+        return self.deficit(peak) <= self.limit

@@ -464,3 +464,35 @@ def _here_part(
         if name in readings:
             truth[states] = lookup[str(readings[name])]
     return ObservationPart(name, tuple(classes), truth, _noise(len(classes), sensor.error))
+
+
+def region_image(smap: SemanticMap, layout: GridLayout) -> OccupancyImage:
+    """What stops a ray and where the robot cannot stand, in the grid frame: the occupancy map's
+    pixels, or the grid's blocked cells."""
+    return _region_image(layout, _Pixels.of(smap))
+
+
+def landmarks_xy(smap: SemanticMap, layout: GridLayout, cls: str) -> np.ndarray:
+    """Grid-frame metres of the landmarks of class ``cls`` (empty ``(0, 2)`` when there are none)."""
+    if not any(c == cls for c, _, _ in layout.landmarks):
+        return np.zeros((0, 2))
+    return _landmarks_xy(smap, layout, cls)
+
+
+def scan_confusion(sensor: ScanSensor) -> np.ndarray:
+    """A scan part's ``error``: the true bin with ``1 - error``, any other with ``error / (n - 1)``."""
+    return _noise(len(sensor.bins) + 1, sensor.error)
+
+
+def look_confusion(sensor: LookSensor) -> np.ndarray:
+    """A look part's confusion from "not seen" / the true angle bin to the reading, with
+    ``false_positive`` and ``false_negative``."""
+    fp, fn = sensor.false_positive, sensor.false_negative
+    if not sensor.angle_bins:
+        return np.array([[1.0 - fp, fp], [fn, 1.0 - fn]])
+    k = len(sensor.angle_bins)
+    confusion = np.zeros((k + 1, k + 1))
+    confusion[0, 0], confusion[0, 1:] = 1.0 - fp, fp / k
+    confusion[1:, 0] = fn
+    confusion[1:, 1:] += np.eye(k) * (1.0 - fn)
+    return confusion

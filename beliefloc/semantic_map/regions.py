@@ -260,7 +260,7 @@ def look_distribution(
     shape = poses.shape[:-1]
     n_values = 1 + (len(angle_bins) if angle_bins is not None else 1)
     if len(landmarks_xy) == 0:
-        out = np.zeros(shape + (n_values,))
+        out = np.zeros((*shape, n_values))
         out[..., 0] = 1.0
         return out
     x, y, yaw = poses[..., 0], poses[..., 1], poses[..., 2]
@@ -269,10 +269,7 @@ def look_distribution(
     for lx, ly in landmarks_xy:
         dx, dy = lx - x, ly - y
         d = np.hypot(dx, dy)
-        if all_round:
-            a = np.zeros_like(d)
-        else:
-            a = np.abs(np.degrees(np.angle(np.exp(1j * (np.arctan2(dy, dx) - yaw)))))
+        a = np.zeros_like(d) if all_round else np.abs(np.degrees(np.angle(np.exp(1j * (np.arctan2(dy, dx) - yaw)))))
         a = np.where(d < 1e-9, 0.0, a)
         p = detection_probability(d, a, fov, view_range, fov_edge, range_edge)
         p = np.where(stands, p, 0.0)
@@ -294,9 +291,9 @@ def look_distribution(
     P_sorted = np.take_along_axis(P, order, axis=-1)
     A_sorted = np.take_along_axis(A, order, axis=-1)
     miss = np.cumprod(1.0 - P_sorted, axis=-1)
-    before = np.concatenate([np.ones(shape + (1,)), miss[..., :-1]], axis=-1)
+    before = np.concatenate([np.ones((*shape, 1)), miss[..., :-1]], axis=-1)
     first = P_sorted * before  # P(the smallest-angle detected landmark is this one)
-    sub = np.zeros(shape + (n_values,))
+    sub = np.zeros((*shape, n_values))
     sub[..., 0] = miss[..., -1]
     if angle_bins is None:
         sub[..., 1] = first.sum(axis=-1)

@@ -34,10 +34,12 @@ from beliefloc.continuous.world import Clutter, ContinuousRobot, ContinuousWorld
 from beliefloc.errors import InvalidValueError
 from beliefloc.model import GridLayout, Model, wrap_angle
 from beliefloc.pose import belief_pose
+from beliefloc.robots.belief_filter import LatticeFilter
 from beliefloc.robots.continuous_robot import ContinuousReadingRobot
 from beliefloc.robots.localize import LocalizeStep, localize
 from beliefloc.robots.readings import ReadingBinner
 from beliefloc.semantic_map import regions
+from beliefloc.semantic_map.lattice_sensors import robot_radius
 from beliefloc.semantic_map.schema import SemanticMap
 from beliefloc.simulation.episode import ContinuousOutcome, EpisodeRecord, OnStep, StepRecord, episode_rngs
 from beliefloc.simulation.settings import StrategyName
@@ -48,8 +50,6 @@ WRONG_CELLS = 1.5
 reported state's centre (or more than one heading sector from its heading)."""
 MOVES_STREAM = 26
 """The third key of the generator of the moves ``localize`` makes instead of a repeated reading."""
-DEFAULT_ROBOT_RADIUS = 0.1
-"""Metres: the robot's disc when the map gives no ``robot_radius`` (a hand-drawn grid)."""
 
 
 @dataclass(frozen=True)
@@ -71,6 +71,10 @@ class ContinuousSetup:
     after a move and a reading from where the robot lands."""
     report_odometry: bool = True
     """Replies carry the wheels' odometry and the blocked flag (False: protocol 1, readings only)."""
+    lattice: bool = True
+    """``localize`` keeps its belief over a pose lattice finer than the states
+    (:class:`~beliefloc.robots.belief_filter.LatticeFilter`: the filter for a real robot); False:
+    over the model's states (``T_a``, ``O_a``)."""
     _cache: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -93,14 +97,13 @@ class ContinuousSetup:
 
     @property
     def config(self) -> WorldConfig:
-        radius = self.smap.grid.robot_radius if self.smap.grid is not None else None
         return WorldConfig(
             laser=LaserSpec(range_sd=self.range_noise, range_max=self.range_max, range_min=0.01, mount=(0.0, 0.0, 0.0)),
             motion_error=MotionError(
                 translation=self.translation_noise, rotation=0.0, per_turn=self.turn_noise, per_metre=0.0
             ),
             clutter=Clutter(spurious=self.clutter),
-            robot_radius=DEFAULT_ROBOT_RADIUS if not radius else float(radius),
+            robot_radius=robot_radius(self.smap),
         )
 
     def world(self, rng: np.random.Generator) -> ContinuousWorld:
@@ -118,6 +121,16 @@ class ContinuousSetup:
             binner = ReadingBinner(self.smap, model)
             self._cache["binner"] = binner
         return binner
+
+    def belief_filter(self, model: Model) -> LatticeFilter | None:
+        """The lattice filter for ``model`` (built once per process), or None with ``lattice`` off."""
+        if not self.lattice:
+            return None
+        built = self._cache.get("lattice")
+        if built is None or built.model is not model:
+            built = LatticeFilter(self.binner(model))
+            self._cache["lattice"] = built
+        return built
 
     def run(
         self,
@@ -177,6 +190,7 @@ class ContinuousSetup:
             strategy=make,
             rng=np.random.default_rng([seed, episode, MOVES_STREAM]),
             confirm=self.confirm,
+            belief_filter=self.belief_filter(model),
         )
         state, probability = most_likely(outcome.belief)
         true_state = state_at(grid, robot.pose)

@@ -1,0 +1,188 @@
+"""The belief ``localize`` keeps between actions, behind one interface: the model's own states, or a
+pose lattice finer than them (issue 26).
+
+* :class:`ModelFilter` -- the papers' filter: ``T_a`` (or the reported odometry, or the blocked
+  flag: :func:`beliefloc.robots.odometry.predict_reported`) then ``O_a``, over the model's states.
+  Right for a robot that is where the model says: a simulated grid robot, the papers' worlds.
+* :class:`LatticeFilter` -- a real robot: the belief over a lattice of poses finer than the states
+  (:mod:`beliefloc.continuous.pose_lattice`), its readings scored by the sensors' continuous models
+  (:mod:`beliefloc.semantic_map.lattice_sensors`). A robot off the cell centres and headings keeps
+  its offset from place to place; this filter carries it, so the true pose is not explained away by
+  a confusion rate. The planner still sees the model's belief (the lattice's, summed per state).
+
+Either answers :meth:`start`, :meth:`predict`, :meth:`probabilities`, :meth:`correct`,
+:meth:`expected_log_likelihood`, :meth:`respread` and :meth:`peak` (the probability the threshold is
+compared with), all in the model's terms.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Protocol
+
+import numpy as np
+
+from beliefloc.belief import correct
+from beliefloc.continuous.motion import OdometryNoise
+from beliefloc.continuous.pose_lattice import LatticeFilter as LatticeCore
+from beliefloc.continuous.pose_lattice import PoseLattice
+from beliefloc.errors import InvalidValueError
+from beliefloc.model import Action, GridLayout, Model
+from beliefloc.robots.odometry import MotionReport, predict_reported
+from beliefloc.robots.readings import ReadingBinner
+from beliefloc.robots.surprise import expected_log_likelihood, respread
+
+
+class BeliefFilter(Protocol):
+    """What ``localize``'s loop asks of the belief it keeps (see the module)."""
+
+    def start(self, belief: np.ndarray) -> np.ndarray: ...
+
+    def predict(self, action: Action, report: MotionReport | None) -> None: ...
+
+    def probabilities(self, action: Action) -> np.ndarray: ...
+
+    def correct(self, action: Action, observation: int | None) -> tuple[np.ndarray, float]: ...
+
+    def expected_log_likelihood(self, action: Action) -> float: ...
+
+    def respread(self) -> np.ndarray: ...
+
+    def peak(self) -> float: ...
+
+
+class ModelFilter:
+    """The model's own filter (see the module)."""
+
+    def __init__(self, model: Model) -> None:
+        self.model = model
+        self.belief = np.ones(model.n_states) / model.n_states
+
+    def start(self, belief: np.ndarray) -> np.ndarray:
+        self.belief = belief
+        return belief
+
+    def predict(self, action: Action, report: MotionReport | None) -> None:
+        self.belief = predict_reported(action, self.belief, report, self.model.grid)
+
+    def probabilities(self, action: Action) -> np.ndarray:
+        return action.observation.probabilities(self.belief)
+
+    def correct(self, action: Action, observation: int | None) -> tuple[np.ndarray, float]:
+        self.belief, probability = correct(action, self.belief, observation)
+        return self.belief, probability
+
+    def expected_log_likelihood(self, action: Action) -> float:
+        return expected_log_likelihood(action, self.belief)
+
+    def respread(self) -> np.ndarray:
+        self.belief = respread(self.belief)
+        return self.belief
+
+    def peak(self) -> float:
+        """The most likely state's probability: what the threshold is compared with."""
+        return float(self.belief.max())
+
+
+def tracker_noise(grid: GridLayout) -> OdometryNoise:
+    """The motion noise the lattice filter assumes, a little wider than a real base's: 10 % of a
+    move's length, 4° per heading step turned, 0.05 rad of yaw per metre driven."""
+    turn = 2 * math.pi / grid.headings if grid.headings > 1 else math.pi / 2
+    return OdometryNoise(alpha1=(math.radians(4.0) / turn) ** 2, alpha2=0.05**2, alpha3=0.1**2, alpha4=0.0)
+
+
+def commanded_deltas(grid: GridLayout, action: Action, lattice: PoseLattice) -> list[tuple[float, float, float]] | None:
+    """The robot-frame motion ``action`` commands from each lattice yaw (one for all when the same),
+    as the line protocol's ``motion`` says it (:func:`beliefloc.robots.line_protocol.motion`); None
+    for an action that does not move."""
+    from beliefloc.robots.line_protocol import motion
+
+    asked = motion(grid, action)
+    if not asked:
+        return None
+    if "turn" in asked:
+        return [(0.0, 0.0, float(asked["turn"]))]
+    G = lattice.shape[0]
+    m = lattice.m
+    if "advance" in asked:
+        if "advance_diagonal" not in asked:
+            return [(float(asked["advance"]), 0.0, 0.0)]
+        heading = ((np.arange(G) + (m - 1) // 2) // m) % grid.headings
+        return [
+            (float(asked["advance_diagonal"] if h % 2 == 1 else asked["advance"]), 0.0, 0.0) for h in heading.tolist()
+        ]
+    # a compass move: map-frame metres, into the grid frame, then into each yaw's robot frame
+    yaw0 = grid.frame.yaw
+    x, y = float(asked["x"]), float(asked["y"])
+    gx, gy = math.cos(yaw0) * x + math.sin(yaw0) * y, -math.sin(yaw0) * x + math.cos(yaw0) * y
+    yaws = lattice.yaws()
+    return [(math.cos(a) * gx + math.sin(a) * gy, -math.sin(a) * gx + math.cos(a) * gy, 0.0) for a in yaws.tolist()]
+
+
+class LatticeFilter:
+    """The pose-lattice filter behind the :class:`BeliefFilter` interface (see the module)."""
+
+    def __init__(
+        self, binner: ReadingBinner, *, max_poses: int | None = None, noise: OdometryNoise | None = None
+    ) -> None:
+        from beliefloc.semantic_map.lattice_sensors import make_lattice, sensor_tables
+
+        model = binner.model
+        grid = model.grid
+        if grid is None:
+            raise InvalidValueError(f"model {model.name!r} has no grid: a pose lattice needs cells and headings")
+        self.model = model
+        lattice = make_lattice(binner.smap, grid, max_poses)
+        slots = {a.name: [(s.name, s.first_part, s.n_parts) for s in binner.sensors(a)] for a in model.actions}
+        tables = sensor_tables(binner.smap, model, lattice, slots)
+        motions = {}
+        for action in model.actuation_actions:
+            deltas = commanded_deltas(grid, action, lattice)
+            if deltas is not None:
+                motions[action.name] = deltas
+        self.core = LatticeCore(lattice, tables, motions, noise or tracker_noise(grid))
+        self.belief = self.core.start(np.ones(model.n_states) / model.n_states)
+        self._peak: float | None = None
+
+    @property
+    def lattice(self) -> PoseLattice:
+        return self.core.lattice
+
+    def start(self, belief: np.ndarray) -> np.ndarray:
+        self.belief = self.core.start(belief)
+        self._peak = None
+        return self.belief
+
+    def predict(self, action: Action, report: MotionReport | None) -> None:
+        if not action.is_actuation:
+            return
+        odometry = report.odometry if report is not None else None
+        blocked = report.blocked if report is not None else None
+        self.core.predict(action.name, odometry, blocked)
+        self.belief = self.core.belief
+        self._peak = None
+
+    def probabilities(self, action: Action) -> np.ndarray:
+        return self.core.probabilities(action.name)
+
+    def correct(self, action: Action, observation: int | None) -> tuple[np.ndarray, float]:
+        if observation is None:
+            return self.belief, 1.0
+        self.belief, probability = self.core.correct(action.name, action.observation.decode(observation))
+        self._peak = None
+        return self.belief, probability
+
+    def expected_log_likelihood(self, action: Action) -> float:
+        return self.core.expected_log_likelihood(action.name)
+
+    def respread(self) -> np.ndarray:
+        self.belief = self.core.respread()
+        self._peak = None
+        return self.belief
+
+    def peak(self) -> float:
+        """The most likely state's probability, counting the neighbours' poses within its region's
+        reach (:meth:`beliefloc.continuous.pose_lattice.LatticeFilter.peak`)."""
+        if self._peak is None:
+            self._peak = self.core.peak()
+        return self._peak
