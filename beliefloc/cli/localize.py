@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import enum
 import json
 import os
 import sys
@@ -113,6 +114,13 @@ def _timed_reader(seconds: float) -> Callable[[int], str]:
     return read_line
 
 
+class BeliefFilterKind(str, enum.Enum):
+    """``localize --filter``: the belief kept between actions (:mod:`beliefloc.robots.belief_filter`)."""
+
+    LATTICE = "lattice"
+    STATES = "states"
+
+
 @boundary
 def localize(
     map_file: MapArgument,
@@ -135,6 +143,17 @@ def localize(
             "centres is not declared on one reading that only a wrong state explains.",
         ),
     ] = False,
+    belief_filter: Annotated[
+        BeliefFilterKind,
+        typer.Option(
+            "--filter",
+            case_sensitive=False,
+            help="The belief between actions: 'states' is the papers' filter over the map's states (a robot at "
+            "the cell centres, turning by whole headings); 'lattice' follows the robot's pose finer than the "
+            "states (sub-cell positions and sub-sector yaws, the sensors' continuous noise): for a real robot "
+            "off the cell centres, best with odometry in the replies (docs/localize-protocol.md).",
+        ),
+    ] = BeliefFilterKind.STATES,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
     reply_timeout: Annotated[
         float,
@@ -229,6 +248,11 @@ def localize(
         check_output("--belief-out", belief_out, (".json", ".yaml", ".yml"), inputs, file_kinds.BELIEF)
     smap, model = _open_map(map_file)
     binner = ReadingBinner(smap, model)
+    tracker = None
+    if belief_filter is BeliefFilterKind.LATTICE and model.grid is not None:
+        from beliefloc.robots.belief_filter import LatticeFilter
+
+        tracker = LatticeFilter(binner)
     start = initial_belief(model, belief, smap)
     settings = PlannerSettings(threshold, chosen, max_expansions, time_limit, weight=h_weight)
     err = stderr_console()
@@ -257,12 +281,20 @@ def localize(
         from beliefloc.cli import localize_ros
 
         link = localize_ros.with_map_radius(link, robot_radius, smap.grid.robot_radius)
-        outcome = localize_ros.run(rosbridge, link, model, start, binner, settings, max_steps, on_step)
+        outcome = localize_ros.run(rosbridge, link, model, start, binner, settings, max_steps, on_step, tracker)
     else:
         robot = LineRobot(binner, _timed_reader(reply_timeout), _write_line, source="stdin")
         try:
             outcome = run(
-                model, start, robot, binner, settings=settings, max_steps=max_steps, on_step=on_step, confirm=confirm
+                model,
+                start,
+                robot,
+                binner,
+                settings=settings,
+                max_steps=max_steps,
+                on_step=on_step,
+                confirm=confirm,
+                belief_filter=tracker,
             )
         except ReplyError as exc:
             _try_send(robot, error_message(str(exc)))

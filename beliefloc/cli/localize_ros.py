@@ -20,6 +20,7 @@ if TYPE_CHECKING:
     import numpy as np
 
     from beliefloc.model import Model
+    from beliefloc.robots.belief_filter import BeliefFilter
     from beliefloc.robots.localize import Localization, LocalizeStep
     from beliefloc.robots.readings import ReadingBinner
     from beliefloc.ros.bridge import BridgeSettings
@@ -265,6 +266,7 @@ def run(
     planner: PlannerSettings,
     max_steps: int,
     on_step: Callable[[LocalizeStep], None],
+    belief_filter: BeliefFilter | None = None,
 ) -> Localization:
     """Connect, localize the robot, publish the belief at every step and ``/initialpose`` when
     localized; the robot is stopped whatever happens. The outcome's result goes on stdout."""
@@ -286,7 +288,16 @@ def run(
                     on_step(done)
 
                 robot.publish_belief(model, start)
-                outcome = localize(model, start, robot, binner, settings=planner, max_steps=max_steps, on_step=step)
+                outcome = localize(
+                    model,
+                    start,
+                    robot,
+                    binner,
+                    settings=planner,
+                    max_steps=max_steps,
+                    on_step=step,
+                    belief_filter=belief_filter,
+                )
                 if outcome.localized:
                     robot.publish_initial_pose(model, outcome.belief)
         finally:

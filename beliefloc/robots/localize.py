@@ -101,6 +101,10 @@ class Localization:
     """How well the last readings fit the belief (:attr:`SurpriseCheck.confidence`, in [0, 1])."""
     recoveries: int = 0
     """How many times the readings stopped fitting and the belief was re-spread."""
+    peak: float | None = None
+    """The probability compared with the threshold (:meth:`BeliefFilter.peak`: with a pose lattice,
+    the most likely state's mass with its neighbours' poses within its region's reach); None: the
+    most likely state's probability."""
 
     @property
     def localized(self) -> bool:
@@ -110,6 +114,8 @@ class Localization:
         """The outcome as plain data: the most likely state, its probability and its pose
         (:func:`beliefloc.pose.pose_json`) when localized, else null; ``max_belief`` either way."""
         state, probability = most_likely(self.belief)
+        if self.peak is not None:
+            probability = max(probability, self.peak)
         done = self.localized
         return {
             "status": self.status.value,
@@ -324,6 +330,7 @@ def localize(
         reason,
         check.confidence,
         recovered,
+        tracker.peak(),
     )
 
 

@@ -17,8 +17,8 @@ lattice's own spacing (a lattice pose stands for the sub-cell and yaw step aroun
   ``false_negative`` as the model applies them.
 * **Here** (the class of the robot's cell): the model's own rows, the same at every pose of a cell.
 
-Every reading keeps at least :data:`FLOOR` of the mass at every pose, so no reading removes a pose
-outright: a reading the world gives and the map does not (a person in front of the laser) weighs
+Every reading that some pose can give keeps at least a share of :data:`FLOOR` at every pose, so no
+reading removes a pose outright: a reading the world gives and the map does not (a person in front of the laser) weighs
 against a pose, it does not erase the truth.
 
 Annotated readings (a map's ``readings:`` for listed states) are not used: they say what the papers'
@@ -134,7 +134,9 @@ def model_tables(action: Action, first: int, count: int, lattice: PoseLattice) -
 def _floored(dist: np.ndarray) -> np.ndarray:
     d = np.clip(np.asarray(dist, dtype=np.float64), 0.0, None)
     d /= d.sum(axis=1, keepdims=True)
-    out: np.ndarray = ((1.0 - FLOOR) * d + FLOOR / d.shape[1]).astype(np.float32)
+    # a reading no pose can give (a class with no landmark and no false positives) stays impossible
+    possible = d.max(axis=0) > 0
+    out: np.ndarray = ((1.0 - FLOOR) * d + FLOOR * possible / possible.sum()).astype(np.float32)
     return out
 
 
