@@ -32,10 +32,9 @@ import time
 from pathlib import Path
 from typing import Any
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))  # the repository root: import benchmarks.*
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the repository root: import benchmarks.*
 
-from benchmarks.planning.settings import peak_rss_mib, single_threaded
+from benchmarks.planning.settings import ROOT, peak_rss_mib, single_threaded
 
 TARGET_S = 5.0
 TARGET_MIB = 1536.0
@@ -90,7 +89,9 @@ def child(map_name: str, region: bool, repeats: int, rows_out: str | None, profi
     }
 
 
-def run_child(code: Path, map_name: str, region: bool, repeats: int, rows_out: Path | None, profile: bool) -> dict[str, Any]:
+def run_child(
+    code: Path, map_name: str, region: bool, repeats: int, rows_out: Path | None, profile: bool
+) -> dict[str, Any]:
     command = [sys.executable, str(Path(__file__).resolve()), "--child", map_name, "--repeats", str(repeats)]
     if region:
         command.append("--region")
@@ -159,7 +160,8 @@ def main(argv: list[str] | None = None) -> int:
                     )
             if len(rows_files) == 2:
                 a, b = rows_files.values()
-                print(f"\n{map_name}: largest difference of a region row, before vs current: {largest_difference(a, b):.4f}")
+                most = largest_difference(a, b)
+                print(f"\n{map_name}: largest difference of a region row, before vs current: {most:.4f}")
     print(f"\ntargets (the depot's region model): compile <= {TARGET_S:g} s, peak RSS <= {TARGET_MIB:.0f} MiB")
     return 0
 
