@@ -32,7 +32,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the repository root: import benchmarks.*
+# the repository root, last: import benchmarks.*, but beliefloc from PYTHONPATH (the revision measured)
+sys.path.append(str(Path(__file__).resolve().parent.parent))
 
 from benchmarks.planning.settings import ROOT, peak_rss_mib, single_threaded
 
@@ -52,10 +53,12 @@ def child(map_name: str, region: bool, repeats: int, rows_out: str | None, profi
     smap = load_map(ROOT / "maps" / f"{map_name}.yaml")
     if region:
         smap = with_region_model(smap)
-    seconds = []
+    import beliefloc
+
+    seconds, cpu = [], []
     model = None
     for _ in range(repeats):
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), time.process_time()
         if profile and not seconds:
             import cProfile
             import pstats
@@ -66,6 +69,7 @@ def child(map_name: str, region: bool, repeats: int, rows_out: str | None, profi
         else:
             model = compile_model(smap)
         seconds.append(time.perf_counter() - start)
+        cpu.append(time.process_time() - start_cpu)
     assert model is not None
     if rows_out is not None:  # every perception part's row of every state, to compare two revisions
         rows = {
@@ -79,6 +83,8 @@ def child(map_name: str, region: bool, repeats: int, rows_out: str | None, profi
         "states": model.n_states,
         "first_s": seconds[0],
         "median_s": float(np.median(seconds)),
+        "median_cpu_s": float(np.median(cpu)),
+        "code": str(Path(beliefloc.__file__).resolve().parent.parent),
         "peak_mib": peak_rss_mib(),
         "distinct_rows": {
             part.name: int(part.confusion.shape[0])
@@ -105,6 +111,8 @@ def run_child(
     if done.returncode != 0:
         raise SystemExit(f"benchmark child {map_name} ({code}) failed (exit {done.returncode})")
     result: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
+    if Path(result["code"]) != code.resolve():  # the child must run the revision asked for
+        raise SystemExit(f"benchmark child ran the beliefloc of {result['code']}, not of {code}")
     return result
 
 
@@ -142,8 +150,11 @@ def main(argv: list[str] | None = None) -> int:
         codes = {"current": ROOT}
         if args.before is not None:
             codes[f"before ({args.before})"] = export_revision(args.before, Path(tmp) / "before")
-        print("| map | code | model | states | compile s (first) | compile s (median) | peak RSS MiB | distinct rows |")
-        print("| --- | --- | --- | --- | --- | --- | --- | --- |")
+        print(
+            "| map | code | model | states | compile s (first) | compile s (median) | CPU s (median) "
+            "| peak RSS MiB | distinct rows |"
+        )
+        print("| --- | --- | --- | --- | --- | --- | --- | --- | --- |")
         for map_name in args.maps:
             rows_files = {}
             for label, code in codes.items():
@@ -155,7 +166,8 @@ def main(argv: list[str] | None = None) -> int:
                     distinct = sum(r["distinct_rows"].values())
                     print(
                         f"| {map_name} | {label} | {'region' if region else 'exact'} | {r['states']} | "
-                        f"{r['first_s']:.2f} | {r['median_s']:.2f} | {r['peak_mib']:.0f} | {distinct} |",
+                        f"{r['first_s']:.2f} | {r['median_s']:.2f} | {r['median_cpu_s']:.2f} | "
+                        f"{r['peak_mib']:.0f} | {distinct} |",
                         flush=True,
                     )
             if len(rows_files) == 2:

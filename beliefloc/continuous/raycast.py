@@ -149,14 +149,15 @@ class _Rays:
         du, dv = np.cos(theta), np.sin(theta)
         du[np.abs(du) < _AXIS] = 0.0  # cos(pi / 2) is 6e-17: the ray is parallel to the axis
         dv[np.abs(dv) < _AXIS] = 0.0
-        # a ray along a pixel boundary line runs between two columns (rows): it starts at the
-        # boundary and is stopped by the pixels on either side of it, as a grazed corner is
+        # a start on a pixel edge is put on it exactly; a ray along a pixel edge runs between two
+        # columns (rows), and its column (row) is the one to the right of (above) the edge
         u_line, v_line = np.round(u0), np.round(v0)
-        self.edge_c = (du == 0) & (np.abs(u0 - u_line) <= _CORNER)
-        self.edge_r = (dv == 0) & (np.abs(v0 - v_line) <= _CORNER)
+        on_c, on_r = np.abs(u0 - u_line) <= _CORNER, np.abs(v0 - v_line) <= _CORNER
+        self.edge_c = (du == 0) & on_c
+        self.edge_r = (dv == 0) & on_r
         self.edges = bool(self.edge_c.any() or self.edge_r.any())
-        u0 = np.where(self.edge_c, u_line, u0)
-        v0 = np.where(self.edge_r, v_line, v0)
+        u0 = np.where(on_c, u_line, u0)
+        v0 = np.where(on_r, v_line, v0)
         self.u0, self.v0, self.du, self.dv = u0, v0, du, dv
         self.step_c = np.where(self.du > 0, 1, -1)
         self.step_r = np.where(self.dv > 0, 1, -1)
@@ -165,8 +166,7 @@ class _Rays:
             self.delta_r = np.where(self.dv != 0, 1.0 / np.abs(self.dv), np.inf)
         self.result = np.full(u0.size, np.inf)
         self.t = np.zeros(u0.size)
-        self.col = np.floor(u0).astype(np.int64)
-        self.row = np.floor(v0).astype(np.int64)
+        self.col, self.row = self._pixel(u0, v0, du, dv)  # the pixel entered just after the start
         self.next_c = self._crossing(self.col, u0, self.du, self.delta_c, self.t)
         self.next_r = self._crossing(self.row, v0, self.dv, self.delta_r, self.t)
 
@@ -183,22 +183,41 @@ class _Rays:
         inside: np.ndarray = (col >= 0) & (col < self.width) & (row >= 0) & (row < self.height)
         return inside
 
+    @staticmethod
+    def _pixel(u: np.ndarray, v: np.ndarray, du: np.ndarray, dv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The pixel a ray at ``(u, v)`` is in just after that point (on a boundary: the one it enters)."""
+        c = np.where(du >= 0, np.floor(u), np.ceil(u) - 1).astype(np.int64)
+        r = np.where(dv >= 0, np.floor(v), np.ceil(v) - 1).astype(np.int64)
+        return c, r
+
     def start(self) -> np.ndarray:
-        """The rays that start inside the image on a free pixel (those on a blocked one read 0)."""
+        """The rays that start inside the image and are not stopped at once (they read 0): the
+        pixel they start into is blocked (the one after the start, if it lies on a pixel edge or
+        corner); along a pixel edge, the pixels on both sides of it are."""
         inside = self._inside(self.col, self.row)
         start_blocked = np.zeros(inside.shape, dtype=bool)
         start_blocked[inside] = self.blocked[self.height - 1 - self.row[inside], self.col[inside]]
         if self.edges:
-            k = np.flatnonzero(inside & ~start_blocked & (self.edge_c | self.edge_r))
-            start_blocked[k] = self._blocked_beside(k, self.col[k], self.row[k])
+            k = np.flatnonzero(inside & (self.edge_c | self.edge_r))
+            start_blocked[k] &= self._blocked_at(self.col[k] - self.edge_c[k], self.row[k] - self.edge_r[k])
         self.result[start_blocked] = 0.0
         return np.flatnonzero(inside & ~start_blocked)
 
+    def _blocked_at(self, col: np.ndarray, row: np.ndarray) -> np.ndarray:
+        """Whether pixel ``(col, row)`` is blocked; outside the image: no."""
+        there = self._inside(col, row)
+        out = np.zeros(col.shape, dtype=bool)
+        out[there] = self.blocked[self.height - 1 - row[there], col[there]]
+        return out
+
     def step(self, active: np.ndarray) -> np.ndarray:
-        """Move each ray of ``active`` into its next pixel; the rays still travelling. A ray through
-        a pixel corner (its next column and row boundaries within :data:`_CORNER` of each other)
-        moves diagonally and is stopped there by either pixel beside the corner too: a ray that
-        grazes a blocked pixel's corner hits it, whichever way rounding would have tipped it."""
+        """Move each ray of ``active`` into its next pixel; the rays still travelling.
+
+        The blocking rule of :mod:`beliefloc.semantic_map.pixel_geometry` (the exact model's): a
+        ray is stopped where blocked pixels touch it from both sides. It enters a pixel: that
+        pixel. Through a pixel corner (its next column and row boundaries within :data:`_CORNER` of
+        each other): the pixel diagonally ahead, or the two pixels beside the corner both. Along a
+        pixel edge: at a boundary where a blocked pixel before or after it touches each side."""
         nc, nr = self.next_c[active], self.next_r[active]
         col, row = self.col[active], self.row[active]
         corner = np.abs(nc - nr) <= _CORNER
@@ -218,26 +237,17 @@ class _Rays:
         corner &= ~beyond & ~hit
         if corner.any():
             k = np.flatnonzero(corner)
-            for sc, sr in ((c[k], row[k]), (col[k], r[k])):  # the pixels beside the corner
-                there = self._inside(sc, sr)
-                hit[k[there]] |= self.blocked[self.height - 1 - sr[there], sc[there]]
+            hit[k] = self._blocked_at(c[k], row[k]) & self._blocked_at(col[k], r[k])
         if self.edges:
-            k = np.flatnonzero(look & ~hit)
-            hit[k] = self._blocked_beside(active[k], c[k], r[k])
+            k = np.flatnonzero(~beyond & (self.edge_c[active] | self.edge_r[active]))
+            if k.size:
+                ec, er = self.edge_c[active[k]], self.edge_r[active[k]]
+                here = self._blocked_at(col[k], row[k]) | self._blocked_at(c[k], r[k])
+                across = self._blocked_at(col[k] - ec, row[k] - er) | self._blocked_at(c[k] - ec, r[k] - er)
+                hit[k] = here & across
         self.result[active[hit]] = t_new[hit]
         kept: np.ndarray = active[~(beyond | ~inside | hit)]
         return kept
-
-    def _blocked_beside(self, rays: np.ndarray, col: np.ndarray, row: np.ndarray) -> np.ndarray:
-        """For rays at pixel ``(col, row)``: whether the ray runs along that pixel's left (bottom)
-        edge and the pixel on the other side of it is blocked."""
-        c = col - self.edge_c[rays]
-        r = row - self.edge_r[rays]
-        moved = (c != col) | (r != row)
-        there = moved & self._inside(c, r)
-        out = np.zeros(rays.size, dtype=bool)
-        out[there] = self.blocked[self.height - 1 - r[there], c[there]]
-        return out
 
     def fly(self, flying: np.ndarray, clearance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """One leap of each ray of ``flying`` (each strictly in free space, at ``t``) by the clearance
@@ -264,8 +274,7 @@ class _Rays:
         """The traversal state of ``rays`` at ``(u, v)``, parameter ``t``: the pixel each is in just
         after that point (on a boundary: the one it enters), and its next boundaries."""
         du, dv = self.du[rays], self.dv[rays]
-        c = np.where(du >= 0, np.floor(u), np.ceil(u) - 1).astype(np.int64)
-        r = np.where(dv >= 0, np.floor(v), np.ceil(v) - 1).astype(np.int64)
+        c, r = self._pixel(u, v, du, dv)
         self.next_c[rays] = self._crossing(c, u, du, self.delta_c[rays], t)
         self.next_r[rays] = self._crossing(r, v, dv, self.delta_r[rays], t)
         self.col[rays], self.row[rays] = c, r

@@ -49,7 +49,7 @@ from scipy import special
 
 from beliefloc.continuous.image import OccupancyImage
 from beliefloc.continuous.motion import grid_yaws
-from beliefloc.continuous.raycast import cast_rays
+from beliefloc.continuous.raycast import cast_rays, cast_rays_within
 from beliefloc.model import GridLayout, MapFrame
 
 STEP = 1.0 / 200.0
@@ -221,14 +221,28 @@ def region_look(
 ) -> np.ndarray:
     """The average distribution of a class's Look part over every state's region: column 0 "not
     seen", then one column (no ``angle_bins``) or one per angle bin. ``landmarks_xy`` in grid-frame
-    metres."""
+    metres.
+
+    A sub-pose's position is shared by every heading of its cell and every yaw offset: distances,
+    bearings, the range fade and the line of sight to a landmark are computed once per position,
+    only the viewing angle per yaw."""
     poses, weight = sub_poses(layout, image, spec)
-    sub = look_distribution(
+    H = layout.headings
+    kk = spec.sub_samples**2
+    m = spec.yaw_samples if H > 1 else 1
+    cells = len(layout.free_cells)
+    grid = poses.reshape(cells, H, kk, m, 3)
+    xy = grid[:, 0, :, 0, :2].reshape(cells * kk, 2)
+    yaws = grid[..., 2].transpose(0, 2, 1, 3).reshape(cells * kk, H * m)
+    w = weight.reshape(cells, H, kk, m)
+    stands = (w > 0).transpose(0, 2, 1, 3).reshape(cells * kk, H * m)
+    sub = _look_at(
         image,
-        poses,
-        weight > 0,
+        xy,
+        yaws,
+        stands,
         landmarks_xy,
-        layout.headings == 1,
+        H == 1,
         fov,
         view_range,
         occlusion,
@@ -236,8 +250,9 @@ def region_look(
         fov_edge,
         range_edge,
     )
-    out: np.ndarray = np.einsum("nk,nkv->nv", weight, sub)
-    return out
+    n_values = sub.shape[-1]
+    out: np.ndarray = np.einsum("chkm,ckhmv->chv", w, sub.reshape(cells, kk, H, m, n_values))
+    return out.reshape(cells * H, n_values)
 
 
 def look_distribution(
@@ -257,51 +272,91 @@ def look_distribution(
     frame, ``stands[...]`` where a pose is one the robot can be in (elsewhere: nothing seen);
     ``all_round``: a map with one heading (every viewing angle is 0). Shape ``poses.shape[:-1] +
     (n_values,)``: column 0 "not seen", then one column (no ``angle_bins``) or one per angle bin."""
+    poses = np.asarray(poses, dtype=np.float64)
     shape = poses.shape[:-1]
+    flat = poses.reshape(-1, 3)
+    sub = _look_at(
+        image,
+        flat[:, :2],
+        flat[:, 2:3],
+        np.broadcast_to(np.asarray(stands, dtype=bool), shape).reshape(-1, 1),
+        landmarks_xy,
+        all_round,
+        fov,
+        view_range,
+        occlusion,
+        angle_bins,
+        fov_edge,
+        range_edge,
+    )
+    return sub.reshape((*shape, sub.shape[-1]))
+
+
+def _look_at(
+    image: OccupancyImage,
+    xy: np.ndarray,
+    yaws: np.ndarray,
+    stands: np.ndarray,
+    landmarks_xy: np.ndarray,
+    all_round: bool,
+    fov: float,
+    view_range: float | None,
+    occlusion: bool,
+    angle_bins: np.ndarray | None,
+    fov_edge: float,
+    range_edge: float,
+) -> np.ndarray:
+    """:func:`look_distribution` at ``P`` positions ``xy`` with ``Y`` yaws each (``yaws``, ``stands``:
+    shape ``(P, Y)``): shape ``(P, Y, n_values)``. Distances, bearings and lines of sight are
+    per position."""
+    n_pos, n_yaw = yaws.shape
     n_values = 1 + (len(angle_bins) if angle_bins is not None else 1)
     if len(landmarks_xy) == 0:
-        out = np.zeros(shape + (n_values,))
+        out = np.zeros((n_pos, n_yaw, n_values))
         out[..., 0] = 1.0
         return out
-    x, y, yaw = poses[..., 0], poses[..., 1], poses[..., 2]
+    x, y = xy[:, 0], xy[:, 1]
+    standing = stands.any(axis=1)
     probs, angles = [], []
     margin = 4.0 * range_edge if view_range is not None else 0.0
     for lx, ly in landmarks_xy:
         dx, dy = lx - x, ly - y
         d = np.hypot(dx, dy)
+        bearing = np.arctan2(dy, dx)
         if all_round:
-            a = np.zeros_like(d)
+            a = np.zeros((n_pos, n_yaw))
         else:
-            a = np.abs(np.degrees(np.angle(np.exp(1j * (np.arctan2(dy, dx) - yaw)))))
-        a = np.where(d < 1e-9, 0.0, a)
-        p = detection_probability(d, a, fov, view_range, fov_edge, range_edge)
+            turn = np.mod(bearing[:, None] - yaws, 2 * math.pi)
+            a = np.degrees(np.minimum(turn, 2 * math.pi - turn))
+            a[d < 1e-9] = 0.0
+        p = detection_probability(d[:, None], a, fov, view_range, fov_edge, range_edge)
         p = np.where(stands, p, 0.0)
         if occlusion:
-            look = p > 0
+            look = standing & (p > 0).any(axis=1)
             if view_range is not None:
                 look &= d <= view_range + margin
-            bearing = np.arctan2(dy[look], dx[look])
-            cast = cast_rays(image, x[look], y[look], bearing, float(d[look].max()) + 1.0 if look.any() else 1.0)
-            clear = cast >= d[look] - 1e-6 - image.resolution * 0.5
-            q = p[look]
-            q[~clear] = 0.0
-            p[look] = q
+            if look.any():
+                # clear when the first blocked pixel is no nearer than the landmark less half a pixel
+                near = d[look] - 1e-6 - image.resolution * 0.5
+                cast = cast_rays_within(image, x[look], y[look], bearing[look], near)
+                p[np.flatnonzero(look)[~(cast >= near)]] = 0.0
         probs.append(p)
         angles.append(a)
-    P = np.stack(probs, axis=-1)  # (..., L)
+    P = np.stack(probs, axis=-1)  # (P, Y, L)
     A = np.stack(angles, axis=-1)
-    order = np.argsort(A, axis=-1)
-    P_sorted = np.take_along_axis(P, order, axis=-1)
-    A_sorted = np.take_along_axis(A, order, axis=-1)
-    miss = np.cumprod(1.0 - P_sorted, axis=-1)
-    before = np.concatenate([np.ones(shape + (1,)), miss[..., :-1]], axis=-1)
-    first = P_sorted * before  # P(the smallest-angle detected landmark is this one)
-    sub = np.zeros(shape + (n_values,))
+    if P.shape[-1] > 1:
+        order = np.argsort(A, axis=-1)
+        P = np.take_along_axis(P, order, axis=-1)
+        A = np.take_along_axis(A, order, axis=-1)
+    miss = np.cumprod(1.0 - P, axis=-1)
+    before = np.concatenate([np.ones((n_pos, n_yaw, 1)), miss[..., :-1]], axis=-1)
+    first = P * before  # P(the smallest-angle detected landmark is this one)
+    sub = np.zeros((n_pos, n_yaw, n_values))
     sub[..., 0] = miss[..., -1]
     if angle_bins is None:
         sub[..., 1] = first.sum(axis=-1)
     else:
-        col = np.searchsorted(angle_bins, A_sorted - 1e-9, side="left") + 1
+        col = np.searchsorted(angle_bins, A - 1e-9, side="left") + 1
         inside = col <= len(angle_bins)
         for v in range(1, n_values):
             sub[..., v] = (first * ((col == v) & inside)).sum(axis=-1)
