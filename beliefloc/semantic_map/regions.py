@@ -42,6 +42,7 @@ class and the steps of a ray.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -117,31 +118,39 @@ def sub_poses(layout: GridLayout, image: OccupancyImage, spec: RegionSpec) -> tu
 def scan_distribution(ranges: np.ndarray, bins: np.ndarray, sigma: float, random: float, short: float) -> np.ndarray:
     """``P(reading | true range)`` for an array of true ranges (``inf``: nothing within the last
     edge): shape ``ranges.shape + (len(bins) + 1,)``; the last reading is ``no_wall``."""
-    r = np.asarray(ranges, dtype=np.float64)[..., None]
+    r = np.asarray(ranges, dtype=np.float64)
+    out = _scan_rows(r.ravel(), np.asarray(bins, dtype=np.float64), sigma, random, short)
+    return out.reshape((*r.shape, out.shape[-1]))
+
+
+def _scan_rows(r: np.ndarray, bins: np.ndarray, sigma: float, random: float, short: float) -> np.ndarray:
+    """:func:`scan_distribution` of a flat array of ranges: the Gaussian's CDF once per bin edge."""
+    n, edges = len(r), len(bins)
     last = float(bins[-1])
-    upper = np.r_[bins, np.inf]
-    lower = np.r_[-np.inf, bins]
     finite = np.isfinite(r)
+    hit = np.zeros((n, edges + 1))
     if sigma > 0:
-        with np.errstate(invalid="ignore"):
-            cdf_hi = np.where(np.isposinf(upper), 1.0, special.ndtr((upper - np.where(finite, r, 0.0)) / sigma))
-            cdf_lo = np.where(np.isneginf(lower), 0.0, special.ndtr((lower - np.where(finite, r, 0.0)) / sigma))
-        hit = cdf_hi - cdf_lo
+        cdf = special.ndtr((bins[None, :] - np.where(finite, r, 0.0)[:, None]) / sigma)
+        hit[:, 0] = cdf[:, 0]
+        hit[:, 1:edges] = cdf[:, 1:] - cdf[:, :-1]
+        hit[:, edges] = 1.0 - cdf[:, -1]
+        del cdf
     else:
-        index = np.searchsorted(bins, np.where(finite, r, np.inf)[..., 0] - 1e-9, side="left")
-        hit = np.eye(len(bins) + 1)[index]
-    no_wall = np.zeros(len(bins) + 1)
-    no_wall[-1] = 1.0
-    hit = np.where(finite, hit, no_wall)
+        index = np.searchsorted(bins, np.where(finite, r, np.inf) - 1e-9, side="left")
+        hit[np.arange(n), index] = 1.0
+    hit[~finite] = 0.0
+    hit[~finite, edges] = 1.0
     # short: uniform over [0, min(r, last)): the share of each bin's span below that limit
-    reach = np.minimum(np.where(finite, r, last), last)
-    span = np.clip(np.minimum(upper, last) - np.maximum(lower, 0.0), 0.0, None)
+    upper = np.r_[bins, np.inf]
+    lower = np.r_[0.0, bins]
+    reach = np.minimum(np.where(finite, r, last), last)[:, None]
     below = np.clip(np.minimum(upper, reach) - np.maximum(lower, 0.0), 0.0, None)
     with np.errstate(invalid="ignore", divide="ignore"):
         short_part = np.where(reach > 0, below / np.where(reach > 0, reach, 1.0), hit)
-    del span
-    uniform = np.full(len(bins) + 1, 1.0 / (len(bins) + 1))
-    out: np.ndarray = (1.0 - random - short) * hit + short * short_part + random * uniform
+    del below
+    out = (1.0 - random - short) * hit
+    out += short * short_part
+    out += random * (1.0 / (edges + 1))
     return out
 
 
@@ -195,15 +204,56 @@ def region_scan(
 ) -> np.ndarray:
     """The average reading distribution of every state's region for one beam (``beam_deg`` degrees
     counter-clockwise from the heading): shape ``(n_states, len(bins) + 1)``."""
-    poses, weight = sub_poses(layout, image, spec)
+    return region_scans(layout, image, spec, [beam_deg], bins, sigma, random, short)[0]
+
+
+def region_scans(
+    layout: GridLayout,
+    image: OccupancyImage,
+    spec: RegionSpec,
+    beams_deg: Sequence[float],
+    bins: np.ndarray,
+    sigma: float,
+    random: float,
+    short: float,
+    sub: tuple[np.ndarray, np.ndarray] | None = None,
+) -> list[np.ndarray]:
+    """:func:`region_scan` of each beam of a scan. Every heading and yaw offset of a cell's
+    sub-pose position casts from the same point, and beam ``b`` at heading ``h`` points where beam
+    ``b'`` at heading ``h'`` does when ``yaw_h + b = yaw_h' + b'``: each distinct direction is cast
+    once per position, and its reading distribution computed once. ``sub``: :func:`sub_poses`'s
+    result, when the caller has it."""
+    poses, weight = sub if sub is not None else sub_poses(layout, image, spec)
+    H = layout.headings
+    kk = spec.sub_samples**2
+    m = spec.yaw_samples if H > 1 else 1
+    cells = len(layout.free_cells)
+    grid = poses.reshape(cells, H, kk, m, 3)
+    w = weight.reshape(cells, H, kk, m)
+    # every cell and position has the same yaws (sub_poses: the heading's yaw less the offset)
+    yaws = grid[0, :, 0, :, 2]
+    beams = np.radians(np.asarray(beams_deg, dtype=np.float64))
+    angles = (yaws[:, :, None] + beams[None, None, :]).ravel()  # (H, m, B)
+    turn = 2 * math.pi
+    key = np.round(np.mod(angles, turn) * 1e9).astype(np.int64) % round(turn * 1e9)
+    _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
+    directions = angles[first]
+    inverse = inverse.reshape(H, m, len(beams))
+    standing = (w > 0).any(axis=(1, 3))  # (cells, kk): a position any sub-pose of the cell stands on
+    xy = grid[:, 0, :, 0, :2][standing]
     reach = float(bins[-1]) + 4.0 * sigma
-    used = weight > 0
-    ranges = np.full(weight.shape, np.inf)
-    p = poses[used]
-    ranges[used] = cast_rays(image, p[:, 0], p[:, 1], p[:, 2] + math.radians(beam_deg), reach)
+    ranges = np.full((cells, kk, len(directions)), np.inf)
+    ranges[standing] = cast_rays(image, xy[:, :1], xy[:, 1:2], directions[None, :], reach)
     ranges[ranges > reach] = np.inf
-    dist = scan_distribution(ranges, bins, sigma, random, short)  # (n, K, values)
-    out: np.ndarray = np.einsum("nk,nkv->nv", weight, dist)
+    n_values = len(bins) + 1
+    dist = _scan_rows(ranges.ravel(), np.asarray(bins, dtype=np.float64), sigma, random, short)
+    dist = dist.reshape(cells, kk, len(directions), n_values)
+    del ranges
+    out = []
+    for b in range(len(beams)):
+        per_sub = dist[:, :, inverse[:, :, b], :]  # (cells, kk, H, m, values)
+        mean: np.ndarray = np.einsum("chkm,ckhmv->chv", w, per_sub)
+        out.append(mean.reshape(cells * H, n_values))
     return out
 
 
@@ -218,15 +268,16 @@ def region_look(
     angle_bins: np.ndarray | None,
     fov_edge: float,
     range_edge: float,
+    sub: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """The average distribution of a class's Look part over every state's region: column 0 "not
     seen", then one column (no ``angle_bins``) or one per angle bin. ``landmarks_xy`` in grid-frame
-    metres.
+    metres; ``sub``: :func:`sub_poses`'s result, when the caller has it.
 
     A sub-pose's position is shared by every heading of its cell and every yaw offset: distances,
     bearings, the range fade and the line of sight to a landmark are computed once per position,
     only the viewing angle per yaw."""
-    poses, weight = sub_poses(layout, image, spec)
+    poses, weight = sub if sub is not None else sub_poses(layout, image, spec)
     H = layout.headings
     kk = spec.sub_samples**2
     m = spec.yaw_samples if H > 1 else 1
@@ -236,7 +287,7 @@ def region_look(
     yaws = grid[..., 2].transpose(0, 2, 1, 3).reshape(cells * kk, H * m)
     w = weight.reshape(cells, H, kk, m)
     stands = (w > 0).transpose(0, 2, 1, 3).reshape(cells * kk, H * m)
-    sub = _look_at(
+    seen = _look_at(
         image,
         xy,
         yaws,
@@ -250,8 +301,8 @@ def region_look(
         fov_edge,
         range_edge,
     )
-    n_values = sub.shape[-1]
-    out: np.ndarray = np.einsum("chkm,ckhmv->chv", w, sub.reshape(cells, kk, H, m, n_values))
+    n_values = seen.shape[-1]
+    out: np.ndarray = np.einsum("chkm,ckhmv->chv", w, seen.reshape(cells, kk, H, m, n_values))
     return out.reshape(cells * H, n_values)
 
 
