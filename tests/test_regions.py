@@ -10,6 +10,7 @@ match the frequencies within the Monte Carlo's error plus the quadrature's (sub-
 
 from __future__ import annotations
 
+import itertools
 import math
 from typing import Any
 
@@ -148,3 +149,74 @@ def test_noise_parameters_out_of_range_are_rejected() -> None:
         SemanticMap.model_validate(_map(["..", ".."], {"sub_samples": 0}))
     with pytest.raises(ValidationError):
         SemanticMap.model_validate(_map(["..", ".."], {"sigma": -0.1}))
+
+
+def _region_setup(layout: list[str], sub: int, yaw: int) -> tuple[Any, Any, regions.RegionSpec]:
+    smap = SemanticMap.model_validate(_map(layout, {}))
+    grid = layout_of(smap)
+    return grid, regions.blocked_image(~grid.free, grid.cell_size), regions.RegionSpec(sub, yaw)
+
+
+@settings(max_examples=10, deadline=None)
+@given(layout=LAYOUTS, sub=st.integers(1, 4), yaw=st.integers(1, 3))
+def test_region_scans_are_the_average_over_every_sub_pose_cast_one_at_a_time(
+    layout: list[str], sub: int, yaw: int
+) -> None:
+    """The fast path (one ray per position and direction, shared by beams and headings, leaping
+    through open space) against the plain one: every sub-pose's beam cast step by step, its reading
+    distribution, averaged with the sub-poses' weights."""
+    from beliefloc.continuous import raycast
+
+    grid, image, spec = _region_setup(layout, sub, yaw)
+    bins, sigma, random, short = np.array(BINS), 0.05, 0.05, 0.1
+    beams = [90.0, 0.0, -90.0, 30.0]
+    saved = raycast.LEAP_FROM
+    try:
+        raycast.LEAP_FROM = 1
+        fast = regions.region_scans(grid, image, spec, beams, bins, sigma, random, short)
+        raycast.LEAP_FROM = 10**9
+        poses, weight = regions.sub_poses(grid, image, spec)
+        reach = BINS[-1] + 4 * sigma
+        for beam, got in zip(beams, fast, strict=True):
+            ranges = cast_rays(image, poses[..., 0], poses[..., 1], poses[..., 2] + math.radians(beam), reach)
+            ranges[ranges > reach] = np.inf
+            plain = np.einsum("nk,nkv->nv", weight, regions.scan_distribution(ranges, bins, sigma, random, short))
+            np.testing.assert_allclose(got, plain, atol=1e-12)
+            assert np.allclose(got.sum(axis=1), 1.0)
+    finally:
+        raycast.LEAP_FROM = saved
+
+
+def test_scan_distribution_is_the_gaussian_between_the_bin_edges_mixed_with_random_and_short() -> None:
+    """One range, written out: the Gaussian's mass per bin, the short part uniform below the range."""
+    from scipy.special import ndtr
+
+    r, sigma, random, short = 0.9, 0.1, 0.05, 0.1
+    edges = [-math.inf, *BINS, math.inf]
+    gauss = np.array([ndtr((hi - r) / sigma) - ndtr((lo - r) / sigma) for lo, hi in itertools.pairwise(edges)])
+    below = np.array([0.4, 0.5, 0.0, 0.0]) / 0.9  # uniform over [0, 0.9): 0-0.4, 0.4-0.9
+    expect = (1 - random - short) * gauss + short * below + random / 4
+    got = regions.scan_distribution(np.array([[r, math.inf]]), np.array(BINS), sigma, random, short)
+    np.testing.assert_allclose(got[0, 0], expect, atol=1e-12)
+    no_wall = (1 - random - short) * np.array([0, 0, 0, 1.0]) + short * np.array([0.4, 0.6, 0.8, 0]) / 1.8 + random / 4
+    np.testing.assert_allclose(got[0, 1], no_wall, atol=1e-12)
+
+
+@settings(max_examples=10, deadline=None)
+@given(layout=LAYOUTS, sub=st.integers(1, 3), yaw=st.integers(1, 3), bins=st.booleans(), occlusion=st.booleans())
+def test_region_look_shared_per_position_equals_look_distribution_at_every_sub_pose(
+    layout: list[str], sub: int, yaw: int, bins: bool, occlusion: bool
+) -> None:
+    """Distances, bearings and lines of sight computed once per position give what the per-pose
+    :func:`regions.look_distribution` gives at each sub-pose, averaged."""
+    grid, image, spec = _region_setup(layout, sub, yaw)
+    free = np.argwhere(grid.free)
+    landmarks = (free[[0, -1]][:, ::-1] + 0.5) * grid.cell_size  # (col, row) -> x, y of two free cells
+    landmarks[:, 1] = grid.rows * grid.cell_size - landmarks[:, 1]
+    angle_bins = np.array([20.0, 45.0]) if bins else None
+    args = (landmarks, 120.0, 1.5, occlusion, angle_bins, 5.0, 0.2)
+    shared = regions.region_look(grid, image, spec, *args)
+    poses, weight = regions.sub_poses(grid, image, spec)
+    per_pose = regions.look_distribution(image, poses, weight > 0, landmarks, False, *args[1:])
+    np.testing.assert_allclose(shared, np.einsum("nk,nkv->nv", weight, per_pose), atol=1e-12)
+    assert np.allclose(shared.sum(axis=1), 1.0)
