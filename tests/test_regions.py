@@ -220,3 +220,22 @@ def test_region_look_shared_per_position_equals_look_distribution_at_every_sub_p
     per_pose = regions.look_distribution(image, poses, weight > 0, landmarks, False, *args[1:])
     np.testing.assert_allclose(shared, np.einsum("nk,nkv->nv", weight, per_pose), atol=1e-12)
     assert np.allclose(shared.sum(axis=1), 1.0)
+
+
+@pytest.mark.parametrize("n_values", [2, 5, 12])
+def test_quantised_rows_by_key_are_those_of_comparing_every_rounded_row(n_values: int) -> None:
+    rng = np.random.default_rng(n_values)
+    dist = rng.dirichlet(np.full(n_values, 0.3), 5000)
+    dist[::7] = np.round(dist[::7], 2)  # many rows alike
+    dist[::11, 0] = 1e-4  # under the floor
+    dist[::13, 1] = 0.0
+    dist[:, -1] += 1e-3
+    dist /= dist.sum(axis=1, keepdims=True)
+    q = np.round(dist / regions.STEP) * regions.STEP
+    q = np.where((dist > 1e-12) & (q < regions.FLOOR), regions.FLOOR, q)
+    q /= q.sum(axis=1, keepdims=True)
+    plain_rows, plain_index = np.unique(np.round(q, 12), axis=0, return_inverse=True)
+    rows, index = regions.quantised_rows(dist)
+    np.testing.assert_array_equal(rows, plain_rows / plain_rows.sum(axis=1, keepdims=True))
+    np.testing.assert_array_equal(index, plain_index.ravel())
+    assert len(rows) < len(dist)

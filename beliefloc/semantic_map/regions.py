@@ -183,13 +183,26 @@ def detection_probability(
 
 def quantised_rows(dist: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(rows, index)`` with ``rows[index] ≈ dist``: probabilities rounded to :data:`STEP`, any
-    positive one kept at :data:`FLOOR` at least, rows renormalised, then made distinct."""
-    q = np.round(dist / STEP) * STEP
-    q = np.where((dist > 1e-12) & (q < FLOOR), FLOOR, q)
+    positive one kept at :data:`FLOOR` at least, rows renormalised, then made distinct.
+
+    A row's rounding is one small integer per reading (its multiple of :data:`STEP`, or the floor);
+    rows are first told apart by those integers packed into one key, then only one row per key is
+    normalised and compared (the same rows and index as comparing every row)."""
+    steps = np.rint(dist / STEP)
+    code = np.where((dist > 1e-12) & (steps * STEP < FLOOR), -1.0, steps)  # -1: kept at the floor
+    base = float(np.max(code, initial=0.0)) + 2.0
+    if dist.shape[1] * math.log2(base) < 62:
+        key = (code + 1.0).astype(np.int64) @ (np.int64(round(base)) ** np.arange(dist.shape[1], dtype=np.int64))
+        _, first, by_key = np.unique(key, return_index=True, return_inverse=True)
+    else:
+        _, first, by_key = np.unique(code, axis=0, return_index=True, return_inverse=True)
+    some = dist[first]
+    q = np.round(some / STEP) * STEP
+    q = np.where((some > 1e-12) & (q < FLOOR), FLOOR, q)
     q /= q.sum(axis=1, keepdims=True)
     rows, index = np.unique(np.round(q, 12), axis=0, return_inverse=True)
     rows = rows / rows.sum(axis=1, keepdims=True)
-    return rows, index.ravel().astype(np.int32)
+    return rows, index.ravel()[by_key.ravel()].astype(np.int32)
 
 
 def region_scan(
