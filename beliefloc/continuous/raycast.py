@@ -121,22 +121,65 @@ def _traverse(
         while walking.size:
             walking = rays.step(walking)
         return rays.result
-    flying = walking[:0]
+    flying = _Flight(rays, walking[:0], np.zeros(0))
     while walking.size or flying.size:
         if walking.size:  # a ray in a pixel with room around it leaps from where it is
             jump = clearance[rays.height - 1 - rays.row[walking], rays.col[walking]]
             leaps = jump >= _LEAP_MIN
             if leaps.any():
                 up = walking[leaps]
-                rays.t[up] += jump[leaps]
-                flying = np.concatenate([flying, up])
+                flying.join(up, rays.t[up] + jump[leaps])
                 walking = rays.step(walking[~leaps])
             else:
                 walking = rays.step(walking)
         if flying.size:
-            flying, landed = rays.fly(flying, clearance)
-            walking = np.concatenate([walking, landed])
+            walking = np.concatenate([walking, flying.leap(clearance)])
     return rays.result
+
+
+class _Flight:
+    """The rays leaping through open space, their start, direction, reach and ``t`` kept side by
+    side (contiguous: a leap reads no other ray's state)."""
+
+    def __init__(self, rays: _Rays, index: np.ndarray, t: np.ndarray):
+        self.rays = rays
+        self.index = index
+        self.u0, self.v0 = rays.u0[index], rays.v0[index]
+        self.du, self.dv = rays.du[index], rays.dv[index]
+        self.limit = rays.limit[index]
+        self.t = t
+
+    @property
+    def size(self) -> int:
+        return int(self.index.size)
+
+    def join(self, index: np.ndarray, t: np.ndarray) -> None:
+        """Rays that have just leapt to ``t`` (each strictly in free space there)."""
+        more = _Flight(self.rays, index, t)
+        for name in ("index", "u0", "v0", "du", "dv", "limit", "t"):
+            setattr(self, name, np.concatenate([getattr(self, name), getattr(more, name)]))
+
+    def leap(self, clearance: np.ndarray) -> np.ndarray:
+        """One leap of every ray by the clearance of the pixel it is in. Returns the rays that stop
+        leaping, their traversal restarted where they are; the rays that left the image or their
+        reach are dropped (they read ``inf``)."""
+        rays = self.rays
+        u = self.u0 + self.t * self.du
+        v = self.v0 + self.t * self.dv
+        c = np.floor(u).astype(np.int64)
+        r = np.floor(v).astype(np.int64)
+        going = (self.t <= self.limit) & (c >= 0) & (c < rays.width) & (r >= 0) & (r < rays.height)
+        jump = clearance[rays.height - 1 - np.clip(r, 0, rays.height - 1), np.clip(c, 0, rays.width - 1)]
+        more = going & (jump >= _LEAP_MIN)
+        stop = going & ~more
+        landed: np.ndarray = self.index[stop]
+        rays.t[landed] = self.t[stop]
+        rays.restart(landed, self.t[stop], u[stop], v[stop])
+        self.t += jump
+        if not more.all():
+            for name in ("index", "u0", "v0", "du", "dv", "limit", "t"):
+                setattr(self, name, getattr(self, name)[more])
+        return landed
 
 
 class _Rays:
@@ -249,28 +292,7 @@ class _Rays:
         kept: np.ndarray = active[~(beyond | ~inside | hit)]
         return kept
 
-    def fly(self, flying: np.ndarray, clearance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """One leap of each ray of ``flying`` (each strictly in free space, at ``t``) by the clearance
-        of the pixel it is in. Returns the rays that leapt and fly on, and those that stop leaping
-        (their traversal restarted where they are); the others left the image or their reach."""
-        t = self.t[flying]
-        u = self.u0[flying] + t * self.du[flying]
-        v = self.v0[flying] + t * self.dv[flying]
-        c = np.floor(u).astype(np.int64)
-        r = np.floor(v).astype(np.int64)
-        going = (t <= self.limit[flying]) & self._inside(c, r)
-        if not going.all():
-            flying, t, u, v, c, r = flying[going], t[going], u[going], v[going], c[going], r[going]
-        jump = clearance[self.height - 1 - r, c]
-        more = jump >= _LEAP_MIN
-        self.t[flying[more]] = t[more] + jump[more]
-        stop = ~more
-        landed = flying[stop]
-        self._restart(landed, t[stop], u[stop], v[stop])
-        leapt: np.ndarray = flying[more]
-        return leapt, landed
-
-    def _restart(self, rays: np.ndarray, t: np.ndarray, u: np.ndarray, v: np.ndarray) -> None:
+    def restart(self, rays: np.ndarray, t: np.ndarray, u: np.ndarray, v: np.ndarray) -> None:
         """The traversal state of ``rays`` at ``(u, v)``, parameter ``t``: the pixel each is in just
         after that point (on a boundary: the one it enters), and its next boundaries."""
         du, dv = self.du[rays], self.dv[rays]
