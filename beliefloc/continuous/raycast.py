@@ -3,8 +3,14 @@
 Each ray walks the pixels it crosses in order (Amanatides & Woo's grid traversal, "A fast voxel
 traversal algorithm for ray tracing", 1987), all rays together: one numpy step per pixel boundary
 crossed, vectorised over the rays still travelling (the loop runs over steps along a ray, never over
-rays or poses). The range is the distance from the ray's start to where it enters the first blocked
-pixel -- exact for the image's square pixels.
+rays or poses). The range is the distance from the ray's start to where it is first stopped --
+exact for the image's square pixels -- by the exact model's blocking rule
+(:mod:`beliefloc.semantic_map.pixel_geometry`): where blocked pixels touch the ray from both sides.
+It stops where it enters a blocked pixel; through a pixel corner, where the two pixels beside the
+corner are both blocked (a diagonal wall has no gap; a lone pixel touched at its corner does not
+stop it); along a pixel edge, where blocked pixels meet it on both sides. Points within 1e-9 pixels
+of a pixel edge lie on it, so those cases do not depend on rounding (cells of 0.25 m over pixels of
+0.05 m send every diagonal ray from a cell's centre through pixel corners).
 
 Many rays at once (:data:`LEAP_FROM` or more) also *leap* through open space, as sphere tracing does:
 a pixel whose centre is ``e`` pixels from the nearest blocked pixel's centre (the image's Euclidean

@@ -35,6 +35,11 @@ any mass, so a reading the region can produce never zeroes a state, and states s
 distinct rows (the model stores one row per distinct distribution: ``ObservationPart.truth`` indexes
 ``confusion``).
 
+Every heading and yaw offset of a cell's sub-pose position casts from the same point: a scan casts
+each distinct direction (heading yaw − offset + beam angle, shared by beams that coincide at some
+heading) once per position, and a Look computes distances, bearings, the range fade and the line
+of sight once per position (cast to the landmark, no further), only the viewing angle per yaw.
+
 Pure numpy/scipy, no I/O. Vectorised over states × sub-poses; the loops are over beams, landmarks of a
 class and the steps of a ray.
 """
