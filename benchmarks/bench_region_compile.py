@@ -84,6 +84,7 @@ def child(map_name: str, region: bool, repeats: int, rows_out: str | None, profi
         "first_s": seconds[0],
         "median_s": float(np.median(seconds)),
         "median_cpu_s": float(np.median(cpu)),
+        "all_s": seconds,
         "code": str(Path(beliefloc.__file__).resolve().parent.parent),
         "peak_mib": peak_rss_mib(),
         "distinct_rows": {
