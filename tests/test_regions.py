@@ -240,3 +240,23 @@ def test_quantised_rows_by_key_are_those_of_comparing_every_rounded_row(n_values
     np.testing.assert_array_equal(rows, plain_rows / plain_rows.sum(axis=1, keepdims=True))
     np.testing.assert_array_equal(index, plain_index.ravel())
     assert len(rows) < len(dist)
+
+
+@pytest.mark.parametrize("range_edge", [0.0, 0.02])
+def test_positions_beyond_the_range_fade_are_skipped_without_changing_a_row(range_edge: float) -> None:
+    """Beyond ``range + 40 range_edge`` (a step edge: beyond ``range``) every detection is exactly 0;
+    skipping those positions gives the rows of computing them."""
+    grid, image, spec = _region_setup(["....#...", "..#.....", "........"], 3, 3)
+    landmarks = np.array([[0.3, 1.5], [4.5, 0.3]])
+    args = (landmarks, 90.0, 1.0, True, np.array([20.0, 45.0]), 5.0, range_edge)
+    skipping = regions.region_look(grid, image, spec, *args)
+    saved = regions._range_cutoff
+    try:
+        regions._range_cutoff = lambda view_range, edge: math.inf  # type: ignore[assignment]
+        everything = regions.region_look(grid, image, spec, *args)
+    finally:
+        regions._range_cutoff = saved
+    np.testing.assert_allclose(skipping, everything, atol=1e-12)
+    poses, _ = regions.sub_poses(grid, image, spec)
+    d = np.hypot(poses[..., :1] - landmarks[:, 0], poses[..., 1:2] - landmarks[:, 1])
+    assert (d > regions._range_cutoff(1.0, range_edge)).all(axis=-1).any()  # some positions were skipped

@@ -186,6 +186,12 @@ def detection_probability(
     return out
 
 
+def _range_cutoff(view_range: float, range_edge: float) -> float:
+    """Metres beyond which a Look detects nothing: 40 range fades (σ) past its range (``Φ(-40)`` is
+    exactly 0 in double precision), or its range with a step edge."""
+    return view_range + (40.0 * range_edge if range_edge > 0 else 1e-9)
+
+
 def quantised_rows(dist: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``(rows, index)`` with ``rows[index] ≈ dist``: probabilities rounded to :data:`STEP`, any
     positive one kept at :data:`FLOOR` at least, rows renormalised, then made distinct.
@@ -386,6 +392,31 @@ def _look_at(
         return out
     x, y = xy[:, 0], xy[:, 1]
     standing = stands.any(axis=1)
+    if view_range is not None:  # beyond the range fade's reach every landmark's detection is exactly 0
+        cutoff = _range_cutoff(view_range, range_edge)
+        near = np.zeros(n_pos, dtype=bool)
+        for lx, ly in landmarks_xy:
+            near |= np.hypot(lx - x, ly - y) <= cutoff
+        near &= standing
+        if not near.all():
+            out = np.zeros((n_pos, n_yaw, n_values))
+            out[..., 0] = 1.0  # nothing seen
+            if near.any():
+                out[near] = _look_at(
+                    image,
+                    xy[near],
+                    yaws[near],
+                    stands[near],
+                    landmarks_xy,
+                    all_round,
+                    fov,
+                    view_range,
+                    occlusion,
+                    angle_bins,
+                    fov_edge,
+                    range_edge,
+                )
+            return out
     probs, angles = [], []
     margin = 4.0 * range_edge if view_range is not None else 0.0
     for lx, ly in landmarks_xy:
