@@ -129,17 +129,17 @@ def _traverse(
         return rays.result
     flying = _Flight(rays, walking[:0], np.zeros(0))
     while walking.size or flying.size:
+        up, t_up = walking[:0], np.zeros(0)
         if walking.size:  # a ray in a pixel with room around it leaps from where it is
             jump = clearance[rays.height - 1 - rays.row[walking], rays.col[walking]]
             leaps = jump >= _LEAP_MIN
             if leaps.any():
                 up = walking[leaps]
-                flying.join(up, rays.t[up] + jump[leaps])
-                walking = rays.step(walking[~leaps])
-            else:
-                walking = rays.step(walking)
-        if flying.size:
-            walking = np.concatenate([walking, flying.leap(clearance)])
+                t_up = rays.t[up] + jump[leaps]
+                walking = walking[~leaps]
+            walking = rays.step(walking)
+        if flying.size or up.size:
+            walking = np.concatenate([walking, flying.leap(clearance, _Flight(rays, up, t_up))])
     return rays.result
 
 
@@ -159,14 +159,9 @@ class _Flight:
     def size(self) -> int:
         return int(self.index.size)
 
-    def join(self, index: np.ndarray, t: np.ndarray) -> None:
-        """Rays that have just leapt to ``t`` (each strictly in free space there)."""
-        more = _Flight(self.rays, index, t)
-        for name in ("index", "u0", "v0", "du", "dv", "limit", "t"):
-            setattr(self, name, np.concatenate([getattr(self, name), getattr(more, name)]))
-
-    def leap(self, clearance: np.ndarray) -> np.ndarray:
-        """One leap of every ray by the clearance of the pixel it is in. Returns the rays that stop
+    def leap(self, clearance: np.ndarray, joining: _Flight) -> np.ndarray:
+        """One leap of every ray by the clearance of the pixel it is in, then the rays ``joining``
+        (which have just leapt from where they walked) are added. Returns the rays that stop
         leaping, their traversal restarted where they are; the rays that left the image or their
         reach are dropped (they read ``inf``)."""
         rays = self.rays
@@ -182,9 +177,10 @@ class _Flight:
         rays.t[landed] = self.t[stop]
         rays.restart(landed, self.t[stop], u[stop], v[stop])
         self.t += jump
-        if not more.all():
-            for name in ("index", "u0", "v0", "du", "dv", "limit", "t"):
-                setattr(self, name, getattr(self, name)[more])
+        every = more.all()
+        for name in ("index", "u0", "v0", "du", "dv", "limit", "t"):
+            mine = getattr(self, name)
+            setattr(self, name, np.concatenate([mine if every else mine[more], getattr(joining, name)]))
         return landed
 
 
