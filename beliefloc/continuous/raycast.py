@@ -176,6 +176,7 @@ class _Flight:
         landed: np.ndarray = self.index[stop]
         rays.t[landed] = self.t[stop]
         rays.restart(landed, self.t[stop], u[stop], v[stop])
+        landed = landed[rays._inside(rays.col[landed], rays.row[landed])]  # on the image's edge, leaving it
         self.t += jump
         every = more.all()
         for name in ("index", "u0", "v0", "du", "dv", "limit", "t"):
