@@ -260,3 +260,24 @@ def test_positions_beyond_the_range_fade_are_skipped_without_changing_a_row(rang
     poses, _ = regions.sub_poses(grid, image, spec)
     d = np.hypot(poses[..., :1] - landmarks[:, 0], poses[..., 1:2] - landmarks[:, 1])
     assert (d > regions._range_cutoff(1.0, range_edge)).all(axis=-1).any()  # some positions were skipped
+
+
+def test_a_few_cells_at_a_time_give_the_rows_of_all_at_once() -> None:
+    """Region scans and looks go through the cells in chunks (bounded memory); the chunking changes
+    no number."""
+    grid, image, spec = _region_setup(["....#...", "..#.....", "........"], 3, 3)
+    landmarks = np.array([[0.3, 1.5], [4.5, 0.3]])
+    look_args = (landmarks, 90.0, 2.0, True, np.array([20.0, 45.0]), 5.0, 0.2)
+    scan_args = ([0.0, 90.0], np.array(BINS), 0.05, 0.05, 0.1)
+    whole = regions.region_scans(grid, image, spec, *scan_args), regions.region_look(grid, image, spec, *look_args)
+    saved = regions._CHUNK
+    try:
+        regions._CHUNK = 500  # 2 cells of a scan, 1 of a look
+        chunked = (
+            regions.region_scans(grid, image, spec, *scan_args),
+            regions.region_look(grid, image, spec, *look_args),
+        )
+    finally:
+        regions._CHUNK = saved
+    for a, b in zip([*whole[0], whole[1]], [*chunked[0], chunked[1]], strict=True):
+        np.testing.assert_allclose(a, b, atol=1e-12)

@@ -62,6 +62,10 @@ STEP = 1.0 / 200.0
 """Reading probabilities are rounded to multiples of this (then renormalised)."""
 FLOOR = 1.0 / 1000.0
 """A reading with any probability under the continuous model keeps at least this much."""
+_CHUNK = 1 << 21
+"""Sub-pose rays (a scan) or sub-pose × landmark pairs (a Look) computed at once: the depot at the
+real-robot values is one or two such chunks; the largest specs (7 × 7 positions × 9 yaws) stay
+within a few hundred MiB."""
 
 
 @dataclass(frozen=True)
@@ -263,22 +267,25 @@ def region_scans(
     _, first, inverse = np.unique(key, return_index=True, return_inverse=True)
     directions = angles[first]
     inverse = inverse.reshape(H, m, len(beams))
-    standing = (w > 0).any(axis=(1, 3))  # (cells, kk): a position any sub-pose of the cell stands on
-    xy = grid[:, 0, :, 0, :2][standing]
+    standing = np.any(w > 0, axis=(1, 3))  # (cells, kk): a position any sub-pose stands on
     reach = float(bins[-1]) + 4.0 * sigma
-    ranges = np.full((cells, kk, len(directions)), np.inf)
-    ranges[standing] = cast_rays(image, xy[:, :1], xy[:, 1:2], directions[None, :], reach)
-    ranges[ranges > reach] = np.inf
+    edges = np.asarray(bins, dtype=np.float64)
     n_values = len(bins) + 1
-    dist = _scan_rows(ranges.ravel(), np.asarray(bins, dtype=np.float64), sigma, random, short)
-    dist = dist.reshape(cells, kk, len(directions), n_values)
-    del ranges
-    out = []
-    for b in range(len(beams)):
-        per_sub = dist[:, :, inverse[:, :, b], :]  # (cells, kk, H, m, values)
-        mean: np.ndarray = np.einsum("chkm,ckhmv->chv", w, per_sub)
-        out.append(mean.reshape(cells * H, n_values))
-    return out
+    out = [np.empty((cells, H, n_values)) for _ in beams]
+    step = max(1, _CHUNK // (kk * len(directions)))  # cells at a time: bounded memory for any spec
+    for lo in range(0, cells, step):
+        part = slice(lo, lo + step)
+        stand = standing[part]
+        xy = grid[part, 0, :, 0, :2][stand]
+        ranges = np.full((*stand.shape, len(directions)), np.inf)
+        ranges[stand] = cast_rays(image, xy[:, :1], xy[:, 1:2], directions[None, :], reach)
+        ranges[ranges > reach] = np.inf
+        dist = _scan_rows(ranges.ravel(), edges, sigma, random, short).reshape((*ranges.shape, n_values))
+        del ranges
+        for b in range(len(beams)):
+            per_sub = dist[:, :, inverse[:, :, b], :]  # (cells, kk, H, m, values)
+            out[b][part] = np.einsum("chkm,ckhmv->chv", w[part], per_sub)
+    return [o.reshape(cells * H, n_values) for o in out]
 
 
 def region_look(
@@ -311,22 +318,27 @@ def region_look(
     yaws = grid[..., 2].transpose(0, 2, 1, 3).reshape(cells * kk, H * m)
     w = weight.reshape(cells, H, kk, m)
     stands = (w > 0).transpose(0, 2, 1, 3).reshape(cells * kk, H * m)
-    seen = _look_at(
-        image,
-        xy,
-        yaws,
-        stands,
-        landmarks_xy,
-        H == 1,
-        fov,
-        view_range,
-        occlusion,
-        angle_bins,
-        fov_edge,
-        range_edge,
-    )
-    n_values = seen.shape[-1]
-    out: np.ndarray = np.einsum("chkm,ckhmv->chv", w, seen.reshape(cells, kk, H, m, n_values))
+    n_values = 1 + (len(angle_bins) if angle_bins is not None else 1)
+    out = np.empty((cells, H, n_values))
+    step = max(1, _CHUNK // (kk * H * m * max(1, len(landmarks_xy))))  # cells at a time: bounded memory
+    for lo in range(0, cells, step):
+        part = slice(lo, lo + step)
+        at = slice(lo * kk, (lo + step) * kk)
+        seen = _look_at(
+            image,
+            xy[at],
+            yaws[at],
+            stands[at],
+            landmarks_xy,
+            H == 1,
+            fov,
+            view_range,
+            occlusion,
+            angle_bins,
+            fov_edge,
+            range_edge,
+        )
+        out[part] = np.einsum("chkm,ckhmv->chv", w[part], seen.reshape(-1, kk, H, m, n_values))
     return out.reshape(cells * H, n_values)
 
 
