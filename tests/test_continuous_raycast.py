@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
+from collections.abc import Iterator
 
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from beliefloc.continuous import raycast
 from beliefloc.continuous.image import OccupancyImage
 from beliefloc.continuous.raycast import cast_rays, cast_scan
 from beliefloc.model import MapFrame
@@ -87,3 +90,85 @@ def test_bad_range_is_refused() -> None:
     image = OccupancyImage(np.zeros((2, 2), dtype=bool), 0.1, MapFrame())
     with pytest.raises(ValueError, match="max_range"):
         cast_rays(image, 0.0, 0.0, 0.0, math.inf)
+
+
+@contextlib.contextmanager
+def _leap_from(rays: int) -> Iterator[None]:
+    """Cast with :data:`raycast.LEAP_FROM` set to ``rays`` (1: always leap; huge: never)."""
+    saved = raycast.LEAP_FROM
+    raycast.LEAP_FROM = rays
+    try:
+        yield
+    finally:
+        raycast.LEAP_FROM = saved
+
+
+def _walls(rng: np.random.Generator, height: int, width: int, density: float) -> np.ndarray:
+    """Random blocked pixels and two one-pixel diagonal walls (rays meet their corners)."""
+    blocked = rng.random((height, width)) < density
+    n = min(height, width) - 4
+    k = np.arange(n)
+    blocked[2 + k, 2 + k] = True
+    blocked[height - 3 - k // 2, width // 2 + k // 2] = True
+    return blocked
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 2**31), density=st.sampled_from([0.0, 0.01, 0.06]), yaw=st.sampled_from([0.0, 0.3]))
+def test_leaping_through_open_space_reads_the_ranges_of_the_step_by_step_traversal(
+    seed: int, density: float, yaw: float
+) -> None:
+    """Many rays leap by the distance transform; the ranges are those of one step per pixel, also for
+    rays through pixel corners and along pixel edges (starts on half and whole pixels, angles in
+    steps of 15 degrees) and for rays that leave the image or their reach."""
+    rng = np.random.default_rng(seed)
+    image = OccupancyImage(_walls(rng, 37, 53, density), 0.05, MapFrame(-0.3, 0.2, yaw))
+    n = 3000
+    u, v = rng.uniform(-2, 55, n), rng.uniform(-2, 39, n)
+    u[: n // 2], v[: n // 2] = np.round(u[: n // 2] * 2) / 2, np.round(v[: n // 2] * 2) / 2
+    x, y = image.to_map(u, v)
+    angles = rng.uniform(-math.pi, math.pi, n)
+    angles[: 2 * n // 3] = rng.integers(0, 24, 2 * n // 3) * math.pi / 12 + yaw
+    reach = rng.uniform(0.2, 2.0, n)
+    with _leap_from(1):
+        leaping = raycast.cast_rays_within(image, x, y, angles, reach)
+    with _leap_from(10**9):
+        stepping = raycast.cast_rays_within(image, x, y, angles, reach)
+    with np.errstate(invalid="ignore"):  # inf - inf
+        close = (np.isinf(leaping) & np.isinf(stepping)) | (np.abs(leaping - stepping) < 1e-9)
+    at_reach = np.abs(np.where(np.isfinite(stepping), stepping, leaping) - reach) < 1e-9  # either side of it
+    assert (close | at_reach).all(), np.flatnonzero(~(close | at_reach))[:5]
+    assert np.isfinite(stepping).sum() > n // 10  # the walls are met
+
+
+@pytest.mark.parametrize("cell_size", [0.25, 0.1, 0.15])
+def test_rays_from_cell_centres_read_the_exact_models_ranges(cell_size: float) -> None:
+    """The blocking rule at pixel corners and edges is the exact model's (pixel_geometry): cells of
+    0.25 m over 0.05 m pixels send every diagonal ray through pixel corners, cells of 0.1 m put the
+    centres on pixel corners and the axis-aligned rays along pixel edges."""
+    from beliefloc.model import GridLayout
+    from beliefloc.semantic_map import pixel_geometry, regions
+
+    rng = np.random.default_rng(7)
+    resolution = 0.05
+    blocked = _walls(rng, 36, 54, 0.04)
+    rows, cols = round(36 * resolution / cell_size), round(54 * resolution / cell_size)
+    layout = GridLayout(rows, cols, 8, cell_size, np.ones((rows, cols), dtype=bool), (), MapFrame())
+    exact = pixel_geometry.ray_distances(blocked, resolution, layout, 1.5)
+    image = regions.blocked_image(blocked, resolution)
+    poses, _ = regions.sub_poses(layout, image, regions.RegionSpec(1, 1))
+    for leap_from in (1, 10**9):
+        with _leap_from(leap_from):
+            got = cast_rays(image, poses[:, 0, 0], poses[:, 0, 1], poses[:, 0, 2], 1.5 + 1e-9)
+        with np.errstate(invalid="ignore"):  # inf - inf
+            same = (np.isinf(exact) & np.isinf(got)) | (np.abs(exact - got) < 1e-9)
+        assert same.all(), (leap_from, np.flatnonzero(~same)[:5])
+
+
+def test_each_ray_stops_at_its_own_reach() -> None:
+    blocked = np.zeros((10, 10), dtype=bool)
+    blocked[:, 7] = True  # x in [0.7, 0.8)
+    image = OccupancyImage(blocked, 0.1, MapFrame(0.0, 0.0, 0.0))
+    got = raycast.cast_rays_within(image, 0.23, 0.55, 0.0, np.array([0.3, 0.48, 0.6, -1.0]))
+    assert math.isinf(got[0]) and got[1] == pytest.approx(0.47) and got[2] == pytest.approx(0.47)
+    assert math.isinf(got[3])

@@ -10,6 +10,7 @@ match the frequencies within the Monte Carlo's error plus the quadrature's (sub-
 
 from __future__ import annotations
 
+import itertools
 import math
 from typing import Any
 
@@ -148,3 +149,135 @@ def test_noise_parameters_out_of_range_are_rejected() -> None:
         SemanticMap.model_validate(_map(["..", ".."], {"sub_samples": 0}))
     with pytest.raises(ValidationError):
         SemanticMap.model_validate(_map(["..", ".."], {"sigma": -0.1}))
+
+
+def _region_setup(layout: list[str], sub: int, yaw: int) -> tuple[Any, Any, regions.RegionSpec]:
+    smap = SemanticMap.model_validate(_map(layout, {}))
+    grid = layout_of(smap)
+    return grid, regions.blocked_image(~grid.free, grid.cell_size), regions.RegionSpec(sub, yaw)
+
+
+@settings(max_examples=10, deadline=None)
+@given(layout=LAYOUTS, sub=st.integers(1, 4), yaw=st.integers(1, 3))
+def test_region_scans_are_the_average_over_every_sub_pose_cast_one_at_a_time(
+    layout: list[str], sub: int, yaw: int
+) -> None:
+    """The fast path (one ray per position and direction, shared by beams and headings, leaping
+    through open space) against the plain one: every sub-pose's beam cast step by step, its reading
+    distribution, averaged with the sub-poses' weights."""
+    from beliefloc.continuous import raycast
+
+    grid, image, spec = _region_setup(layout, sub, yaw)
+    bins, sigma, random, short = np.array(BINS), 0.05, 0.05, 0.1
+    beams = [90.0, 0.0, -90.0, 30.0]
+    saved = raycast.LEAP_FROM
+    try:
+        raycast.LEAP_FROM = 1
+        fast = regions.region_scans(grid, image, spec, beams, bins, sigma, random, short)
+        raycast.LEAP_FROM = 10**9
+        poses, weight = regions.sub_poses(grid, image, spec)
+        reach = BINS[-1] + 4 * sigma
+        for beam, got in zip(beams, fast, strict=True):
+            ranges = cast_rays(image, poses[..., 0], poses[..., 1], poses[..., 2] + math.radians(beam), reach)
+            ranges[ranges > reach] = np.inf
+            plain = np.einsum("nk,nkv->nv", weight, regions.scan_distribution(ranges, bins, sigma, random, short))
+            np.testing.assert_allclose(got, plain, atol=1e-12)
+            assert np.allclose(got.sum(axis=1), 1.0)
+    finally:
+        raycast.LEAP_FROM = saved
+
+
+def test_scan_distribution_is_the_gaussian_between_the_bin_edges_mixed_with_random_and_short() -> None:
+    """One range, written out: the Gaussian's mass per bin, the short part uniform below the range."""
+    from scipy.special import ndtr
+
+    r, sigma, random, short = 0.9, 0.1, 0.05, 0.1
+    edges = [-math.inf, *BINS, math.inf]
+    gauss = np.array([ndtr((hi - r) / sigma) - ndtr((lo - r) / sigma) for lo, hi in itertools.pairwise(edges)])
+    below = np.array([0.4, 0.5, 0.0, 0.0]) / 0.9  # uniform over [0, 0.9): 0-0.4, 0.4-0.9
+    expect = (1 - random - short) * gauss + short * below + random / 4
+    got = regions.scan_distribution(np.array([[r, math.inf]]), np.array(BINS), sigma, random, short)
+    np.testing.assert_allclose(got[0, 0], expect, atol=1e-12)
+    no_wall = (1 - random - short) * np.array([0, 0, 0, 1.0]) + short * np.array([0.4, 0.6, 0.8, 0]) / 1.8 + random / 4
+    np.testing.assert_allclose(got[0, 1], no_wall, atol=1e-12)
+
+
+@settings(max_examples=10, deadline=None)
+@given(layout=LAYOUTS, sub=st.integers(1, 3), yaw=st.integers(1, 3), bins=st.booleans(), occlusion=st.booleans())
+def test_region_look_shared_per_position_equals_look_distribution_at_every_sub_pose(
+    layout: list[str], sub: int, yaw: int, bins: bool, occlusion: bool
+) -> None:
+    """Distances, bearings and lines of sight computed once per position give what the per-pose
+    :func:`regions.look_distribution` gives at each sub-pose, averaged."""
+    grid, image, spec = _region_setup(layout, sub, yaw)
+    free = np.argwhere(grid.free)
+    landmarks = (free[[0, -1]][:, ::-1] + 0.5) * grid.cell_size  # (col, row) -> x, y of two free cells
+    landmarks[:, 1] = grid.rows * grid.cell_size - landmarks[:, 1]
+    angle_bins = np.array([20.0, 45.0]) if bins else None
+    args = (landmarks, 120.0, 1.5, occlusion, angle_bins, 5.0, 0.2)
+    shared = regions.region_look(grid, image, spec, *args)
+    poses, weight = regions.sub_poses(grid, image, spec)
+    per_pose = regions.look_distribution(image, poses, weight > 0, landmarks, False, *args[1:])
+    np.testing.assert_allclose(shared, np.einsum("nk,nkv->nv", weight, per_pose), atol=1e-12)
+    assert np.allclose(shared.sum(axis=1), 1.0)
+
+
+@pytest.mark.parametrize("n_values", [2, 5, 12])
+def test_quantised_rows_by_key_are_those_of_comparing_every_rounded_row(n_values: int) -> None:
+    rng = np.random.default_rng(n_values)
+    dist = rng.dirichlet(np.full(n_values, 0.3), 5000)
+    dist[::7] = np.round(dist[::7], 2)
+    dist[::5] = dist[3]  # many rows alike
+    dist[::11, 0] = 1e-4  # under the floor
+    dist[::13, 1] = 0.0
+    dist[:, -1] += 1e-3
+    dist /= dist.sum(axis=1, keepdims=True)
+    q = np.round(dist / regions.STEP) * regions.STEP
+    q = np.where((dist > 1e-12) & (q < regions.FLOOR), regions.FLOOR, q)
+    q /= q.sum(axis=1, keepdims=True)
+    plain_rows, plain_index = np.unique(np.round(q, 12), axis=0, return_inverse=True)
+    rows, index = regions.quantised_rows(dist)
+    np.testing.assert_array_equal(rows, plain_rows / plain_rows.sum(axis=1, keepdims=True))
+    np.testing.assert_array_equal(index, plain_index.ravel())
+    assert len(rows) < len(dist)
+
+
+@pytest.mark.parametrize("range_edge", [0.0, 0.02])
+def test_positions_beyond_the_range_fade_are_skipped_without_changing_a_row(range_edge: float) -> None:
+    """Beyond ``range + 40 range_edge`` (a step edge: beyond ``range``) every detection is exactly 0;
+    skipping those positions gives the rows of computing them."""
+    grid, image, spec = _region_setup(["....#...", "..#.....", "........"], 3, 3)
+    landmarks = np.array([[0.3, 1.5], [4.5, 0.3]])
+    args = (landmarks, 90.0, 1.0, True, np.array([20.0, 45.0]), 5.0, range_edge)
+    skipping = regions.region_look(grid, image, spec, *args)
+    saved = regions._range_cutoff
+    try:
+        regions._range_cutoff = lambda view_range, edge: math.inf  # type: ignore[assignment]
+        everything = regions.region_look(grid, image, spec, *args)
+    finally:
+        regions._range_cutoff = saved
+    np.testing.assert_allclose(skipping, everything, atol=1e-12)
+    poses, _ = regions.sub_poses(grid, image, spec)
+    d = np.hypot(poses[..., :1] - landmarks[:, 0], poses[..., 1:2] - landmarks[:, 1])
+    assert (d > regions._range_cutoff(1.0, range_edge)).all(axis=-1).any()  # some positions were skipped
+
+
+def test_a_few_cells_at_a_time_give_the_rows_of_all_at_once() -> None:
+    """Region scans and looks go through the cells in chunks (bounded memory); the chunking changes
+    no number."""
+    grid, image, spec = _region_setup(["....#...", "..#.....", "........"], 3, 3)
+    landmarks = np.array([[0.3, 1.5], [4.5, 0.3]])
+    look_args = (landmarks, 90.0, 2.0, True, np.array([20.0, 45.0]), 5.0, 0.2)
+    scan_args = ([0.0, 90.0], np.array(BINS), 0.05, 0.05, 0.1)
+    whole = regions.region_scans(grid, image, spec, *scan_args), regions.region_look(grid, image, spec, *look_args)
+    saved = regions._CHUNK
+    try:
+        regions._CHUNK = 500  # 2 cells of a scan, 1 of a look
+        chunked = (
+            regions.region_scans(grid, image, spec, *scan_args),
+            regions.region_look(grid, image, spec, *look_args),
+        )
+    finally:
+        regions._CHUNK = saved
+    for a, b in zip([*whole[0], whole[1]], [*chunked[0], chunked[1]], strict=True):
+        np.testing.assert_allclose(a, b, atol=1e-12)

@@ -29,6 +29,7 @@ from beliefloc.semantic_map.sections import HereSensor, LookSensor, ScanSensor, 
 
 if TYPE_CHECKING:  # the region models need scipy; validating a map must not load it
     from beliefloc.continuous.image import OccupancyImage
+    from beliefloc.semantic_map.regions import RegionSpec
 
 
 def layout_of(smap: SemanticMap) -> GridLayout:
@@ -246,6 +247,7 @@ def _look_parts(
     sub, yaw, fov_edge, range_edge = sensor.region()
     region_exact = (sub, yaw, fov_edge, range_edge) == (1, 1, 0.0, 0.0)
     fp, fn = sensor.false_positive, sensor.false_negative
+    region: _Region | None = None
     cells_by_class: dict[str, list[tuple[int, int]]] = {}
     for lm_class, lr, lc in layout.landmarks:
         cells_by_class.setdefault(lm_class, []).append((lr, lc))
@@ -276,6 +278,8 @@ def _look_parts(
             confusion[1:, 0] = fn
             confusion[1:, 1:] += np.eye(k) * (1.0 - fn)
         if not region_exact:
+            if region is None:  # the image and the sub-poses, once for every class
+                region = _Region.of(layout, pixels, sub, yaw)
             truth, confusion = _region_look(
                 name,
                 cls,
@@ -283,10 +287,10 @@ def _look_parts(
                 smap,
                 layout,
                 annotated,
-                pixels,
+                region,
                 fov,
                 bins,
-                (sub, yaw, fov_edge, range_edge),
+                (fov_edge, range_edge),
                 confusion,
             )
         parts.append(ObservationPart(f"{name}.{cls}", values, truth, confusion, aliases))
@@ -302,6 +306,24 @@ def _region_image(layout: GridLayout, pixels: _Pixels | None) -> OccupancyImage:
     return regions.blocked_image(pixels.blocked, pixels.resolution)
 
 
+@dataclass(frozen=True, eq=False)
+class _Region:
+    """A sensor's region model set-up, shared by its parts: the image rays are cast over, the
+    region spec and the sub-poses of every state (:func:`regions.sub_poses`)."""
+
+    image: OccupancyImage
+    spec: RegionSpec
+    sub: tuple[np.ndarray, np.ndarray]
+
+    @classmethod
+    def of(cls, layout: GridLayout, pixels: _Pixels | None, sub_samples: int, yaw_samples: int) -> _Region:
+        from beliefloc.semantic_map import regions
+
+        image = _region_image(layout, pixels)
+        spec = regions.RegionSpec(sub_samples, yaw_samples)
+        return cls(image, spec, regions.sub_poses(layout, image, spec))
+
+
 def _region_look(
     name: str,
     cls: str,
@@ -309,21 +331,21 @@ def _region_look(
     smap: SemanticMap,
     layout: GridLayout,
     annotated: list[tuple[np.ndarray, dict[str, object]]],
-    pixels: _Pixels | None,
+    region: _Region,
     fov: float,
     bins: np.ndarray | None,
-    settings: tuple[int, int, float, float],
+    fades: tuple[float, float],
     confusion: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """A Look part's ``(truth, confusion)`` under the region model: a distinct row per distribution."""
     from beliefloc.semantic_map import regions
 
-    sub, yaw, fov_edge, range_edge = settings
+    fov_edge, range_edge = fades
     xy = _landmarks_xy(smap, layout, cls) if any(c == cls for c, _, _ in layout.landmarks) else np.zeros((0, 2))
     dist = regions.region_look(
         layout,
-        _region_image(layout, pixels),
-        regions.RegionSpec(sub, yaw),
+        region.image,
+        region.spec,
         xy,
         fov,
         sensor.range,
@@ -331,6 +353,7 @@ def _region_look(
         bins,
         fov_edge,
         range_edge,
+        sub=region.sub,
     )
     for states, readings in annotated:  # an annotation is what the file says is read there
         if name in readings:
@@ -395,7 +418,15 @@ def _scan_parts(
     bins = np.array(sensor.bins)
     sub, yaw, sigma, random, short = sensor.region()
     region_exact = (sub, yaw, sigma, random, short) == (1, 1, 0.0, 0.0, 0.0)
-    image = _region_image(layout, pixels) if not region_exact else None
+    region_dists: list[np.ndarray] | None = None
+    if not region_exact:  # every beam at once: beams that point alike at some heading share their rays
+        from beliefloc.semantic_map import regions
+
+        region = _Region.of(layout, pixels, sub, yaw)
+        region_dists = regions.region_scans(
+            layout, region.image, region.spec, sensor.beams, bins, sigma, random, short, sub=region.sub
+        )
+        del region
     if pixels is None:
         distance = geometry.wall_distances(layout, sensor.bins[-1])
     else:  # rays cast over the pixels: unknown space and the map's edge stop them, as AMCL's do
@@ -418,10 +449,8 @@ def _scan_parts(
                 else:
                     truth[states] = int(np.searchsorted(bins, np.float64(float(reading)) - 1e-9))  # type: ignore[arg-type]
         confusion = _noise(len(names), sensor.error)
-        if image is not None:
-            from beliefloc.semantic_map import regions
-
-            dist = regions.region_scan(layout, image, regions.RegionSpec(sub, yaw), angle, bins, sigma, random, short)
+        if region_dists is not None:
+            dist = region_dists[k]
             for states, readings in annotated:  # an annotated state reads what the file says
                 if name in readings:
                     dist[states] = np.eye(len(names))[truth[states]]
