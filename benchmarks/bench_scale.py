@@ -163,7 +163,8 @@ def _measure(code: Path, yaml_path: Path, npz_path: Path, big: bool, repeats: in
     for kind, path in (("yaml", yaml_path), ("npz", npz_path)):
         walls, peaks = [], []
         for _ in range(repeats):
-            wall, peak, code_, text = _timed_process([sys.executable, "-m", "beliefloc", "plan", str(path), "--json"], env)
+            command = [sys.executable, "-m", "beliefloc", "plan", str(path), "--json"]
+            wall, peak, code_, text = _timed_process(command, env)
             if code_ not in (0, 1):
                 raise SystemExit(f"plan {path} exited {code_} with {code}")
             walls.append(wall)
@@ -232,8 +233,8 @@ def _report(rows: list[dict[str, Any]], args: argparse.Namespace, seconds: float
             r = row[code]
             p = r["phases"]
             lines.append(
-                f"| {p['states']:,} | {code} | {r['yaml_wall_s']:.2f} | {r['yaml_peak_mib']:,.0f} | {r['npz_wall_s']:.2f} "
-                f"| {r['npz_peak_mib']:,.0f} | {p['import_s']:.2f} | {p['read_s']:.2f} | {p['validate_s']:.2f} "
+                f"| {p['states']:,} | {code} | {r['yaml_wall_s']:.2f} | {r['yaml_peak_mib']:,.0f} "
+                f"| {r['npz_wall_s']:.2f} | {r['npz_peak_mib']:,.0f} | {p['import_s']:.2f} | {p['read_s']:.2f} | {p['validate_s']:.2f} "
                 f"| {p['compile_s']:.2f} | {p['npz_s']:.2f} | {p['search_s']:.2f} | {p['expanded']} | {p['cost']:g} "
                 f"| {p['steps']} |"
             )
