@@ -234,8 +234,8 @@ def _report(rows: list[dict[str, Any]], args: argparse.Namespace, seconds: float
             p = r["phases"]
             lines.append(
                 f"| {p['states']:,} | {code} | {r['yaml_wall_s']:.2f} | {r['yaml_peak_mib']:,.0f} "
-                f"| {r['npz_wall_s']:.2f} | {r['npz_peak_mib']:,.0f} | {p['import_s']:.2f} | {p['read_s']:.2f} | {p['validate_s']:.2f} "
-                f"| {p['compile_s']:.2f} | {p['npz_s']:.2f} | {p['search_s']:.2f} | {p['expanded']} | {p['cost']:g} "
+                f"| {r['npz_wall_s']:.2f} | {r['npz_peak_mib']:,.0f} | {p['import_s']:.2f} | {p['read_s']:.2f} "
+                f"| {p['validate_s']:.2f} | {p['compile_s']:.2f} | {p['npz_s']:.2f} | {p['search_s']:.2f} | {p['expanded']} | {p['cost']:g} "
                 f"| {p['steps']} |"
             )
     lines += ["", "Targets (after):", ""]
