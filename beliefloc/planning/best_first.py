@@ -38,6 +38,7 @@ Differences from the pseudocode, each for a stated reason:
 from __future__ import annotations
 
 import enum
+import functools
 import hashlib
 import heapq
 import math
@@ -82,11 +83,23 @@ class PlanStatus(enum.Enum):
 
 def belief_key(belief: np.ndarray) -> bytes:
     """The one duplicate-detection key: entries rounded to 2^-30, hashed with their positions."""
-    quantised = np.rint(belief * KEY_RESOLUTION).astype(np.int64)
+    scaled = belief * KEY_RESOLUTION
+    np.rint(scaled, out=scaled)
+    quantised = scaled.astype(np.int64)
     support = np.flatnonzero(quantised)
-    digest = hashlib.blake2b(support.astype(np.int64).tobytes(), digest_size=16)
-    digest.update(quantised[support].tobytes())
+    if len(support) == len(quantised):  # every entry: no gather (the same bytes)
+        digest = hashlib.blake2b(_all_positions(len(support)), digest_size=16)
+        digest.update(quantised.data)
+        return digest.digest()
+    digest = hashlib.blake2b(support.astype(np.int64, copy=False).data, digest_size=16)
+    digest.update(quantised[support].data)
     return digest.digest()
+
+
+@functools.lru_cache(maxsize=1)
+def _all_positions(n: int) -> bytes:
+    """``np.arange(n, dtype=np.int64)``'s bytes: the support of a belief with no zero entry."""
+    return np.arange(n, dtype=np.int64).tobytes()
 
 
 @dataclass(frozen=True)

@@ -55,6 +55,9 @@ class _Groups:
 
     order: np.ndarray
     starts: np.ndarray
+    label: np.ndarray | None
+    """Each state's group (its position in ``starts``), or None when :meth:`likelihood` must be
+    computed part by part (a part's table not float64)."""
     likelihood: np.ndarray
     """``C[g, o]``: likelihood of every observation in each group (groups × observations)."""
     log_likelihood: np.ndarray
@@ -74,7 +77,22 @@ def _groups(action: Action, n_states: int) -> _Groups | None:
     table = action.observation.likelihood_matrix(order[starts])
     with np.errstate(divide="ignore"):
         log_table = np.where(table > 0.0, np.log(np.where(table > 0.0, table, 1.0)), 0.0)
-    return _Groups(order, starts, table, log_table)
+    label = None
+    if all(part.confusion.dtype == np.float64 for part in parts):
+        # O[:, o] = C[label, o]: one gather from a small table instead of one per part; the table's
+        # entries are the same products in the same order as ObservationModel.likelihood's (bit for bit)
+        index = np.cumsum(np.r_[False, sorted_key[1:] != sorted_key[:-1]], dtype=np.intp)
+        label = np.empty(n_states, dtype=np.int32 if len(starts) < 2**31 else np.intp)
+        label[order] = index
+    return _Groups(order, starts, label, table, log_table)
+
+
+def _entropy(belief: np.ndarray) -> float:
+    """:func:`beliefloc.belief.entropy`, bit for bit, without copying a belief whose every entry is > 0
+    (every belief of a noisy model: selecting them is most of the cost on 10^6 states)."""
+    if belief.size and belief.min() > 0.0:
+        return float(-(belief * np.log(belief)).sum())
+    return entropy(belief)
 
 
 class SuccessorEvaluator:
@@ -91,7 +109,7 @@ class SuccessorEvaluator:
             predicted = predict(action, belief)
             groups = self._groups[index]
             if groups is None:
-                out.append(SuccessorStats(index, None, 1.0, entropy(predicted), float(predicted.max())))
+                out.append(SuccessorStats(index, None, 1.0, _entropy(predicted), float(predicted.max())))
                 continue
             out.extend(self._observe(index, groups, predicted))
         return out
@@ -102,18 +120,21 @@ class SuccessorEvaluator:
             predicted = predict(action, belief)
             groups = self._groups[index]
             if groups is None:
-                yield SuccessorStats(index, None, 1.0, entropy(predicted), float(predicted.max())), predicted
+                yield SuccessorStats(index, None, 1.0, _entropy(predicted), float(predicted.max())), predicted
                 continue
             for stats in self._observe(index, groups, predicted):
                 assert stats.observation is not None
-                weighted: np.ndarray = predicted * action.observation.likelihood(stats.observation)
+                weighted: np.ndarray = predicted * self._likelihood(index, stats.observation)
                 weighted /= weighted.sum()
                 yield stats, weighted
 
     def _observe(self, index: int, groups: _Groups, predicted: np.ndarray) -> list[SuccessorStats]:
         ordered = predicted[groups.order]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            xlogx = np.where(ordered > 0.0, ordered * np.log(ordered), 0.0)
+        if ordered.size and ordered.min() > 0.0:
+            xlogx = ordered * np.log(ordered)  # what the np.where below gives when no entry is 0
+        else:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                xlogx = np.where(ordered > 0.0, ordered * np.log(ordered), 0.0)
         mass = np.add.reduceat(ordered, groups.starts)
         mass_log_mass = np.add.reduceat(xlogx, groups.starts)
         peak = np.maximum.reduceat(ordered, groups.starts)
@@ -134,6 +155,14 @@ class SuccessorEvaluator:
         predicted = predict(act, belief)
         if observation is None:
             return predicted
-        weighted: np.ndarray = predicted * act.observation.likelihood(observation)
+        weighted: np.ndarray = predicted * self._likelihood(action, observation)
         weighted /= weighted.sum()
         return weighted
+
+    def _likelihood(self, action: int, observation: int) -> np.ndarray:
+        """``O_a[:, o]``, equal to ``ObservationModel.likelihood(o)`` bit for bit."""
+        groups = self._groups[action]
+        if groups is None or groups.label is None:
+            return self.model.actions[action].observation.likelihood(observation)
+        column: np.ndarray = groups.likelihood[:, observation][groups.label]
+        return column
