@@ -89,11 +89,14 @@ def _groups(action: Action, n_states: int) -> _Groups | None:
     return _Groups(order, starts, label, table, log_table)
 
 
-def _entropy(belief: np.ndarray) -> float:
+def _entropy(belief: np.ndarray, work: np.ndarray | None = None) -> float:
     """:func:`beliefloc.belief.entropy`, bit for bit, without copying a belief whose every entry is > 0
-    (every belief of a noisy model: selecting them is most of the cost on 10^6 states)."""
+    (every belief of a noisy model: selecting them is most of the cost on 10^6 states); ``work``, an
+    array of the belief's shape, holds ``b ln b`` instead of two new arrays."""
     if belief.size and belief.min() > 0.0:
-        return float(-(belief * np.log(belief)).sum())
+        terms = np.log(belief, out=work)
+        np.multiply(belief, terms, out=terms)
+        return float(-terms.sum())  # -(Σ x) is Σ(-x) exactly: negation commutes with rounding
     return entropy(belief)
 
 
@@ -103,15 +106,25 @@ class SuccessorEvaluator:
     def __init__(self, model: Model) -> None:
         self.model = model
         self._groups = [_groups(action, model.n_states) for action in model.actions]
+        self._work: tuple[np.ndarray, np.ndarray] | None = None
+
+    def _buffers(self) -> tuple[np.ndarray, np.ndarray]:
+        """Two scratch vectors of |S| floats, reused by every evaluation: a new 80 MB array costs its
+        page faults at 10^7 states."""
+        if self._work is None:
+            self._work = (np.empty(self.model.n_states), np.empty(self.model.n_states))
+        return self._work
 
     def evaluate(self, belief: np.ndarray) -> list[SuccessorStats]:
         """Every successor of ``belief`` with non-zero probability, in action then observation order."""
         out: list[SuccessorStats] = []
+        work = self._buffers()[0]
         for index, action in enumerate(self.model.actions):
-            predicted = predict(action, belief)
+            # a perception's prediction is the belief itself, only read here: no copy
+            predicted = belief if action.transition_transposed is None else predict(action, belief)
             groups = self._groups[index]
             if groups is None:
-                out.append(SuccessorStats(index, None, 1.0, _entropy(predicted), float(predicted.max())))
+                out.append(SuccessorStats(index, None, 1.0, _entropy(predicted, work), float(predicted.max())))
                 continue
             out.extend(self._observe(index, groups, predicted))
         return out
@@ -131,9 +144,12 @@ class SuccessorEvaluator:
                 yield stats, weighted
 
     def _observe(self, index: int, groups: _Groups, predicted: np.ndarray) -> list[SuccessorStats]:
-        ordered = predicted[groups.order]
+        first, second = self._buffers()
+        # order is a permutation: "clip" never clips (and "raise" would copy through a buffer)
+        ordered = np.take(predicted, groups.order, out=first, mode="clip")
         if ordered.size and ordered.min() > 0.0:
-            xlogx = ordered * np.log(ordered)  # what the np.where below gives when no entry is 0
+            xlogx = np.log(ordered, out=second)  # ordered ln ordered: the np.where below when no entry is 0
+            np.multiply(ordered, xlogx, out=xlogx)
         else:
             with np.errstate(divide="ignore", invalid="ignore"):
                 xlogx = np.where(ordered > 0.0, ordered * np.log(ordered), 0.0)
