@@ -71,21 +71,33 @@ def _groups(action: Action, n_states: int) -> _Groups | None:
     key = np.zeros(n_states, dtype=np.int64)
     for part in parts:
         key = key * part.confusion.shape[0] + part.truth
-    # the same stable order; numpy sorts 16-bit keys by radix (a few signatures: 4x faster at 10^6 states)
-    small = key.size and key.min() >= 0 and key.max() < 2**16
-    order = np.argsort(key.astype(np.uint16) if small else key, kind="stable")
-    sorted_key = key[order]
-    starts = np.flatnonzero(np.r_[True, sorted_key[1:] != sorted_key[:-1]])
+    exact = all(part.confusion.dtype == np.float64 for part in parts)
+    label: np.ndarray | None = None
+    if n_states and key.min() >= 0 and key.max() < 2**16:
+        # few signatures (the usual case): the same stable order, radix-sorted on 16 bits; the groups
+        # counted, and each state's group looked up from its key, without gathering 10^7 keys
+        small = key.astype(np.uint16)
+        order = np.argsort(small, kind="stable")
+        counts = np.bincount(small)
+        present = np.flatnonzero(counts)
+        starts = np.r_[0, np.cumsum(counts[present])[:-1]].astype(np.intp)
+        if exact:
+            lookup = np.zeros(len(counts), dtype=np.int32)
+            lookup[present] = np.arange(len(present), dtype=np.int32)
+            label = lookup[small]
+    else:
+        order = np.argsort(key, kind="stable")
+        sorted_key = key[order]
+        boundary = np.r_[True, sorted_key[1:] != sorted_key[:-1]]
+        starts = np.flatnonzero(boundary)
+        if exact:
+            label = np.empty(n_states, dtype=np.intp)
+            label[order] = np.cumsum(boundary, dtype=np.intp) - 1
+    # with a label, O[:, o] = C[label, o]: one gather from a small table instead of one per part; the
+    # table's entries are the same products in the same order as ObservationModel.likelihood's
     table = action.observation.likelihood_matrix(order[starts])
     with np.errstate(divide="ignore"):
         log_table = np.where(table > 0.0, np.log(np.where(table > 0.0, table, 1.0)), 0.0)
-    label = None
-    if all(part.confusion.dtype == np.float64 for part in parts):
-        # O[:, o] = C[label, o]: one gather from a small table instead of one per part; the table's
-        # entries are the same products in the same order as ObservationModel.likelihood's (bit for bit)
-        index = np.cumsum(np.r_[False, sorted_key[1:] != sorted_key[:-1]], dtype=np.intp)
-        label = np.empty(n_states, dtype=np.int32 if len(starts) < 2**31 else np.intp)
-        label[order] = index
     return _Groups(order, starts, label, table, log_table)
 
 
