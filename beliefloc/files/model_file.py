@@ -404,7 +404,10 @@ class _ModelReader:
             )
         data = archive.array(f"action{i}_data", "f", (nnz,)).astype(np.float64, copy=False)
         _check_probabilities(self, f"action{i}_data ({name})", data)
-        sums = np.bincount(np.repeat(np.arange(n), steps), weights=data, minlength=n)
+        # each row's sum without an nnz-long row index (a 0 after the data: reduceat reads one entry
+        # at a row that starts at the end, and an empty row's sum is 0)
+        sums = np.add.reduceat(np.r_[data, 0.0], indptr[:-1]) if n else np.zeros(0)
+        sums[steps == 0] = 0.0
         wrong = np.flatnonzero(np.abs(sums - 1.0) > TOLERANCE)
         if len(wrong):
             row = int(wrong[0])

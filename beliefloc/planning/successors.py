@@ -55,6 +55,9 @@ class _Groups:
 
     order: np.ndarray
     starts: np.ndarray
+    label: np.ndarray | None
+    """Each state's group (its position in ``starts``), or None when :meth:`likelihood` must be
+    computed part by part (a part's table not float64)."""
     likelihood: np.ndarray
     """``C[g, o]``: likelihood of every observation in each group (groups × observations)."""
     log_likelihood: np.ndarray
@@ -68,13 +71,45 @@ def _groups(action: Action, n_states: int) -> _Groups | None:
     key = np.zeros(n_states, dtype=np.int64)
     for part in parts:
         key = key * part.confusion.shape[0] + part.truth
-    order = np.argsort(key, kind="stable")
-    sorted_key = key[order]
-    starts = np.flatnonzero(np.r_[True, sorted_key[1:] != sorted_key[:-1]])
+    exact = all(part.confusion.dtype == np.float64 for part in parts)
+    label: np.ndarray | None = None
+    if n_states and key.min() >= 0 and key.max() < 2**16:
+        # few signatures (the usual case): the same stable order, radix-sorted on 16 bits; the groups
+        # counted, and each state's group looked up from its key, without gathering 10^7 keys
+        small = key.astype(np.uint16)
+        order = np.argsort(small, kind="stable")
+        counts = np.bincount(small)
+        present = np.flatnonzero(counts)
+        starts = np.r_[0, np.cumsum(counts[present])[:-1]].astype(np.intp)
+        if exact:
+            lookup = np.zeros(len(counts), dtype=np.int32)
+            lookup[present] = np.arange(len(present), dtype=np.int32)
+            label = lookup[small]
+    else:
+        order = np.argsort(key, kind="stable")
+        sorted_key = key[order]
+        boundary = np.r_[True, sorted_key[1:] != sorted_key[:-1]]
+        starts = np.flatnonzero(boundary)
+        if exact:
+            label = np.empty(n_states, dtype=np.intp)
+            label[order] = np.cumsum(boundary, dtype=np.intp) - 1
+    # with a label, O[:, o] = C[label, o]: one gather from a small table instead of one per part; the
+    # table's entries are the same products in the same order as ObservationModel.likelihood's
     table = action.observation.likelihood_matrix(order[starts])
     with np.errstate(divide="ignore"):
         log_table = np.where(table > 0.0, np.log(np.where(table > 0.0, table, 1.0)), 0.0)
-    return _Groups(order, starts, table, log_table)
+    return _Groups(order, starts, label, table, log_table)
+
+
+def _entropy(belief: np.ndarray, work: np.ndarray | None = None) -> float:
+    """:func:`beliefloc.belief.entropy`, bit for bit, without copying a belief whose every entry is > 0
+    (every belief of a noisy model: selecting them is most of the cost on 10^6 states); ``work``, an
+    array of the belief's shape, holds ``b ln b`` instead of two new arrays."""
+    if belief.size and belief.min() > 0.0:
+        terms = np.log(belief, out=work)
+        np.multiply(belief, terms, out=terms)
+        return float(-terms.sum())  # -(Σ x) is Σ(-x) exactly: negation commutes with rounding
+    return entropy(belief)
 
 
 class SuccessorEvaluator:
@@ -83,15 +118,25 @@ class SuccessorEvaluator:
     def __init__(self, model: Model) -> None:
         self.model = model
         self._groups = [_groups(action, model.n_states) for action in model.actions]
+        self._work: tuple[np.ndarray, np.ndarray] | None = None
+
+    def _buffers(self) -> tuple[np.ndarray, np.ndarray]:
+        """Two scratch vectors of |S| floats, reused by every evaluation: a new 80 MB array costs its
+        page faults at 10^7 states."""
+        if self._work is None:
+            self._work = (np.empty(self.model.n_states), np.empty(self.model.n_states))
+        return self._work
 
     def evaluate(self, belief: np.ndarray) -> list[SuccessorStats]:
         """Every successor of ``belief`` with non-zero probability, in action then observation order."""
         out: list[SuccessorStats] = []
+        work = self._buffers()[0]
         for index, action in enumerate(self.model.actions):
-            predicted = predict(action, belief)
+            # a perception's prediction is the belief itself, only read here: no copy
+            predicted = belief if action.transition_transposed is None else predict(action, belief)
             groups = self._groups[index]
             if groups is None:
-                out.append(SuccessorStats(index, None, 1.0, entropy(predicted), float(predicted.max())))
+                out.append(SuccessorStats(index, None, 1.0, _entropy(predicted, work), float(predicted.max())))
                 continue
             out.extend(self._observe(index, groups, predicted))
         return out
@@ -102,18 +147,24 @@ class SuccessorEvaluator:
             predicted = predict(action, belief)
             groups = self._groups[index]
             if groups is None:
-                yield SuccessorStats(index, None, 1.0, entropy(predicted), float(predicted.max())), predicted
+                yield SuccessorStats(index, None, 1.0, _entropy(predicted), float(predicted.max())), predicted
                 continue
             for stats in self._observe(index, groups, predicted):
                 assert stats.observation is not None
-                weighted: np.ndarray = predicted * action.observation.likelihood(stats.observation)
+                weighted: np.ndarray = predicted * self._likelihood(index, stats.observation)
                 weighted /= weighted.sum()
                 yield stats, weighted
 
     def _observe(self, index: int, groups: _Groups, predicted: np.ndarray) -> list[SuccessorStats]:
-        ordered = predicted[groups.order]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            xlogx = np.where(ordered > 0.0, ordered * np.log(ordered), 0.0)
+        first, second = self._buffers()
+        # order is a permutation: "clip" never clips (and "raise" would copy through a buffer)
+        ordered = np.take(predicted, groups.order, out=first, mode="clip")
+        if ordered.size and ordered.min() > 0.0:
+            xlogx = np.log(ordered, out=second)  # ordered ln ordered: the np.where below when no entry is 0
+            np.multiply(ordered, xlogx, out=xlogx)
+        else:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                xlogx = np.where(ordered > 0.0, ordered * np.log(ordered), 0.0)
         mass = np.add.reduceat(ordered, groups.starts)
         mass_log_mass = np.add.reduceat(xlogx, groups.starts)
         peak = np.maximum.reduceat(ordered, groups.starts)
@@ -134,6 +185,14 @@ class SuccessorEvaluator:
         predicted = predict(act, belief)
         if observation is None:
             return predicted
-        weighted: np.ndarray = predicted * act.observation.likelihood(observation)
+        weighted: np.ndarray = predicted * self._likelihood(action, observation)
         weighted /= weighted.sum()
         return weighted
+
+    def _likelihood(self, action: int, observation: int) -> np.ndarray:
+        """``O_a[:, o]``, equal to ``ObservationModel.likelihood(o)`` bit for bit."""
+        groups = self._groups[action]
+        if groups is None or groups.label is None:
+            return self.model.actions[action].observation.likelihood(observation)
+        column: np.ndarray = groups.likelihood[:, observation][groups.label]
+        return column
