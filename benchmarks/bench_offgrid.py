@@ -75,7 +75,9 @@ def run_map(
     rows: list[dict[str, object]] = []
     print(f"{name}: {model.n_states} states, compiled in {compile_seconds:.1f} s", flush=True)
     for clutter in clutters:
-        setup = ContinuousSetup(smap, clutter=clutter, report_odometry=not args.protocol_1)
+        setup = ContinuousSetup(
+            smap, clutter=clutter, report_odometry=not args.protocol_1, lattice=args.filter == "lattice"
+        )
         for strategy in strategies:
             try:  # ec2-macros builds its macro table first: a region model on an occupancy map has none
                 make_strategy(StrategyName(strategy), settings, shared, np.random.default_rng(0))
@@ -155,6 +157,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--episodes", type=int, default=30)
     parser.add_argument("--first", type=int, default=0, help="the first episode's number")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--filter", choices=["lattice", "states"], default="lattice", help="localize's belief: pose lattice or states"
+    )
     parser.add_argument("--protocol-1", action="store_true", help="replies carry readings only")
     parser.add_argument("--max-steps", type=int, default=60)
     parser.add_argument("--time-limit", type=float, default=2.0, help="seconds per plan call")
