@@ -143,19 +143,19 @@ def print_step_summaries(
 
     from beliefloc.render import print_lines
 
-    summaries = summary_lines(model, beliefs)
-    plain = not console.is_terminal and console.color_system is None
-    if not plain:
+    if console.is_terminal or console.color_system is not None:
         batch: list[Text] = []
         for i, (code, p) in enumerate(zip(codes.tolist(), probabilities.tolist(), strict=True)):
             step = steps[code]
             number = first + i
-            header = step_header(
-                number, step.text, step.action.name, step.observation, None if step.index is None else p
+            shown = None if step.index is None else p
+            batch.extend(
+                [Text()] * (number > 1) + [step_header(number, step.text, step.action.name, step.observation, shown)]
             )
-            batch.extend([Text()] * (number > 1) + [header, summary_line(model, beliefs[i])])
+            batch.append(summary_line(model, beliefs[i]))
         print_lines(console, batch)
         return
+    summaries = summary_lines(model, beliefs)
     heads = [strip_control_codes(step.text) for step in steps]
     tails = [
         "   nothing observed: prediction only"
