@@ -2,7 +2,7 @@
 
     python benchmarks/bench_track_steps.py                  # 10^6 steps, 3 repeats (~8 min), to results/track-steps.md
     python benchmarks/bench_track_steps.py --steps 100000 --repeats 1 --output /tmp/t.md   # a smoke run
-    python benchmarks/bench_track_steps.py --before e4ff6b3  # another "before" commit
+    python benchmarks/bench_track_steps.py --before e4ff6b3 --after HEAD  # two commits
 
 The log is what a robot in the kitchen (``maps/kitchen.yaml``, 36 states) would write: a seeded
 walk whose true state moves by the map's own transitions (a move fails with the map's 0.02) and
@@ -126,13 +126,14 @@ def run_track(code_root: Path, log: Path, options: list[str]) -> Run:
 
 
 def extract(commit: str, into: Path) -> Path:
-    """The package and the maps of ``commit``, as ``git archive`` gives them, under ``into``."""
-    archive = into / "before.tar"
+    """The package and the maps of ``commit``, as ``git archive`` gives them, in a new folder of ``into``."""
+    folder = Path(tempfile.mkdtemp(dir=into))
+    archive = folder / "code.tar"
     with archive.open("wb") as out:
         subprocess.run(["git", "archive", commit, "beliefloc", "maps"], cwd=ROOT, stdout=out, check=True)
     with tarfile.open(archive) as tar:
-        tar.extractall(into / "before", filter="data")
-    return into / "before"
+        tar.extractall(folder, filter="data")
+    return folder
 
 
 def main() -> None:
@@ -141,6 +142,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=30)
     parser.add_argument("--repeats", type=int, default=3, help="runs of each (code, mode); the least time counts")
     parser.add_argument("--before", default="e4ff6b3", help="the commit to compare with (before issue 30's speed-up)")
+    parser.add_argument("--after", help="a commit to time instead of the working tree")
     parser.add_argument("--modes", nargs="+", choices=list(MODES), default=list(MODES))
     parser.add_argument("--output", type=Path, default=RESULTS / "track-steps.md")
     args = parser.parse_args()
@@ -151,7 +153,10 @@ def main() -> None:
         start = time.perf_counter()
         write_log(log, args.steps, args.seed)
         print(f"log: {log.stat().st_size / 2**20:.1f} MiB in {time.perf_counter() - start:.1f} s", flush=True)
-        codes = {"before": extract(args.before, folder), "after": ROOT}
+        codes = {
+            "before": extract(args.before, folder),
+            "after": ROOT if args.after is None else extract(args.after, folder),
+        }
         loads: list[float] = []
         best: dict[tuple[str, str], Run] = {}
         hashes: dict[tuple[str, str], set[str]] = {}
@@ -177,7 +182,7 @@ def main() -> None:
         f"{args.steps:,} steps of a seeded walk in the kitchen (seed {args.seed}; "
         "`python benchmarks/bench_track_steps.py`), each mode in a fresh process, stdout a pipe hashed by "
         f"the benchmark; least wall time of {args.repeats} repeats. Before: commit `{args.before}`; after: "
-        f"the working tree. CPU: {cpu_name()}, {os.cpu_count()} cores shared with other work; load average "
+        f"{'the working tree' if args.after is None else f'commit `{args.after}`'}. CPU: {cpu_name()}, {os.cpu_count()} cores shared with other work; load average "
         f"(1 min) before each run: {min(loads):.2f} to {max(loads):.2f}.",
         "",
         "| mode | before s | after s | before / after | before CPU s | after CPU s | peak RSS MiB before / after "

@@ -252,16 +252,15 @@ def test_a_step_log_is_what_step_lines_and_resolve_steps_read() -> None:
             text_log(model, bad, "run.log")
 
 
-def test_a_log_of_distinct_lines_is_read_alike(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Past the cache of raw lines (every line differs by its comment), lines are read one by one."""
-    from beliefloc.robots import tracking
-
-    monkeypatch.setattr(tracking, "_KNOWN_LINES", 4)
+def test_a_log_of_distinct_lines_is_read_alike() -> None:
+    """Every line differs by its comment: each is looked at, and the steps are still held once."""
     model = compile_model(load_map(KITCHEN))
     text = "".join(f"{step}  # t={i}\n" for i, step in enumerate(STORY * 3))
     log = text_log(model, text, "run.log")
-    assert [log.step(i).text for i in range(len(log))] == STORY * 3
+    assert [log.step(i).text for i in range(len(log))] == STORY * 3 and len(log.steps) == len(STORY)
     assert log.step(17).label == "run.log:18: 'scan=wall_0.2-0.8'"
+    with pytest.raises(InvalidValueError, match=r"^run.log:20: 'scan=wal': unknown observation 'wal'"):
+        text_log(model, text + "forward # t=18\nscan=wal  # t=19\n", "run.log")
 
 
 @pytest.mark.parametrize(("name", "seed"), MODELS)

@@ -216,42 +216,29 @@ def argument_log(model: Model, texts: Sequence[str]) -> StepLog:
     return StepLog(ordered, np.array([distinct[step.text] for step in steps], dtype=np.int32))
 
 
-_KNOWN_LINES = 1 << 16
-"""How many distinct raw lines :func:`text_log` remembers (a log whose every line differs, e.g. by a
-time stamp in a comment, must not make the cache as large as the log)."""
-
-
 def text_log(model: Model, text: str, name: str) -> StepLog:
     """The steps of a step file's ``text`` (read from ``name``) as :func:`step_lines` and
     :func:`resolve_steps` read and check them, with the same messages, but each distinct line
     looked at once and the log held compactly (:class:`StepLog`)."""
-    from array import array
-
-    by_line: dict[str, int] = {}  # a raw line -> its distinct step, or -1: no step on it
+    lines = text.splitlines()
+    by_line: dict[str, int] = {}  # each distinct raw line, in the order they first appear -> its step, or -1
     by_text: dict[str, int] = {}
     steps: list[Step] = []
-    codes, numbers = array("i"), array("i")
-    for number, line in enumerate(text.splitlines(), start=1):
-        code = by_line.get(line)
+    for line in dict.fromkeys(lines):
+        step = line.split(COMMENT, 1)[0].strip()
+        code = -1 if not step else by_text.get(step)
         if code is None:
-            step = line.split(COMMENT, 1)[0].strip()
-            if not step:
-                code = -1
-            else:
-                code = by_text.get(step)
-                if code is None:
-                    code = by_text[step] = len(steps)
-                    steps.append(_resolve(model, step, f"{name}:{number}: {step!r}"))
-            if len(by_line) < _KNOWN_LINES:
-                by_line[line] = code
-        if code >= 0:
-            codes.append(code)
-            numbers.append(number)
-    if not codes:
+            number = lines.index(line) + 1  # its first line: the first one a message can name
+            code = by_text[step] = len(steps)
+            steps.append(_resolve(model, step, f"{name}:{number}: {step!r}"))
+        by_line[line] = code
+    every = np.fromiter(map(by_line.__getitem__, lines), dtype=np.int32, count=len(lines))
+    kept = every >= 0
+    if not kept.any():
         raise InvalidValueError(
             f"{name}: no steps, only blank lines and comments; write one step per line, e.g. look=nothing"
         )
-    return StepLog(tuple(steps), np.frombuffer(codes, dtype=np.int32), np.frombuffer(numbers, dtype=np.int32), name)
+    return StepLog(tuple(steps), every[kept], (np.flatnonzero(kept) + 1).astype(np.int32), name)
 
 
 def read_step_log(model: Model, path: str | Path) -> StepLog:
@@ -274,11 +261,16 @@ class TrackedChunk:
     """``(steps, states)``: the belief after each step."""
 
 
-CHUNK_STEPS = 4096
+CHUNK_STEPS = 512
+"""Steps a chunk holds, at most: a few hundred kB for the kitchen's 36 states. Larger chunks were
+slower: each chunk's arrays (and ``track --json``'s text) were memory the kernel had to map anew."""
+CHUNK_VALUES = 1 << 18
+"""Beliefs' values a chunk holds, at most (2 MB): a map of 50,000 states gets chunks of 5 steps."""
 
 
-def track_chunks(model: Model, belief: np.ndarray, log: StepLog, size: int = CHUNK_STEPS) -> Iterator[TrackedChunk]:
-    """:func:`track_beliefs` over a :class:`StepLog`, ``size`` steps at a time, with the same
+def track_chunks(model: Model, belief: np.ndarray, log: StepLog, size: int | None = None) -> Iterator[TrackedChunk]:
+    """:func:`track_beliefs` over a :class:`StepLog`, ``size`` steps at a time (default:
+    :data:`CHUNK_STEPS`, fewer for a large map: :data:`CHUNK_VALUES`), with the same
     beliefs bit for bit and the same messages: a million-step log spends a few microseconds a step.
 
     Each distinct action's ``T_aᵀ`` is held as ``(width, states)`` arrays of its CSR rows padded with
@@ -288,8 +280,11 @@ def track_chunks(model: Model, belief: np.ndarray, log: StepLog, size: int = CHU
     steps before it come as a last, shorter chunk, then :class:`ImpossibleObservationError` naming
     the step."""
     kernels = [_kernel(step) for step in log.steps]
+    add = np.add.reduce
     current = np.ascontiguousarray(belief, dtype=np.float64)
     n = len(current)
+    if size is None:
+        size = max(1, min(CHUNK_STEPS, CHUNK_VALUES // max(n, 1)))
     for start in range(0, len(log), size):
         codes = log.codes[start : start + size]
         beliefs = np.empty((len(codes), n))
@@ -310,7 +305,7 @@ def track_chunks(model: Model, belief: np.ndarray, log: StepLog, size: int = CHU
                 row[:] = predicted
             else:
                 weighted = predicted * likelihood
-                total = float(weighted.sum())
+                total = float(add(weighted))  # weighted.sum(), without its Python frames
                 if not total > 0.0:
                     if k:
                         yield TrackedChunk(start, codes[:k], probabilities[:k], beliefs[:k])
