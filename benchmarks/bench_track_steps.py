@@ -176,13 +176,14 @@ def main() -> None:
                     if (code, mode) not in best or run.seconds < best[code, mode].seconds:
                         best[code, mode] = run
 
+    after = "the working tree" if args.after is None else f"commit `{args.after}`"
     lines = [
         "# track --steps: a million-step log, before and after",
         "",
         f"{args.steps:,} steps of a seeded walk in the kitchen (seed {args.seed}; "
         "`python benchmarks/bench_track_steps.py`), each mode in a fresh process, stdout a pipe hashed by "
         f"the benchmark; least wall time of {args.repeats} repeats. Before: commit `{args.before}`; after: "
-        f"{'the working tree' if args.after is None else f'commit `{args.after}`'}. CPU: {cpu_name()}, {os.cpu_count()} cores shared with other work; load average "
+        f"{after}. CPU: {cpu_name()}, {os.cpu_count()} cores shared with other work; load average "
         f"(1 min) before each run: {min(loads):.2f} to {max(loads):.2f}.",
         "",
         "| mode | before s | after s | before / after | before CPU s | after CPU s | peak RSS MiB before / after "
