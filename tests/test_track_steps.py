@@ -354,8 +354,7 @@ def test_track_json_of_a_log_is_print_json_of_its_steps(
         monkeypatch.setattr(model_sources, "open_model", lambda path, **_: model)
     log = tmp_path / "run.log"
     log.write_text("\n".join(texts) + "\n", encoding="utf-8")
-    source = KITCHEN if seed is None else "random.pomdp"
-    source = str(MAPS / f"{name}.yaml") if seed is None else source
+    source = str(MAPS / f"{name}.yaml") if seed is None else "random.pomdp"  # the latter: the model patched in
     result = runner.invoke(app, ["track", source, "--steps", str(log), "--json"])
     assert result.exit_code == 0, result.output
     assert result.stdout == _reference_json(model, texts)
