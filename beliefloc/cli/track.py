@@ -11,13 +11,11 @@ import typer
 from beliefloc.cli.common import boundary, initial_belief, open_model, warn, warn_if_too_wide
 from beliefloc.cli.options import BeliefOption, CompactOption, JsonOption, ModelArgument, TopOption
 from beliefloc.errors import UsageError
-from beliefloc.render import print_lines, stdout_console
+from beliefloc.render import stdout_console
 
 if TYPE_CHECKING:
-    import numpy as np
-
     from beliefloc.model import Model
-    from beliefloc.robots.tracking import Step, StepLine
+    from beliefloc.robots.tracking import StepLog
 
 
 StepsArgument = Annotated[
@@ -188,58 +186,63 @@ def track(
     ):
         if value is not None:
             raise UsageError(f"{name} goes with --bag RUN (a ROS recording)")
-    from rich.text import Text
-
     from beliefloc.render.belief_grid import belief_view
     from beliefloc.render.drawing import uses_color
-    from beliefloc.render.state_tables import belief_summary, step_header, summary_line
-    from beliefloc.robots.tracking import resolve_steps, track_beliefs
+    from beliefloc.render.state_tables import belief_summary, print_step_summaries, step_header
+    from beliefloc.robots.tracking import track_chunks
 
     written = _steps(steps, steps_file)
     model = open_model(source)
     belief = initial_belief(model, belief_spec)
-    resolved = resolve_steps(model, written)  # every step checked before the output starts
+    log = _step_log(model, written)  # every step checked before the output starts
     if json_output:
-        _print_json_steps(model, belief, resolved)
+        from beliefloc.cli.track_steps import print_json_steps
+
+        print_json_steps(model, belief, log)
         return
-    if not final_only and len(resolved) > DRAW_EVERY_STEP_UP_TO:
+    total = len(log)
+    if not final_only and total > DRAW_EVERY_STEP_UP_TO:
         final_only = True
         warn(
-            f"{len(resolved):,} steps (more than {DRAW_EVERY_STEP_UP_TO:,}): each step gets its one-line summary "
+            f"{total:,} steps (more than {DRAW_EVERY_STEP_UP_TO:,}): each step gets its one-line summary "
             "and only the final belief its map, as with --final-only; --json gives every belief"
         )
     console = stdout_console()
     color = uses_color(console)
     width = console.width
     warn_if_too_wide(model.grid, compact, width, color)
-    # --final-only: a step is two lines, and a steps file may hold a million steps (print_lines)
-    batch: list[Text] = []
-    for t in track_beliefs(model, belief, resolved):
-        header = step_header(t.number, t.step.text, t.step.action.name, t.step.observation, t.probability)
-        if final_only and t.number < len(resolved):
-            batch.extend([Text()] * (t.number > 1) + [header, summary_line(model, t.belief)])
-            if len(batch) >= _BATCH_LINES:
-                print_lines(console, batch)
-                batch.clear()
-            continue
-        print_lines(console, batch)
-        batch.clear()
-        if t.number > 1:
-            console.print()
-        console.print(header)
-        if t.number == len(resolved):
-            view = belief_view(model, t.belief, compact=compact, width=width, color=color, top=top)
-            console.print(view, crop=False)
-        elif final_only:
-            console.print(summary_line(model, t.belief))
-        elif model.grid is None:
-            console.print(belief_summary(model, t.belief, top=top, color=color))
-        else:
-            view = belief_view(model, t.belief, compact=compact, width=width, color=color, top=0, legend=False)
-            console.print(view, crop=False)
+    for chunk in track_chunks(model, belief, log):
+        count = len(chunk.codes)
+        drawn = 0
+        if final_only:  # a step is two lines, and a steps file may hold a million steps
+            drawn = count - (chunk.start + count == total)
+            print_step_summaries(
+                console,
+                model,
+                log.steps,
+                chunk.start + 1,
+                chunk.codes[:drawn],
+                chunk.probabilities[:drawn],
+                chunk.beliefs[:drawn],
+            )
+        for i in range(drawn, count):
+            number = chunk.start + i + 1
+            step = log.steps[int(chunk.codes[i])]
+            probability = None if step.index is None else float(chunk.probabilities[i])
+            after = chunk.beliefs[i]
+            if number > 1:
+                console.print()
+            console.print(step_header(number, step.text, step.action.name, step.observation, probability))
+            if number == total:
+                view = belief_view(model, after, compact=compact, width=width, color=color, top=top)
+                console.print(view, crop=False)
+            elif model.grid is None:
+                console.print(belief_summary(model, after, top=top, color=color))
+            else:
+                view = belief_view(model, after, compact=compact, width=width, color=color, top=0, legend=False)
+                console.print(view, crop=False)
 
 
-_BATCH_LINES = 3000
 DRAW_EVERY_STEP_UP_TO = 1000
 """Without --final-only, a log of more steps than this prints as with it (a map per step of a
 million-step log would be hours of output no one reads)."""
@@ -287,60 +290,9 @@ def _track_bag(
     )
 
 
-def _print_json_steps(model: Model, belief: np.ndarray, resolved: list[Step]) -> None:
-    """What ``track --json`` prints, as :func:`print_json` would print it, built a step at a time in a
-    temporary file (a log of a million steps is never held whole), then copied to stdout: a step
-    whose observation is impossible leaves no half document on stdout."""
-    import json
-    import shutil
-    import tempfile
-
-    import numpy as np
-
-    from beliefloc.belief import by_state_name
-    from beliefloc.pose import pose_json
-    from beliefloc.robots.tracking import track_beliefs
-
-    dumps = json.dumps
-    # each step's belief as json.dumps(..., indent=2) writes it, its keys escaped once (36 million
-    # values for a log of a million steps: through json's Python encoder that took 60 s of CPU)
-    keys = [f"        {dumps(name)}: " for name in model.states.names]
-    final = belief
-    with tempfile.TemporaryFile("w+", encoding="utf-8") as spool:
-        write = spool.write
-        write('{\n  "steps": [')
-        for t in track_beliefs(model, belief, resolved):
-            if not np.isfinite(t.belief).all():
-                raise AssertionError(f"step {t.number}: the belief holds a value that is not a finite number")
-            shown = dumps(t.belief.tolist())[1:-1].split(", ")  # float.__repr__ of each, by json's C encoder
-            probability = None if t.probability is None else float(t.probability)
-            write(
-                ("\n" if t.number == 1 else ",\n")
-                + f'    {{\n      "step": {dumps(t.step.text)},\n      "action": {dumps(t.step.action.name)},\n'
-                + f'      "observation": {dumps(t.step.observation)},\n'
-                + f'      "probability": {dumps(probability, allow_nan=False)},\n      "belief": {{\n'
-                + ",\n".join(map(str.__add__, keys, shown))
-                + "\n      }\n    }"
-            )
-            final = t.belief
-        write("\n  ],\n")
-        belief_text = _indented(by_state_name(model, final), 2).lstrip()
-        write(f'  "belief": {belief_text},\n  "pose": {_indented(pose_json(model, final), 2).lstrip()}\n}}\n')
-        spool.seek(0)
-        shutil.copyfileobj(spool, sys.stdout)
-
-
-def _indented(value: object, spaces: int) -> str:
-    """``value`` as :func:`print_json` writes it inside a document, ``spaces`` deep."""
-    import json
-
-    pad = " " * spaces
-    return "\n".join(pad + line for line in json.dumps(value, indent=2, allow_nan=False).splitlines())
-
-
-def _steps(arguments: list[str] | None, steps_file: str | None) -> list[str] | list[StepLine]:
-    """The steps from the arguments or from ``--steps FILE|-``: one or the other."""
-    from beliefloc.robots.tracking import MAX_STEP_FILE_BYTES, read_step_file, step_lines
+def _steps(arguments: list[str] | None, steps_file: str | None) -> list[str] | tuple[str, str]:
+    """The steps from the arguments, or the text of ``--steps FILE|-`` and its name: one or the other."""
+    from beliefloc.robots.tracking import MAX_STEP_FILE_BYTES, step_file_text
 
     if steps_file is None:
         if not arguments:
@@ -349,14 +301,23 @@ def _steps(arguments: list[str] | None, steps_file: str | None) -> list[str] | l
     if arguments:
         raise UsageError(f"--steps {steps_file}: give the steps either as STEP... arguments or with --steps, not both")
     if steps_file != STDIN:
-        return read_step_file(steps_file)
+        return step_file_text(Path(steps_file)), str(Path(steps_file))
     try:
         text = sys.stdin.read(MAX_STEP_FILE_BYTES + 1)
     except UnicodeDecodeError as exc:
         raise UsageError(f"--steps -: stdin is not UTF-8 text ({exc.reason})") from None
     if len(text) > MAX_STEP_FILE_BYTES:
         raise UsageError(f"--steps -: stdin holds more than {MAX_STEP_FILE_BYTES // 2**20} MiB of steps, the most read")
-    return step_lines(text, "<stdin>")
+    return text, "<stdin>"
+
+
+def _step_log(model: Model, written: list[str] | tuple[str, str]) -> StepLog:
+    """The steps checked against ``model``: the arguments, or the lines of a step file's text."""
+    from beliefloc.robots.tracking import argument_log, text_log
+
+    if isinstance(written, tuple):
+        return text_log(model, *written)
+    return argument_log(model, written)
 
 
 def register(app: typer.Typer) -> None:

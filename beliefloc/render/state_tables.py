@@ -6,8 +6,11 @@ Functions here only observe a belief; they return rich renderables and never pri
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
-from rich.console import Group, RenderableType
+from rich.console import Console, Group, RenderableType
 from rich.control import strip_control_codes
 from rich.table import Table
 from rich.text import Text
@@ -15,6 +18,9 @@ from rich.text import Text
 from beliefloc.belief import entropy, most_likely
 from beliefloc.model import Model
 from beliefloc.render.drawing import COMPASS, HIGHLIGHT, PALETTE
+
+if TYPE_CHECKING:
+    from beliefloc.robots.tracking import Step
 
 
 def describe_state(model: Model, state: int) -> str:
@@ -88,3 +94,100 @@ def step_header(number: int, step: str, action: str, observation: str | None, pr
         text = Text(f"{head}   p({observation} | {action}, b) = {probability:.4g}")
     text.stylize("bold", 0, len(head))
     return text
+
+
+def summary_lines(model: Model, beliefs: np.ndarray) -> list[str]:
+    """``summary_line(model, b).plain`` for each row ``b`` of ``beliefs``, the rows at once: the most
+    likely state, ties and entropy computed with the same operations, so the same digits."""
+    k = len(beliefs)
+    if k == 0:
+        return []
+    states = beliefs.argmax(axis=1)
+    p = beliefs[np.arange(k), states]
+    ties = np.count_nonzero(np.abs(beliefs - p[:, None]) <= 1e-9 * np.abs(p)[:, None], axis=1) - 1
+    h = np.empty(k)
+    positive = (beliefs > 0.0).all(axis=1)
+    full = beliefs[positive]
+    h[positive] = -(full * np.log(full)).sum(axis=1)  # each row as entropy() sums it: contiguous, pairwise
+    for row in np.flatnonzero(~positive).tolist():
+        h[row] = entropy(beliefs[row])
+    names: dict[int, str] = {}
+    lines = []
+    for state, most, tied, nats in zip(states.tolist(), p.tolist(), ties.tolist(), h.tolist(), strict=True):
+        name = names.get(state)
+        if name is None:
+            name = names[state] = strip_control_codes(model.states.name(state))
+        tie = f" (tied with {tied} other{'s' if tied > 1 else ''})" if tied else ""
+        lines.append(f"most likely {name}  p = {most:.4g}{tie}   entropy {nats:.4g} nats")
+    return lines
+
+
+def print_step_summaries(
+    console: Console,
+    model: Model,
+    steps: Sequence[Step],
+    first: int,
+    codes: np.ndarray,
+    probabilities: np.ndarray,
+    beliefs: np.ndarray,
+) -> None:
+    """What ``track --final-only`` prints for steps ``first``, ``first + 1``, ... (numbered from
+    1): each step's :func:`step_header` and :func:`summary_line`, a blank line before every step
+    but the first, as :func:`~beliefloc.render.print_lines` prints them. ``codes`` index ``steps``;
+    ``probabilities[i]`` is ignored for a step that observed nothing.
+
+    On a console without styles (a file or a pipe) the lines are built as plain text, a few
+    microseconds a step, and written at once; a line that is not plain printable ASCII within the
+    width is measured and, if too wide, printed by rich, wrapped as ``console.print`` wraps it."""
+    from rich.cells import cell_len
+
+    from beliefloc.render import print_lines
+
+    if console.is_terminal or console.color_system is not None:
+        batch: list[Text] = []
+        for i, (code, p) in enumerate(zip(codes.tolist(), probabilities.tolist(), strict=True)):
+            step = steps[code]
+            number = first + i
+            shown = None if step.index is None else p
+            batch.extend(
+                [Text()] * (number > 1) + [step_header(number, step.text, step.action.name, step.observation, shown)]
+            )
+            batch.append(summary_line(model, beliefs[i]))
+        print_lines(console, batch)
+        return
+    summaries = summary_lines(model, beliefs)
+    heads = [strip_control_codes(step.text) for step in steps]
+    tails = [
+        "   nothing observed: prediction only"
+        if step.index is None or step.observation is None
+        else strip_control_codes(f"   p({step.observation} | {step.action.name}, b) = ")
+        for step in steps
+    ]
+    observed = [step.index is not None and step.observation is not None for step in steps]
+    width = console.width
+    out: list[str] = []
+    for i, (code, p, summary) in enumerate(zip(codes.tolist(), probabilities.tolist(), summaries, strict=True)):
+        number = first + i
+        header = (
+            f"step {number}: {heads[code]}{tails[code]}{p:.4g}"
+            if observed[code]
+            else f"step {number}: {heads[code]}{tails[code]}"
+        )
+        if number > 1:
+            out.append("\n")
+        for line, which in ((header, 0), (summary, 1)):
+            if (line.isascii() and line.isprintable() and len(line) <= width) or (
+                "\n" not in line and cell_len(line) <= width
+            ):
+                out.append(line + "\n")
+                continue
+            console.file.write("".join(out))
+            out.clear()
+            step = steps[code]
+            text = (
+                step_header(number, step.text, step.action.name, step.observation, p if observed[code] else None)
+                if which == 0
+                else summary_line(model, beliefs[i])
+            )
+            console.print(text)
+    console.file.write("".join(out))
