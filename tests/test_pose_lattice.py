@@ -204,3 +204,35 @@ def test_off_grid_robots_on_the_kitchen_are_localized_and_never_confidently_wron
         assert not record.continuous.confidently_wrong
         localized += record.status.value == "localized"
     assert localized >= 7
+
+
+def test_localize_filter_lattice_on_the_command_line() -> None:
+    """A protocol-1 robot on the kitchen that always reads a wall ahead at 0.5 m and nothing in view:
+    the loop runs with the lattice and ends with a result line, never a traceback."""
+    import json
+    import subprocess
+    import sys
+
+    beliefloc = subprocess.Popen(
+        [sys.executable, "-m", "beliefloc", "localize", str(KITCHEN), "--filter", "lattice", "--max-steps", "30", "-q"],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=ROOT,
+    )
+    assert beliefloc.stdin is not None and beliefloc.stdout is not None
+    last: dict[str, object] = {}
+    for line in beliefloc.stdout:
+        last = json.loads(line)
+        if last["message"] != "action":
+            break
+        sensors = last["sensors"]
+        assert isinstance(sensors, list)
+        readings = {s["name"]: (0.5 if s["type"] == "scan" else []) for s in sensors}
+        beliefloc.stdin.write(json.dumps({"seq": last["seq"], "readings": readings}) + "\n")
+        beliefloc.stdin.flush()
+    code = beliefloc.wait(timeout=120)
+    assert code in (0, 1), beliefloc.stderr.read() if beliefloc.stderr else ""
+    assert last["message"] == "result"
+    assert (code == 0) == last["localized"]
