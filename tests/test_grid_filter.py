@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from beliefloc.continuous.fit import FitConfig, FitTracker, inlier_fraction, surprise
-from beliefloc.continuous.grid_filter import FilterConfig, GridFilter
+from beliefloc.continuous.grid_filter import FilterConfig, GridFilter, trimmed_gap
 from beliefloc.continuous.likelihood_field import LaserModel, Scan, select_beams
 from beliefloc.continuous.raycast import cast_rays
 from beliefloc.model import MapFrame
@@ -143,8 +143,27 @@ def test_fit_numbers() -> None:
     assert not tracker.fits() and "fit the best pose poorly" in (tracker.why_not() or "")
 
 
+def test_trimmed_gap_sets_aside_the_beams_most_in_the_first_poses_favour() -> None:
+    """Ten beams: two that clutter could have put on the first pose's walls (+2.5 nats each) and one
+    that favours the second (-2.0). Untrimmed the first pose wins by 3 nats; with a share of 0.2
+    (two beams) the two favourable beams are set aside and the second pose is ahead."""
+    theirs = np.full(10, -1.0)
+    mine = theirs.copy()
+    mine[[2, 7]] += 2.5
+    mine[4] -= 2.0
+    assert float((mine - theirs).sum()) == pytest.approx(3.0)
+    assert trimmed_gap(mine, theirs, 0.0) == pytest.approx(3.0)
+    assert trimmed_gap(mine, theirs, 0.1) == pytest.approx(0.5)  # ceil(0.1 * 10) = 1 beam
+    assert trimmed_gap(mine, theirs, 0.2) == pytest.approx(-2.0)
+    # swapped, the one beam in the first pose's favour is set aside, and nothing else
+    assert trimmed_gap(theirs, mine, 0.2) == pytest.approx(-5.0)
+    assert trimmed_gap(np.array([]), np.array([]), 0.1) == 0.0
+
+
 def test_config_is_checked() -> None:
     with pytest.raises(ValueError, match="threshold"):
         FilterConfig(threshold=1.5)
     with pytest.raises(ValueError, match="cell_size"):
         FilterConfig(cell_size=0.0)
+    with pytest.raises(ValueError, match="clutter_share"):
+        FilterConfig(clutter_share=1.0)

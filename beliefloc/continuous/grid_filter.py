@@ -541,9 +541,7 @@ class GridFilter:
         ``mine`` (:meth:`_history_beams` of the best) and the robot at ``pose``, summed: each scan's
         most favourable beams set aside, so that an unmapped object seen in every scan counts in none."""
         share = self.config.clutter_share
-        return sum(
-            (trimmed_gap(m, t, share) for m, t in zip(mine, self._history_beams(pose), strict=True)), start=0.0
-        )
+        return sum((trimmed_gap(m, t, share) for m, t in zip(mine, self._history_beams(pose), strict=True)), start=0.0)
 
     def rival_gap(self, best: Mode, beams: Beams) -> tuple[float, float, float]:
         """``(now, remembered, raw)``: ``min`` over the rivals farther than ``mode_radius`` from
