@@ -18,7 +18,10 @@ the scan over new walls quickly; its sweeps are de-skewed by the caller).
 **Verdicts.** After each update the belief's *modes* are found (the best state, the mass within
 ``mode_radius`` and ``mode_yaw`` of it, then the best state outside that, ...). The robot is
 *localized* only when the first mode holds at least ``threshold`` of the mass AND the recent scans
-fit its pose (:mod:`beliefloc.continuous.fit`). When the scans stop fitting a confident belief, a
+fit its pose (:mod:`beliefloc.continuous.fit`) AND no rival place explains them about as well
+(:attr:`FilterConfig.rival_margin`; the comparison is clutter-trimmed, :func:`trimmed_gap`: each
+scan's beams most in the best's favour are set aside, so that an unmapped object seen in every scan
+is not taken for evidence). When the scans stop fitting a confident belief, a
 little uniform mass is mixed back in (AMCL's recovery; Fox et al.'s re-spreading), so that a
 kidnapped robot can be found again.
 
