@@ -19,9 +19,9 @@ the scan over new walls quickly; its sweeps are de-skewed by the caller).
 ``mode_radius`` and ``mode_yaw`` of it, then the best state outside that, ...). The robot is
 *localized* only when the first mode holds at least ``threshold`` of the mass AND the recent scans
 fit its pose (:mod:`beliefloc.continuous.fit`) AND no rival place explains them about as well
-(:attr:`FilterConfig.rival_margin`; the comparison is clutter-trimmed, :func:`trimmed_gap`: each
-scan's beams most in the best's favour are set aside, so that an unmapped object seen in every scan
-is not taken for evidence). When the scans stop fitting a confident belief, a
+(:attr:`FilterConfig.rival_margin`; the comparison is clutter-trimmed, :func:`trimmed_gap`: the
+evidence that a few unmapped objects could have made is set aside, an object seen in every scan
+counted once). When the scans stop fitting a confident belief, a
 little uniform mass is mixed back in (AMCL's recovery; Fox et al.'s re-spreading), so that a
 kidnapped robot can be found again.
 
@@ -128,15 +128,18 @@ class FilterConfig:
     """States whose probability is below this fraction of the most probable state's are set to 0
     after an update (27 nats of evidence would be needed to bring one back), so that prediction
     and scoring run only over the box of states that still matter."""
-    clutter_share: float = 0.1
-    """The share of a scan's beams that unmapped objects (people, chairs) may put where another
-    place's map has walls. Every comparison of the best place with a rival (the streak of
-    unambiguous updates, the remembered updates, ruling a rival out) sets aside, per scan, this
-    share of the beams most in the best's favour (:func:`trimmed_gap`): a place is only told apart
-    by evidence that clutter could not have made. Measured before: on the TurtleBot3 sandbox two
-    discs by the wall where the mirror twin has a wall gave the twin 2.5 nats per beam, 5 nats per
-    scan, in every scan (a persistent object is no independent evidence), and the twin was declared
-    at 3.6 m and 180° from the truth (3 of 235 runs with ten discs, 3 of 16 depot runs with forty)."""
+    clutter_objects: int = 2
+    """Unmapped objects (people, chairs) that may stand where the rival place's map has no wall.
+    Every comparison of the best place with a rival (the streak of unambiguous updates, the
+    remembered updates, ruling a rival out) sets aside the evidence in the best's favour that this
+    many objects could have made (:func:`trimmed_gap`): a place is only told apart by evidence
+    that clutter could not have made. Measured before: on the TurtleBot3 sandbox two discs by the
+    wall where the mirror twin has a wall gave the twin 2.5 nats per beam, 5 nats per scan, in
+    every scan (a persistent object is no independent evidence), and the twin was declared at 3.6 m
+    and 180° from the truth (3 of 235 runs with ten discs; 3 of 16 depot runs with forty)."""
+    clutter_extent: float = 0.8
+    """Metres: the size of one unmapped object -- beams whose end points (at the rival's pose, in
+    the map) lie within this of the object's most favourable beam are set aside with it."""
     beam_weight: float = 1.0
     """Exponent on each beam's likelihood (1: beams independent, Table 6.3). Below 1 tempers the
     update for beams that are not independent."""
@@ -163,7 +166,8 @@ class FilterConfig:
             "distinct_updates": self.distinct_updates >= 1,
             "recovery_alpha": 0 <= self.recovery_alpha < 1,
             "beam_weight": 0 < self.beam_weight <= 1,
-            "clutter_share": 0 <= self.clutter_share < 1,
+            "clutter_objects": self.clutter_objects >= 0,
+            "clutter_extent": self.clutter_extent >= 0,
             "negligible": 0 <= self.negligible < 1,
         }
         for name, ok in checks.items():
@@ -224,18 +228,31 @@ class Update:
         }
 
 
-def trimmed_gap(mine: np.ndarray, theirs: np.ndarray, share: float) -> float:
-    """How much better one pose explains a scan than another, robust to clutter: ``sum_b (mine_b -
-    theirs_b)`` over the beams' log-likelihoods at the two poses, less the ``ceil(share * B)``
-    largest positive terms -- the beams most in the first pose's favour, which an unmapped object
-    standing where the second pose's map has no wall (and the first's has one) would produce."""
-    d = np.asarray(mine, dtype=np.float64) - np.asarray(theirs, dtype=np.float64)
-    k = min(d.size, math.ceil(share * d.size - 1e-9))
+def trimmed_gap(
+    mine: np.ndarray, theirs: np.ndarray, x: np.ndarray, y: np.ndarray, objects: int, extent: float
+) -> float:
+    """How much better one pose explains some beams than another, robust to clutter: ``sum_b
+    (mine_b - theirs_b)`` over the beams' log-likelihoods at the two poses (any shape, e.g. scans x
+    beams), less what ``objects`` unmapped objects standing where the second pose's map has no wall
+    could have made. Greedily: the beam most in the first pose's favour, and every beam in its
+    favour whose end point at the second pose (map-frame ``x``, ``y``) lies within ``extent`` metres
+    of that beam's, are set aside; then again, ``objects`` times. An object seen in every scan
+    of a remembered run is one object: it is set aside in all of them at once."""
+    d = (np.asarray(mine, dtype=np.float64) - np.asarray(theirs, dtype=np.float64)).ravel()
     total = float(d.sum())
-    if k <= 0:
-        return total
-    favour = np.partition(np.maximum(d, 0.0), d.size - k)[d.size - k :]
-    return total - float(favour.sum())
+    favour = np.maximum(d, 0.0)
+    ex, ey = np.ravel(x), np.ravel(y)
+    for _ in range(objects):
+        if favour.size == 0:
+            break
+        b = int(np.argmax(favour))
+        if favour[b] <= 0.0:
+            break
+        near = np.hypot(ex - ex[b], ey - ey[b]) <= extent
+        near &= favour > 0.0
+        total -= float(favour[near].sum())
+        favour[near] = 0.0
+    return total
 
 
 class GridFilter:
@@ -515,7 +532,7 @@ class GridFilter:
             ] = -np.inf
         if not candidates:
             return
-        mine = self._history_beams((best.x, best.y, best.yaw))
+        mine = self._history_beams((best.x, best.y, best.yaw))[0]
         total_beams = sum(b.count for _, b in self._history)
         for pose in candidates:
             refined = self.refine(pose, beams)
@@ -527,29 +544,33 @@ class GridFilter:
                 continue
             self.rivals.append([refined[0], refined[1], refined[2], 0.0])
 
-    def _history_beams(self, pose: tuple[float, float, float]) -> list[np.ndarray]:
-        """Each remembered scan's beam log-likelihoods for the robot at ``pose`` now, carried back
-        along the odometry to that update."""
+    def _history_beams(self, pose: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(ll, x, y)``: the remembered scans' beam log-likelihoods and map-frame end points for
+        the robot at ``pose`` now, carried back along the odometry to each remembered update (the
+        scans' beams concatenated)."""
         if not self._history:
-            return []
+            return np.zeros(0), np.zeros(0), np.zeros(0)
         now = self._history[-1][0]
-        out = []
+        lls, xs, ys = [], [], []
         for odom, beams in self._history:
-            back = compose(np.array([pose]), relative(now, odom))[0]
-            out.append(self.field.beam_log_likelihoods(back[None, :], beams)[0])
-        return out
+            back = compose(np.array([pose]), relative(now, odom))
+            lls.append(self.field.beam_log_likelihoods(back, beams)[0])
+            x, y = self.field.end_points(back, beams)
+            xs.append(x[0])
+            ys.append(y[0])
+        return np.concatenate(lls), np.concatenate(xs), np.concatenate(ys)
 
-    def _remembered_gap(self, mine: list[np.ndarray], pose: tuple[float, float, float]) -> float:
-        """The remembered scans' clutter-trimmed gaps (:func:`trimmed_gap`) between the beams
-        ``mine`` (:meth:`_history_beams` of the best) and the robot at ``pose``, summed: each scan's
-        most favourable beams set aside, so that an unmapped object seen in every scan counts in none."""
-        share = self.config.clutter_share
-        return sum((trimmed_gap(m, t, share) for m, t in zip(mine, self._history_beams(pose), strict=True)), start=0.0)
+    def _remembered_gap(self, mine: np.ndarray, pose: tuple[float, float, float]) -> float:
+        """How much better the remembered scans' beams ``mine`` (:meth:`_history_beams` of the best)
+        are explained than with the robot at ``pose``, clutter-trimmed over all of them at once
+        (:func:`trimmed_gap`)."""
+        theirs, x, y = self._history_beams(pose)
+        return trimmed_gap(mine, theirs, x, y, self.config.clutter_objects, self.config.clutter_extent)
 
     def rival_gap(self, best: Mode, beams: Beams) -> tuple[float, float, float]:
         """``(now, remembered, raw)``: ``min`` over the rivals farther than ``mode_radius`` from
         ``best`` of how much better ``best``'s pose explains the scan than the rival's refined pose,
-        clutter-trimmed (:func:`trimmed_gap`); of the same summed over the remembered updates
+        clutter-trimmed (:func:`trimmed_gap`); of the same over the remembered updates
         (:meth:`_remembered_gap`); and of the plain difference of the scan's log-likelihoods. inf
         with no rival. Refines every rival's pose in place, forgets rivals the scans have ruled out
         (:attr:`FilterConfig.rival_drop`, trimmed too) and keeps the :attr:`FilterConfig.max_rivals` closest."""
@@ -557,7 +578,7 @@ class GridFilter:
             return math.inf, math.inf, math.inf
         c = self.config
         mine = self.field.beam_log_likelihoods(np.array([[best.x, best.y, best.yaw]]), beams)[0]
-        mine_remembered = self._history_beams((best.x, best.y, best.yaw)) if self.rivals else []
+        mine_remembered = self._history_beams((best.x, best.y, best.yaw))[0] if self.rivals else np.zeros(0)
         kept: list[tuple[float, list[float]]] = []
         gap = remembered = raw = math.inf
         for rival in self.rivals:
@@ -565,7 +586,8 @@ class GridFilter:
             if math.hypot(pose[0] - best.x, pose[1] - best.y) <= c.mode_radius:
                 continue  # the same place as the best: not a rival
             theirs = self.field.beam_log_likelihoods(np.array([pose]), beams)[0]
-            difference = trimmed_gap(mine, theirs, c.clutter_share)
+            x, y = self.field.end_points(np.array([pose]), beams)
+            difference = trimmed_gap(mine, theirs, x, y, c.clutter_objects, c.clutter_extent)
             strikes = rival[3] + 1 if difference > c.rival_drop * beams.count else 0.0
             if strikes >= c.distinct_updates:
                 continue  # ruled out by the scans
