@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from beliefloc.continuous.fit import FitConfig, FitTracker, inlier_fraction, surprise
-from beliefloc.continuous.grid_filter import FilterConfig, GridFilter
+from beliefloc.continuous.grid_filter import FilterConfig, GridFilter, trimmed_gap
 from beliefloc.continuous.likelihood_field import LaserModel, Scan, select_beams
 from beliefloc.continuous.raycast import cast_rays
 from beliefloc.model import MapFrame
@@ -143,8 +143,34 @@ def test_fit_numbers() -> None:
     assert not tracker.fits() and "fit the best pose poorly" in (tracker.why_not() or "")
 
 
+def test_trimmed_gap_sets_aside_what_a_few_objects_could_have_made() -> None:
+    """Twelve beams over two scans. In the first pose's favour: beams 2 and 3 of each scan (+2.5
+    nats each), whose end points at the second pose lie together (one object seen in both scans),
+    and beam 9 of the first (+1.0) far from them; beam 5 of each scan is in the second's favour
+    (-2.0). Untrimmed the first pose wins by 7 nats; one object sets aside the four beams by it
+    (10 nats), a second object beam 9 too."""
+    theirs = np.full((2, 6), -1.0)
+    mine = theirs.copy()
+    mine[:, [2, 3]] += 2.5
+    mine[:, 5] -= 2.0
+    x = np.array([[0.0, 5.0, 3.0, 3.2, 9.0, 1.0], [0.0, 7.0, 3.1, 3.3, 9.0, 1.0]])
+    y = np.zeros((2, 6))
+    mine[0, 4] += 1.0  # end point (9, 0): far from the object at x ~3
+    assert float((mine - theirs).sum()) == pytest.approx(7.0)
+    assert trimmed_gap(mine, theirs, x, y, 0, 0.8) == pytest.approx(7.0)
+    assert trimmed_gap(mine, theirs, x, y, 1, 0.8) == pytest.approx(-3.0)
+    assert trimmed_gap(mine, theirs, x, y, 2, 0.8) == pytest.approx(-4.0)
+    # an object's extent: with 0.05 m only the single best beam goes with each object
+    assert trimmed_gap(mine, theirs, x, y, 1, 0.05) == pytest.approx(4.5)
+    # beams in the second pose's favour are never set aside
+    assert trimmed_gap(theirs, mine, x, y, 2, 0.8) == pytest.approx(-7.0 - 4.0)
+    assert trimmed_gap(np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0), 2, 0.8) == 0.0
+
+
 def test_config_is_checked() -> None:
     with pytest.raises(ValueError, match="threshold"):
         FilterConfig(threshold=1.5)
     with pytest.raises(ValueError, match="cell_size"):
         FilterConfig(cell_size=0.0)
+    with pytest.raises(ValueError, match="clutter_objects"):
+        FilterConfig(clutter_objects=-1)

@@ -379,14 +379,24 @@ class LikelihoodField:
         d = self.distance_at(np.ravel(i), np.ravel(j)).reshape(np.shape(u))
         return log_hit_mixture(d, sigma, self.model, range_max)
 
-    def pose_log_likelihood(self, poses: np.ndarray, beams: Beams, sigma: float | None = None) -> np.ndarray:
-        """``sum_b log p(z_b | pose)`` for map-frame poses ``(N, 3)``: continuous poses, no region."""
+    @staticmethod
+    def end_points(poses: np.ndarray, beams: Beams) -> tuple[np.ndarray, np.ndarray]:
+        """Map-frame ``(x, y)`` of each beam's end point for map-frame poses ``(N, 3)``: each ``(N, B)``."""
         p = np.asarray(poses, dtype=np.float64).reshape(-1, 3)
         c, s = np.cos(p[:, 2:3]), np.sin(p[:, 2:3])
-        ex = p[:, 0:1] + c * beams.x - s * beams.y
-        ey = p[:, 1:2] + s * beams.x + c * beams.y
+        return p[:, 0:1] + c * beams.x - s * beams.y, p[:, 1:2] + s * beams.x + c * beams.y
+
+    def beam_log_likelihoods(self, poses: np.ndarray, beams: Beams, sigma: float | None = None) -> np.ndarray:
+        """``log p(z_b | pose)`` of each beam for map-frame poses ``(N, 3)``: shape ``(N, B)``,
+        continuous poses, no region (``sigma_hit`` unless ``sigma`` is given)."""
+        ex, ey = self.end_points(poses, beams)
         sd = self.model.sigma_hit if sigma is None else sigma
-        total: np.ndarray = self.point_log_likelihood(ex, ey, sd, beams.range_max).astype(np.float64).sum(axis=1)
+        per_beam: np.ndarray = self.point_log_likelihood(ex, ey, sd, beams.range_max).astype(np.float64)
+        return per_beam
+
+    def pose_log_likelihood(self, poses: np.ndarray, beams: Beams, sigma: float | None = None) -> np.ndarray:
+        """``sum_b log p(z_b | pose)`` for map-frame poses ``(N, 3)``: continuous poses, no region."""
+        total: np.ndarray = self.beam_log_likelihoods(poses, beams, sigma).sum(axis=1)
         return total
 
     def end_point_distances(self, pose: np.ndarray, beams: Beams) -> np.ndarray:
