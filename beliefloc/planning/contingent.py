@@ -64,8 +64,8 @@ import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
 
-from beliefloc.belief import entropy, uniform
-from beliefloc.model import Model
+from beliefloc.belief import entropy, predict, uniform
+from beliefloc.model import Action, Model
 from beliefloc.planning.best_first import BeliefCache, PlanStatus, SearchProgress
 from beliefloc.planning.settings import (
     DEFAULT_MAX_EXPANSIONS,
@@ -74,7 +74,7 @@ from beliefloc.planning.settings import (
     DEFAULT_TIME_LIMIT,
     Heuristic,
 )
-from beliefloc.planning.successors import SuccessorEvaluator
+from beliefloc.planning.successors import SuccessorEvaluator, SuccessorStats
 
 _CACHE_BYTES = 256 * 2**20
 _PROGRESS_EVERY = 64
@@ -87,9 +87,9 @@ _MAX_FLOW = 200_000
 _SETTLED_REACH = 1e-9
 """A change of reach smaller than this (relative) is not passed on: it stops a change that goes round a
 loop of the policy."""
-_REACH_FLOOR = 1e-12
-"""A frontier leaf reached with less probability than this is not expanded, whatever ``prune_below``
-(what is left of a reach taken away by sums in another order)."""
+_CANCELLED = 1e-10
+"""A reach that a change takes away to less than this share of the change is taken away entirely: what
+is left is the rounding of sums made in another order (a node left out of the policy has no reach)."""
 _INFORMATIVE = 1e-9
 """Less expected information than this (nats) from the uniform belief counts as none."""
 _SAME = 1e-12
@@ -340,6 +340,27 @@ def _signature_groups(model: Model) -> tuple[np.ndarray, np.ndarray] | None:
     return order, starts
 
 
+def _likelihood_columns(
+    action: Action, n_states: int, signature: tuple[np.ndarray, np.ndarray] | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None] | None:
+    """``O_a`` as ``(groups, columns, by_signature)``: ``O_a[j, o] = columns[groups[j], o]``, one row of
+    ``columns`` per distinct reading of the action's parts, and ``by_signature[g, o]`` the same for the
+    groups of :func:`_signature_groups` (which read every part alike: they are finer); None for an action
+    that observes nothing."""
+    parts = action.observation.parts
+    if not parts:
+        return None
+    key = np.zeros(n_states, dtype=np.int64)
+    for part in parts:
+        key = key * part.confusion.shape[0] + part.truth
+    _, first, groups = np.unique(key, return_index=True, return_inverse=True)
+    by_signature = None
+    if signature is not None:
+        order, starts = signature
+        by_signature = action.observation.likelihood_matrix(order[starts])
+    return groups.ravel().astype(np.intp), action.observation.likelihood_matrix(first), by_signature
+
+
 def plan_policy(
     model: Model,
     belief: np.ndarray,
@@ -450,6 +471,15 @@ class _Search:
         self._cache = BeliefCache(max(4, _CACHE_BYTES // (8 * max(1, model.n_states))))
         self._starts: dict[int, np.ndarray] = {}
         """The beliefs of the nodes plans started from that no branch had reached."""
+        self._signature_index: np.ndarray | None = None
+        """Per state, its group of :attr:`_signature` (None when the model has none)."""
+        self._signature_count = 0
+        if self._signature is not None:
+            order, starts = self._signature
+            self._signature_count = len(starts)
+            self._signature_index = np.empty(model.n_states, dtype=np.intp)
+            self._signature_index[order] = np.repeat(np.arange(len(starts)), np.diff(np.r_[starts, len(order)]))
+        self._likelihoods = [_likelihood_columns(action, model.n_states, self._signature) for action in model.actions]
         self._tips: list[tuple[float, float, int, _Node]] = []
         """The best policy's frontier leaves as a heap of ``(-reach × value, -reach, number, node)``; an entry
         whose reach is no longer the node's is stale (:meth:`next_tip` drops it)."""
@@ -467,18 +497,27 @@ class _Search:
         self._flow({node: 1.0})
         return node
 
-    def _node(self, origin: tuple[_Node, int, int | None] | None, h: float, top: float, belief: np.ndarray) -> _Node:
+    def _node(
+        self,
+        origin: tuple[_Node, int, int | None] | None,
+        h: float,
+        top: float,
+        belief: np.ndarray,
+        mass: np.ndarray | None = None,
+    ) -> _Node:
         """The node of ``belief``: the one that has it already, or a new goal or frontier node."""
         if top >= self.threshold:
             node = _Node(next(self._numbers), origin, top)
             node.leaf = LeafKind.GOAL
             return node
         # a summary picks the candidates (mirror images share entropy and maximum, not the projection);
-        # the beliefs themselves decide
+        # the beliefs themselves decide. The projection is einsum's loop, not BLAS's dot: a threaded dot
+        # of 50,000 states took 15 ms on a loaded 2-core machine (6 µs single-threaded), which made a
+        # plan call on the depot 15 times slower (benchmarks/results/contingent.md, 2026-11-27)
         summary = (
             round(h, _SUMMARY_DIGITS),
             round(top, _SUMMARY_DIGITS),
-            round(float(belief @ self._probe), _SUMMARY_DIGITS),
+            round(float(np.einsum("i,i->", belief, self._probe)), _SUMMARY_DIGITS),
         )
         same = self._nodes.setdefault(summary, [])
         for existing in same:
@@ -488,18 +527,22 @@ class _Search:
         node = _Node(next(self._numbers), origin, top)
         same.append(node)
         self._cache.put(node.number, belief)
-        node.value = self.estimate(belief, h) if self.kappa > 0.0 else 0.0
+        node.value = self.estimate(belief, h, mass) if self.kappa > 0.0 else 0.0
         return node
 
-    def estimate(self, belief: np.ndarray, h: float) -> float:
+    def estimate(self, belief: np.ndarray, h: float, mass: np.ndarray | None = None) -> float:
         """``κ · H(S | Σ) + ρ · H(Σ)``: the entropy within the groups of states that read alike (Σ, every
         sensor's noise-free reading) is paid at the price of moving and perceiving, the entropy of
-        which group the robot is in at the price of perceiving alone."""
+        which group the robot is in at the price of perceiving alone. ``mass``: the belief's mass in
+        each group, when the caller has it (:meth:`_successors`)."""
         groups = self._signature
         if groups is None:
             return self.kappa * h
-        order, starts = groups
-        mass = np.add.reduceat(belief[order], starts)
+        if mass is None:
+            order, starts = groups
+            mass = np.add.reduceat(belief[order], starts)
+        else:
+            mass = mass / mass.sum()
         mass = mass[mass > 0.0]
         between = max(0.0, float(-(mass * np.log(mass)).sum()))
         within = max(0.0, h - between)
@@ -515,7 +558,7 @@ class _Search:
         for child in reversed(chain):
             assert child.origin is not None
             _, action, observation = child.origin
-            current = self.evaluator.successor(current, action, observation)
+            current = self._successor(current, action, observation)
             self._cache.put(child.number, current)
         return current
 
@@ -523,12 +566,55 @@ class _Search:
         """Give ``node`` its actions' branches, then back the values up (:meth:`_revise`)."""
         belief = self.belief(node)
         node.leaf = None
-        for stats, successor in self.evaluator.successors(belief):
-            child = self._node((node, stats.action, stats.observation), stats.entropy, stats.max_belief, successor)
+        for stats, successor, mass in self._successors(belief):
+            child = self._node(
+                (node, stats.action, stats.observation), stats.entropy, stats.max_belief, successor, mass
+            )
             child.parents.append(node)
             node.children.setdefault(stats.action, []).append((stats.probability, stats.observation, child))
             self.generated += 1
         self._reroute(self._revise(node))
+
+    def _successors(self, belief: np.ndarray) -> Iterator[tuple[SuccessorStats, np.ndarray, np.ndarray | None]]:
+        """:meth:`SuccessorEvaluator.successors`, with each observation's likelihood column gathered from
+        :attr:`_likelihoods` (the same numbers: ``O[j, o]`` is the product of the parts' confusion
+        entries in both) instead of :meth:`ObservationModel.likelihood`, which decodes ``o`` and gathers
+        every part's column: 1.3 ms of the 1.4 ms a successor of a depot belief (49,592 states) took.
+        With each successor, its mass in every group of :attr:`_signature` (None when the model has
+        none): the prediction's, times the observation's likelihood there, so the estimate costs a
+        group's worth of work instead of a belief's."""
+        stats = self.evaluator.evaluate(belief)
+        i = 0
+        for index, action in enumerate(self.model.actions):
+            predicted = predict(action, belief)
+            masses = None
+            if self._signature_index is not None:
+                masses = np.bincount(self._signature_index, weights=predicted, minlength=self._signature_count)
+            table = self._likelihoods[index]
+            if table is None:
+                yield stats[i], predicted, masses
+                i += 1
+                continue
+            groups, columns, by_signature = table
+            while i < len(stats) and stats[i].action == index:
+                observation = stats[i].observation
+                assert observation is not None
+                weighted: np.ndarray = predicted * columns[:, observation][groups]
+                weighted /= weighted.sum()
+                mass = None if masses is None or by_signature is None else masses * by_signature[:, observation]
+                yield stats[i], weighted, mass
+                i += 1
+
+    def _successor(self, belief: np.ndarray, action: int, observation: int | None) -> np.ndarray:
+        """:meth:`SuccessorEvaluator.successor` by :attr:`_likelihoods` (see :meth:`_successors`)."""
+        predicted = predict(self.model.actions[action], belief)
+        table = self._likelihoods[action]
+        if observation is None or table is None:
+            return predicted
+        groups, columns, _ = table
+        weighted: np.ndarray = predicted * columns[:, observation][groups]
+        weighted /= weighted.sum()
+        return weighted
 
     def _q(self, node: _Node, action: int) -> float:
         """``γ(a) + Σ p V``. Coming back to ``node`` itself with probability ``q`` is solved at once:
@@ -553,6 +639,7 @@ class _Search:
         frontier for sure (:meth:`_dead_ends`) are worth nothing (infinite), which ends their climb.
         Returns the nodes whose best action changed, each with the action it had before."""
         changed: dict[_Node, int] = {}
+        costs = self.costs
         pending = collections.deque([node])
         queued = {node.number}
         first = True  # the expanded node's value went from the estimate to its backup: always passed on
@@ -570,8 +657,16 @@ class _Search:
             current = pending.popleft()
             queued.discard(current.number)
             best, value = -1, math.inf
-            for action in current.children:
-                q = self._q(current, action)
+            for action, branches in current.children.items():  # _q, written out: the hot loop
+                here, total = 0.0, costs[action]
+                for p, _, child in branches:
+                    if child is current:
+                        here += p
+                    else:
+                        total += p * child.value
+                if here >= 1.0 - _SAME:
+                    continue
+                q = total / (1.0 - here)
                 if q < value:
                     best, value = action, q
             if best != current.best:
@@ -606,14 +701,14 @@ class _Search:
 
     def _flow(self, pending: dict[_Node, float]) -> None:
         """Add each change of reach in ``pending`` to its node and pass it down the node's best action,
-        weighted by the branches' probabilities, until every change is placed: only the part of the
-        policy whose reach changes is visited. Around a loop of the policy a change comes back smaller
-        each time; it stops when it is below :data:`_SAME` of the reach it adds to. A frontier leaf whose
-        reach changed goes (again) into :attr:`_tips`. Should the changes go round a loop more than
-        :data:`_MAX_FLOW` times (a loop the policy almost never leaves), the reaches are recomputed by one
-        traversal of the policy instead (loops cut where they close, :meth:`best_policy`)."""
+                weighted by the branches' probabilities, until every change is placed: only the part of the
+                policy whose reach changes is visited. Around a loop of the policy a change comes back smaller
+                each time; it stops when it is below :data:`_SETTLED_REACH` of the reach it adds to (a branch back to
+        the node itself is summed at once). A frontier leaf whose
+                reach changed goes (again) into :attr:`_tips`. Should the changes go round a loop more than
+                :data:`_MAX_FLOW` times (a loop the policy almost never leaves), the reaches are recomputed by one
+                traversal of the policy instead (loops cut where they close, :meth:`best_policy`)."""
         queue = collections.deque(pending)
-        floor = max(self.prune_below, _REACH_FLOOR)
         for _ in range(_MAX_FLOW):
             if not queue:
                 return
@@ -622,8 +717,10 @@ class _Search:
             if node.reach == 0.0:
                 self._reached.append(node)
             node.reach += delta
+            if delta < 0.0 and abs(node.reach) <= _CANCELLED * -delta:
+                node.reach = 0.0  # all of it taken away: what is left is the sums' rounding
             if node.leaf is LeafKind.FRONTIER:
-                if node.reach >= floor:
+                if node.reach >= self.prune_below and node.reach > 0.0:
                     heapq.heappush(self._tips, (-node.reach * node.value, -node.reach, node.number, node))
                 continue
             if node.leaf is not None or node.best < 0 or abs(delta) <= _SETTLED_REACH * abs(node.reach):
@@ -652,10 +749,9 @@ class _Search:
             node.reach = 0.0
         order, reach = self.best_policy(root)
         self._reached, self._tips = order, []
-        floor = max(self.prune_below, _REACH_FLOOR)
         for node in order:
             node.reach = reach[node.number]
-            if node.leaf is LeafKind.FRONTIER and node.reach >= floor:
+            if node.leaf is LeafKind.FRONTIER and node.reach >= self.prune_below and node.reach > 0.0:
                 heapq.heappush(self._tips, (-node.reach * node.value, -node.reach, node.number, node))
 
     def _dead_ends(self) -> list[_Node]:
