@@ -17,6 +17,15 @@ frontier node of the current best policy with the most expected cost at stake (r
 estimate), backs the values up through every node that leads to it, and stops when the best policy
 has no frontier node left (the policy is *complete*) or a budget runs out.
 
+**Incremental bookkeeping.** The reach of a node is its expected number of visits under the best policy
+(at a leaf: the probability of ending there). It is kept up to date rather than recomputed by a walk
+over the whole policy per expansion: when a backup changes a node's best action, the node's reach is
+taken from the old action's branches and given to the new one's, and the change flows down only as far
+as reaches change (:meth:`_Search._flow`); the policy's frontier leaves wait in a heap by reach ×
+estimate (ties: the more likely, then the older node). The search before this (a walk per expansion,
+loops cut where they close, ties to the first in the walk) is kept as :class:`_TraversalSearch`, the
+reference the tests compare with.
+
 **The estimate at the frontier** is the paper's entropy, put in units of cost (:meth:`_Search.estimate`,
 :func:`information_prices`): entropy among states that read alike is priced at a move plus a look,
 entropy of which reading the robot will get at a look alone. ``Heuristic.ZERO`` estimates 0 instead:
