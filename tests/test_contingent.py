@@ -741,3 +741,23 @@ def test_incremental_lao_gives_the_policy_and_value_of_the_traversal(
     assert incremental.expected_cost == pytest.approx(reference.expected_cost, rel=1e-9, abs=1e-12)
     assert same_policy(incremental, reference)
     check_tree_against_bayes(model, incremental, start)
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(data=tiny_maps())
+def test_reaches_recomputed_by_a_traversal_when_a_change_goes_round_too_long(data: dict[str, Any]):
+    """When the changes of reach go round a loop more than ``_MAX_FLOW`` times the search recomputes every
+    reach by one traversal (``_retrace``); with the limit at 1 it does so at every expansion, and still ends
+    at the least expected cost the reference finds."""
+    model = model_of(data)
+    start = uniform(model.n_states)
+    options: dict[str, Any] = {"threshold": THRESHOLD, "heuristic": Heuristic.ZERO, "prune_below": 0.0}
+    reference = contingent._TraversalPlanner(model, **options).plan(start, max_expansions=20_000, time_limit=30.0)
+    with (
+        patch.object(contingent, "_MAX_FLOW", 1),
+        patch.object(contingent._Search, "_retrace", autospec=True, side_effect=contingent._Search._retrace) as retrace,
+    ):
+        retraced = PolicyPlanner(model, **options).plan(start, max_expansions=20_000, time_limit=30.0)
+    assume(reference.found and retraced.found)
+    assert retrace.called or retraced.expanded == 0
+    assert retraced.expected_cost == pytest.approx(reference.expected_cost, rel=1e-9, abs=1e-12)
