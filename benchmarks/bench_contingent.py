@@ -15,7 +15,8 @@ Run by hand from the repository root (not part of the test suite)::
    belief, threshold 0.9 (``--threshold``). The true start and the noise are episode ``e``'s of
    :class:`beliefloc.simulation.episode.EpisodeSweep` with ``seed`` (``episode_rngs(seed, e)``), the
    same for both strategies (paired trials).
-2. **The bundled maps** ``maps/kitchen.yaml`` and ``maps/hallway.yaml``: ``--map-episodes`` (200)
+2. **The bundled maps** ``maps/kitchen.yaml`` and ``maps/hallway.yaml`` (``--maps``, e.g. ``--maps depot``):
+   ``--map-episodes`` (200)
    paired episodes each, uniform starts and start belief, the command line's default threshold 0.95.
 
 Both strategies get the same ``PlannerSettings`` (``--lookahead``, ``--prune-below``: the contingent
@@ -232,7 +233,7 @@ def verdict(ok: bool) -> str:
     return "MET" if ok else "NOT MET"
 
 
-def targets(rows: list[dict[str, Any]]) -> list[str]:
+def targets(rows: list[dict[str, Any]], maps: Sequence[str] = MAPS) -> list[str]:
     lines = ["", "## Targets", ""]
     at = {row["label"]: row for row in rows}
     target = at.get(f"{TARGET_STATES:,} states")
@@ -256,7 +257,7 @@ def targets(rows: list[dict[str, Any]]) -> list[str]:
             f"- 10^4 states, peak RSS <= {TARGET_PEAK_MIB:.0f} MiB: {target['peak_mib']:.0f} MiB: "
             f"**{verdict(peak_ok)}**",
         ]
-    for name in MAPS:
+    for name in maps:
         row = at.get(name)
         if row is None:
             lines.append(f"- {name}: NOT MEASURED.")
@@ -295,7 +296,7 @@ def report(args: argparse.Namespace, rows: list[dict[str, Any]], total: float) -
         "belief, and meet the same noise (`EpisodeSweep(model, ('bestfirst', 'contingent'), seed=SEED).paired(e)`). "
         f"Generated worlds: a fresh world per episode (`world_seed(SEED, e)`, `--seen-model states "
         f"--rotation-failure 0`, the authors' setting), threshold {args.threshold:g}. Maps: "
-        f"{', '.join(f'`maps/{m}.yaml`' for m in MAPS)}, threshold {args.map_threshold:g}. Contingent: lookahead "
+        f"{', '.join(f'`maps/{m}.yaml`' for m in args.maps)}, threshold {args.map_threshold:g}. Contingent: lookahead "
         f"{lookahead}, branches below {settings.prune_below:g} not planned for. Both: the "
         f"default budget (200,000 expansions, 60 s per plan call), at most {args.max_steps} steps.",
         "",
@@ -339,7 +340,7 @@ def report(args: argparse.Namespace, rows: list[dict[str, Any]], total: float) -
             f"{_num(c.mean_replans, 2)} | {_num(row['planning']['bestfirst'], 3)} s / "
             f"{_num(row['planning']['contingent'], 3)} s | {row['peak_mib']:.0f} MiB | {row['wall_s']:.0f} s |"
         )
-    lines += targets(rows)
+    lines += targets(rows, args.maps)
     return "\n".join(lines) + "\n"
 
 
@@ -354,6 +355,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--big-size", type=float, default=1e5, help="one more size with fewer episodes (0: skip)")
     parser.add_argument("--big-episodes", type=int, default=10, help="episodes at --big-size")
     parser.add_argument("--map-episodes", type=int, help="paired episodes per bundled map (default 200; --quick: 5)")
+    parser.add_argument(
+        "--maps", nargs="*", default=list(MAPS), help="bundled maps (names in maps/) to run paired episodes on"
+    )
     parser.add_argument("--threshold", type=float, default=THRESHOLD_WORLDS, help="threshold on generated worlds")
     parser.add_argument(
         "--lookahead", type=int, help="contingent: beliefs expanded per plan call (default: the library's default)"
@@ -400,7 +404,7 @@ def main(argv: list[str] | None = None) -> int:
         label = f"{states:,} states"
         params = {**base, "kind": "worlds", "label": label, "states": states, "episodes": episodes}
         parts.append((label, "worlds", {**params, "threshold": args.threshold}))
-    for name in MAPS:
+    for name in args.maps:
         params = {**base, "kind": "map", "label": name, "map": name, "episodes": args.map_episodes}
         parts.append((name, "map", {**params, "threshold": args.map_threshold}))
 

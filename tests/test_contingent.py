@@ -673,3 +673,91 @@ def test_kitchen_contingent_episodes_localize_with_beliefs_that_stay_distributio
         assert record.cost == pytest.approx(sum(model.action(s.action).cost for s in record.trace))
     again = run_experiment(model, ["bestfirst", "contingent"], episodes=5, seed=0, settings=config)
     assert [r.as_json(timings=False) for r in again] == [r.as_json(timings=False) for r in records]
+
+
+# --- incremental bookkeeping against the full traversal it replaced --------------------------------------
+
+
+def policy_signature(result: PolicyResult) -> list[tuple[float, str | None, str | None, tuple[float, ...]]]:
+    """The policy's nodes in the order of a walk from the root (branch order): each node's expected cost,
+    action (or leaf kind) and branch probabilities -- what the robot would do and expect, not node numbers."""
+    return [
+        (
+            node.expected_cost,
+            node.action,
+            None if node.leaf is None else node.leaf.value,
+            tuple(b.probability for b in node.branches),
+        )
+        for node in result.root.reachable()
+    ]
+
+
+def same_policy(first: PolicyResult, second: PolicyResult) -> bool:
+    a, b = policy_signature(first), policy_signature(second)
+    return len(a) == len(b) and all(
+        x[1:3] == y[1:3] and x[0] == pytest.approx(y[0], rel=1e-9, abs=1e-12) and x[3] == pytest.approx(y[3])
+        for x, y in zip(a, b, strict=True)
+    )
+
+
+@QUICK
+@given(data=tiny_maps())
+def test_incremental_lao_finds_the_least_expected_cost_the_traversal_found(data: dict[str, Any]):
+    """With h = 0 and nothing pruned both searches end at the least expected cost over all policies: the
+    same value, and when the least-cost policy is unique, the same policy."""
+    model = model_of(data)
+    start = uniform(model.n_states)
+    options: dict[str, Any] = {"threshold": THRESHOLD, "heuristic": Heuristic.ZERO, "prune_below": 0.0}
+    incremental = PolicyPlanner(model, **options).plan(start, max_expansions=20_000, time_limit=30.0)
+    reference = contingent._TraversalPlanner(model, **options).plan(start, max_expansions=20_000, time_limit=30.0)
+    assume(incremental.found and reference.found)
+    assert incremental.expected_cost == pytest.approx(reference.expected_cost, rel=1e-9, abs=1e-12)
+    for result in (incremental, reference):  # both policies are worth what they claim
+        assert solved_costs(model, result.root)[result.root.number] == pytest.approx(result.expected_cost, rel=1e-8)
+    event("same policy" if same_policy(incremental, reference) else "another policy of the same cost")
+
+
+@pytest.mark.slow
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(
+    data=small_maps(),
+    heuristic=st.sampled_from([Heuristic.ENTROPY_MAX_PROB, Heuristic.ENTROPY_PROB]),
+    prune=st.sampled_from([0.0, 1e-3, 0.05]),
+)
+def test_incremental_lao_gives_the_policy_and_value_of_the_traversal(
+    data: dict[str, Any], heuristic: Heuristic, prune: float
+):
+    """With the entropy estimate the result depends on the order of expansions, which the two searches
+    choose alike (the tip with the most at stake) but break ties differently (the traversal: the first
+    in its walk; the incremental search: the most likely, then the oldest) and price loops differently
+    (the traversal cuts a loop where it closes; the incremental search counts its visits). On the random
+    small maps that makes no difference to the complete policies: the same policy, the same value."""
+    model = model_of(data)
+    start = uniform(model.n_states)
+    options: dict[str, Any] = {"threshold": THRESHOLD, "heuristic": heuristic, "prune_below": prune}
+    incremental = PolicyPlanner(model, **options).plan(start, max_expansions=800, time_limit=30.0)
+    reference = contingent._TraversalPlanner(model, **options).plan(start, max_expansions=800, time_limit=30.0)
+    assume(incremental.found and reference.found)
+    assert incremental.expected_cost == pytest.approx(reference.expected_cost, rel=1e-9, abs=1e-12)
+    assert same_policy(incremental, reference)
+    check_tree_against_bayes(model, incremental, start)
+
+
+@settings(max_examples=15, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much])
+@given(data=tiny_maps())
+def test_reaches_recomputed_by_a_traversal_when_a_change_goes_round_too_long(data: dict[str, Any]):
+    """When the changes of reach go round a loop more than ``_MAX_FLOW`` times the search recomputes every
+    reach by one traversal (``_retrace``); with the limit at 1 it does so at every expansion, and still ends
+    at the least expected cost the reference finds."""
+    model = model_of(data)
+    start = uniform(model.n_states)
+    options: dict[str, Any] = {"threshold": THRESHOLD, "heuristic": Heuristic.ZERO, "prune_below": 0.0}
+    reference = contingent._TraversalPlanner(model, **options).plan(start, max_expansions=20_000, time_limit=30.0)
+    with (
+        patch.object(contingent, "_MAX_FLOW", 1),
+        patch.object(contingent._Search, "_retrace", autospec=True, side_effect=contingent._Search._retrace) as retrace,
+    ):
+        retraced = PolicyPlanner(model, **options).plan(start, max_expansions=20_000, time_limit=30.0)
+    assume(reference.found and retraced.found)
+    assert retrace.called or retraced.expanded == 0
+    assert retraced.expected_cost == pytest.approx(reference.expected_cost, rel=1e-9, abs=1e-12)

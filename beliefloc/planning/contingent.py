@@ -17,6 +17,15 @@ frontier node of the current best policy with the most expected cost at stake (r
 estimate), backs the values up through every node that leads to it, and stops when the best policy
 has no frontier node left (the policy is *complete*) or a budget runs out.
 
+**Incremental bookkeeping.** The reach of a node is its expected number of visits under the best policy
+(at a leaf: the probability of ending there). It is kept up to date rather than recomputed by a walk
+over the whole policy per expansion: when a backup changes a node's best action, the node's reach is
+taken from the old action's branches and given to the new one's, and the change flows down only as far
+as reaches change (:meth:`_Search._flow`); the policy's frontier leaves wait in a heap by reach ×
+estimate (ties: the more likely, then the older node). The search before this (a walk per expansion,
+loops cut where they close, ties to the first in the walk) is kept as :class:`_TraversalSearch`, the
+reference the tests compare with.
+
 **The estimate at the frontier** is the paper's entropy, put in units of cost (:meth:`_Search.estimate`,
 :func:`information_prices`): entropy among states that read alike is priced at a move plus a look,
 entropy of which reading the robot will get at a look alone. ``Heuristic.ZERO`` estimates 0 instead:
@@ -51,6 +60,7 @@ from __future__ import annotations
 
 import collections
 import enum
+import heapq
 import itertools
 import math
 import time
@@ -63,8 +73,8 @@ import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
 
-from beliefloc.belief import entropy, uniform
-from beliefloc.model import Model
+from beliefloc.belief import entropy, predict, uniform
+from beliefloc.model import Action, Model
 from beliefloc.planning.best_first import BeliefCache, PlanStatus, SearchProgress
 from beliefloc.planning.settings import (
     DEFAULT_MAX_EXPANSIONS,
@@ -73,14 +83,22 @@ from beliefloc.planning.settings import (
     DEFAULT_TIME_LIMIT,
     Heuristic,
 )
-from beliefloc.planning.successors import SuccessorEvaluator
+from beliefloc.planning.successors import SuccessorEvaluator, SuccessorStats
 
 _CACHE_BYTES = 256 * 2**20
 _PROGRESS_EVERY = 64
 _MAX_REVISIONS = 100_000
+"""Backups per expansion while the loops' values settle (each a walk up one path)."""
 _TRAP_CHECK = 2_000
 """Backups in one revision after which the search looks for beliefs no policy can leave."""
-"""Backups per expansion while the loops' values settle (each a walk up one path)."""
+_MAX_FLOW = 200_000
+"""Changes of reach placed by one :meth:`_Search._flow` before it recomputes the reaches by a traversal."""
+_SETTLED_REACH = 1e-9
+"""A change of reach smaller than this (relative) is not passed on: it stops a change that goes round a
+loop of the policy."""
+_CANCELLED = 1e-10
+"""A reach that a change takes away to less than this share of the change is taken away entirely: what
+is left is the rounding of sums made in another order (a node left out of the policy has no reach)."""
 _INFORMATIVE = 1e-9
 """Less expected information than this (nats) from the uniform belief counts as none."""
 _SAME = 1e-12
@@ -140,7 +158,9 @@ class _Node:
         """Per action, its branches: (probability, observation, successor)."""
         self.parents: list[_Node] = []
         self.reach = 0.0
-        """The probability of reaching the node under the best policy (last computed)."""
+        """The expected number of visits to the node under the best policy from the current start (at a
+        leaf: the probability of ending there), kept up to date as the policy changes
+        (:meth:`_Search._flow`)."""
 
 
 @dataclass(frozen=True)
@@ -329,6 +349,27 @@ def _signature_groups(model: Model) -> tuple[np.ndarray, np.ndarray] | None:
     return order, starts
 
 
+def _likelihood_columns(
+    action: Action, n_states: int, signature: tuple[np.ndarray, np.ndarray] | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None] | None:
+    """``O_a`` as ``(groups, columns, by_signature)``: ``O_a[j, o] = columns[groups[j], o]``, one row of
+    ``columns`` per distinct reading of the action's parts, and ``by_signature[g, o]`` the same for the
+    groups of :func:`_signature_groups` (which read every part alike: they are finer); None for an action
+    that observes nothing."""
+    parts = action.observation.parts
+    if not parts:
+        return None
+    key = np.zeros(n_states, dtype=np.int64)
+    for part in parts:
+        key = key * part.confusion.shape[0] + part.truth
+    _, first, groups = np.unique(key, return_index=True, return_inverse=True)
+    by_signature = None
+    if signature is not None:
+        order, starts = signature
+        by_signature = action.observation.likelihood_matrix(order[starts])
+    return groups.ravel().astype(np.intp), action.observation.likelihood_matrix(first), by_signature
+
+
 def plan_policy(
     model: Model,
     belief: np.ndarray,
@@ -360,6 +401,8 @@ class PolicyPlanner:
     ``max_expansions`` deepens the search instead of redoing it. Deterministic: the same calls give the
     same policies."""
 
+    _search_kind: type[_Search]
+
     def __init__(
         self,
         model: Model,
@@ -376,7 +419,7 @@ class PolicyPlanner:
         elif prices is None:
             prices = information_prices(model, evaluator)
         self.prices = prices
-        self._search = _Search(model, evaluator, threshold, prices, prune_below)
+        self._search = self._search_kind(model, evaluator, threshold, prices, prune_below)
 
     def plan(
         self,
@@ -437,27 +480,53 @@ class _Search:
         self._cache = BeliefCache(max(4, _CACHE_BYTES // (8 * max(1, model.n_states))))
         self._starts: dict[int, np.ndarray] = {}
         """The beliefs of the nodes plans started from that no branch had reached."""
+        self._signature_index: np.ndarray | None = None
+        """Per state, its group of :attr:`_signature` (None when the model has none)."""
+        self._signature_count = 0
+        if self._signature is not None:
+            order, starts = self._signature
+            self._signature_count = len(starts)
+            self._signature_index = np.empty(model.n_states, dtype=np.intp)
+            self._signature_index[order] = np.repeat(np.arange(len(starts)), np.diff(np.r_[starts, len(order)]))
+        self._likelihoods = [_likelihood_columns(action, model.n_states, self._signature) for action in model.actions]
+        self._tips: list[tuple[float, float, int, _Node]] = []
+        """The best policy's frontier leaves as a heap of ``(-reach × value, -reach, number, node)``; an entry
+        whose reach is no longer the node's is stale (:meth:`next_tip` drops it)."""
+        self._reached: list[_Node] = []
+        """Every node whose reach was set since the current start was chosen."""
 
     def root(self, belief: np.ndarray) -> _Node:
         """The node of ``belief`` (one the graph has already, or a new one) as the policy's start."""
         node = self._node(None, entropy(belief), float(belief.max()), belief)
         if node.origin is None:  # every chain of recomputation ends at a start: never evicted
             self._starts[node.number] = belief
-        node.reach = 1.0
+        for reached in self._reached:
+            reached.reach = 0.0
+        self._reached, self._tips = [], []
+        self._flow({node: 1.0})
         return node
 
-    def _node(self, origin: tuple[_Node, int, int | None] | None, h: float, top: float, belief: np.ndarray) -> _Node:
+    def _node(
+        self,
+        origin: tuple[_Node, int, int | None] | None,
+        h: float,
+        top: float,
+        belief: np.ndarray,
+        mass: np.ndarray | None = None,
+    ) -> _Node:
         """The node of ``belief``: the one that has it already, or a new goal or frontier node."""
         if top >= self.threshold:
             node = _Node(next(self._numbers), origin, top)
             node.leaf = LeafKind.GOAL
             return node
         # a summary picks the candidates (mirror images share entropy and maximum, not the projection);
-        # the beliefs themselves decide
+        # the beliefs themselves decide. The projection is einsum's loop, not BLAS's dot: a threaded dot
+        # of 50,000 states took 15 ms on a loaded 2-core machine (6 µs single-threaded), which made a
+        # plan call on the depot 15 times slower (benchmarks/results/contingent.md, 2026-11-27)
         summary = (
             round(h, _SUMMARY_DIGITS),
             round(top, _SUMMARY_DIGITS),
-            round(float(belief @ self._probe), _SUMMARY_DIGITS),
+            round(float(np.einsum("i,i->", belief, self._probe)), _SUMMARY_DIGITS),
         )
         same = self._nodes.setdefault(summary, [])
         for existing in same:
@@ -467,18 +536,22 @@ class _Search:
         node = _Node(next(self._numbers), origin, top)
         same.append(node)
         self._cache.put(node.number, belief)
-        node.value = self.estimate(belief, h) if self.kappa > 0.0 else 0.0
+        node.value = self.estimate(belief, h, mass) if self.kappa > 0.0 else 0.0
         return node
 
-    def estimate(self, belief: np.ndarray, h: float) -> float:
+    def estimate(self, belief: np.ndarray, h: float, mass: np.ndarray | None = None) -> float:
         """``κ · H(S | Σ) + ρ · H(Σ)``: the entropy within the groups of states that read alike (Σ, every
         sensor's noise-free reading) is paid at the price of moving and perceiving, the entropy of
-        which group the robot is in at the price of perceiving alone."""
+        which group the robot is in at the price of perceiving alone. ``mass``: the belief's mass in
+        each group, when the caller has it (:meth:`_successors`)."""
         groups = self._signature
         if groups is None:
             return self.kappa * h
-        order, starts = groups
-        mass = np.add.reduceat(belief[order], starts)
+        if mass is None:
+            order, starts = groups
+            mass = np.add.reduceat(belief[order], starts)
+        else:
+            mass = mass / mass.sum()
         mass = mass[mass > 0.0]
         between = max(0.0, float(-(mass * np.log(mass)).sum()))
         within = max(0.0, h - between)
@@ -494,7 +567,7 @@ class _Search:
         for child in reversed(chain):
             assert child.origin is not None
             _, action, observation = child.origin
-            current = self.evaluator.successor(current, action, observation)
+            current = self._successor(current, action, observation)
             self._cache.put(child.number, current)
         return current
 
@@ -502,12 +575,55 @@ class _Search:
         """Give ``node`` its actions' branches, then back the values up (:meth:`_revise`)."""
         belief = self.belief(node)
         node.leaf = None
-        for stats, successor in self.evaluator.successors(belief):
-            child = self._node((node, stats.action, stats.observation), stats.entropy, stats.max_belief, successor)
+        for stats, successor, mass in self._successors(belief):
+            child = self._node(
+                (node, stats.action, stats.observation), stats.entropy, stats.max_belief, successor, mass
+            )
             child.parents.append(node)
             node.children.setdefault(stats.action, []).append((stats.probability, stats.observation, child))
             self.generated += 1
-        self._revise(node)
+        self._reroute(self._revise(node))
+
+    def _successors(self, belief: np.ndarray) -> Iterator[tuple[SuccessorStats, np.ndarray, np.ndarray | None]]:
+        """:meth:`SuccessorEvaluator.successors`, with each observation's likelihood column gathered from
+        :attr:`_likelihoods` (the same numbers: ``O[j, o]`` is the product of the parts' confusion
+        entries in both) instead of :meth:`ObservationModel.likelihood`, which decodes ``o`` and gathers
+        every part's column: 1.3 ms of the 1.4 ms a successor of a depot belief (49,592 states) took.
+        With each successor, its mass in every group of :attr:`_signature` (None when the model has
+        none): the prediction's, times the observation's likelihood there, so the estimate costs a
+        group's worth of work instead of a belief's."""
+        stats = self.evaluator.evaluate(belief)
+        i = 0
+        for index, action in enumerate(self.model.actions):
+            predicted = predict(action, belief)
+            masses = None
+            if self._signature_index is not None:
+                masses = np.bincount(self._signature_index, weights=predicted, minlength=self._signature_count)
+            table = self._likelihoods[index]
+            if table is None:
+                yield stats[i], predicted, masses
+                i += 1
+                continue
+            groups, columns, by_signature = table
+            while i < len(stats) and stats[i].action == index:
+                observation = stats[i].observation
+                assert observation is not None
+                weighted: np.ndarray = predicted * columns[:, observation][groups]
+                weighted /= weighted.sum()
+                mass = None if masses is None or by_signature is None else masses * by_signature[:, observation]
+                yield stats[i], weighted, mass
+                i += 1
+
+    def _successor(self, belief: np.ndarray, action: int, observation: int | None) -> np.ndarray:
+        """:meth:`SuccessorEvaluator.successor` by :attr:`_likelihoods` (see :meth:`_successors`)."""
+        predicted = predict(self.model.actions[action], belief)
+        table = self._likelihoods[action]
+        if observation is None or table is None:
+            return predicted
+        groups, columns, _ = table
+        weighted: np.ndarray = predicted * columns[:, observation][groups]
+        weighted /= weighted.sum()
+        return weighted
 
     def _q(self, node: _Node, action: int) -> float:
         """``γ(a) + Σ p V``. Coming back to ``node`` itself with probability ``q`` is solved at once:
@@ -524,12 +640,15 @@ class _Search:
             return math.inf
         return total / (1.0 - here)
 
-    def _revise(self, node: _Node) -> None:
+    def _revise(self, node: _Node) -> dict[_Node, int]:
         """Bellman backups from ``node`` to every node that leads to it, as long as values move: the
         equations of the loops among them solved by iteration (Gauss-Seidel, at most
         :data:`_MAX_REVISIONS` backups per expansion). Values that keep climbing after
         :data:`_TRAP_CHECK` backups are looked at once: beliefs from which no policy reaches a goal or the
-        frontier for sure (:meth:`_dead_ends`) are worth nothing (infinite), which ends their climb."""
+        frontier for sure (:meth:`_dead_ends`) are worth nothing (infinite), which ends their climb.
+        Returns the nodes whose best action changed, each with the action it had before."""
+        changed: dict[_Node, int] = {}
+        costs = self.costs
         pending = collections.deque([node])
         queued = {node.number}
         first = True  # the expanded node's value went from the estimate to its backup: always passed on
@@ -538,6 +657,7 @@ class _Search:
                 break
             if backups == _TRAP_CHECK:
                 for dead in self._dead_ends():
+                    changed.setdefault(dead, dead.best)
                     dead.best, dead.value = -1, math.inf
                     for parent in dead.parents:
                         if parent.number not in queued:
@@ -546,10 +666,20 @@ class _Search:
             current = pending.popleft()
             queued.discard(current.number)
             best, value = -1, math.inf
-            for action in current.children:
-                q = self._q(current, action)
+            for action, branches in current.children.items():  # _q, written out: the hot loop
+                here, total = 0.0, costs[action]
+                for p, _, child in branches:
+                    if child is current:
+                        here += p
+                    else:
+                        total += p * child.value
+                if here >= 1.0 - _SAME:
+                    continue
+                q = total / (1.0 - here)
                 if q < value:
                     best, value = action, q
+            if best != current.best:
+                changed.setdefault(current, current.best)
             current.best = best
             settled = value == current.value or abs(value - current.value) <= _SAME * max(1.0, abs(value))
             if settled and not first:
@@ -560,6 +690,78 @@ class _Search:
                 if parent.number not in queued:
                     queued.add(parent.number)
                     pending.append(parent)
+        return changed
+
+    def _reroute(self, changed: dict[_Node, int]) -> None:
+        """The reaches after the best action of each node of ``changed`` went from the one given there to
+        its own: the node's reach leaves the old action's branches and flows down the new one's."""
+        pending: dict[_Node, float] = {}
+        for node, old in changed.items():
+            reach = node.reach
+            if node.best == old or reach == 0.0:
+                continue
+            if old >= 0:
+                for p, _, child in node.children[old]:
+                    pending[child] = pending.get(child, 0.0) - reach * p
+            if node.best >= 0:
+                for p, _, child in node.children[node.best]:
+                    pending[child] = pending.get(child, 0.0) + reach * p
+        self._flow(pending)
+
+    def _flow(self, pending: dict[_Node, float]) -> None:
+        """Add each change of reach in ``pending`` to its node and pass it down the node's best action,
+                weighted by the branches' probabilities, until every change is placed: only the part of the
+                policy whose reach changes is visited. Around a loop of the policy a change comes back smaller
+                each time; it stops when it is below :data:`_SETTLED_REACH` of the reach it adds to (a branch back to
+        the node itself is summed at once). A frontier leaf whose
+                reach changed goes (again) into :attr:`_tips`. Should the changes go round a loop more than
+                :data:`_MAX_FLOW` times (a loop the policy almost never leaves), the reaches are recomputed by one
+                traversal of the policy instead (loops cut where they close, :meth:`best_policy`)."""
+        queue = collections.deque(pending)
+        for _ in range(_MAX_FLOW):
+            if not queue:
+                return
+            node = queue.popleft()
+            delta = pending.pop(node)
+            if node.reach == 0.0:
+                self._reached.append(node)
+            node.reach += delta
+            if delta < 0.0 and abs(node.reach) <= _CANCELLED * -delta:
+                node.reach = 0.0  # all of it taken away: what is left is the sums' rounding
+            if node.leaf is LeafKind.FRONTIER:
+                if node.reach >= self.prune_below and node.reach > 0.0:
+                    heapq.heappush(self._tips, (-node.reach * node.value, -node.reach, node.number, node))
+                continue
+            if node.leaf is not None or node.best < 0 or abs(delta) <= _SETTLED_REACH * abs(node.reach):
+                continue
+            branches = node.children[node.best]
+            back = sum(p for p, _, child in branches if child is node)
+            if back >= 1.0 - _SAME:  # an action that never leaves: no policy's (worth nothing, _q)
+                continue
+            if back > 0.0:  # the visits a branch back to the node itself adds, at once
+                extra = delta * back / (1.0 - back)
+                node.reach += extra
+                delta += extra
+            for p, _, child in branches:
+                if child is node:
+                    continue
+                if child not in pending:
+                    pending[child] = 0.0
+                    queue.append(child)
+                pending[child] += delta * p
+        self._retrace()
+
+    def _retrace(self) -> None:
+        """Every reach and the tips anew, by one traversal of the best policy from the current start."""
+        root = self._reached[0]
+        for node in self._reached:
+            node.reach = 0.0
+        order, reach = self.best_policy(root)
+        self._reached, self._tips = order, []
+        for node in order:
+            node.reach = reach[node.number]
+            if node.leaf is LeafKind.FRONTIER and node.reach >= self.prune_below and node.reach > 0.0:
+                heapq.heappush(self._tips, (-node.reach * node.value, -node.reach, node.number, node))
 
     def _dead_ends(self) -> list[_Node]:
         """Expanded nodes of finite value from which no policy ends at a goal or a frontier leaf with
@@ -573,9 +775,10 @@ class _Search:
                 return [n for n in expanded if n.number not in alive]
             alive = reached
 
-    def best_policy(self, root: _Node) -> list[_Node]:
+    def best_policy(self, root: _Node) -> tuple[list[_Node], dict[int, float]]:
         """The nodes of the best policy from ``root`` in topological order (a node after every node that
-        leads to it, loops cut where they close), each with its :attr:`_Node.reach`."""
+        leads to it, loops cut where they close), and per node number the probability of reaching it
+        along the branches that are not cut."""
         postorder: list[_Node] = []
         seen = {root.number}
         stack: list[tuple[_Node, Iterator[_Node]]] = [(root, self._policy_children(root))]
@@ -591,15 +794,14 @@ class _Search:
                 postorder.append(node)
         order = postorder[::-1]
         position = {node.number: i for i, node in enumerate(order)}
-        for node in order:
-            node.reach = 0.0
-        root.reach = 1.0
+        reach = dict.fromkeys(position, 0.0)
+        reach[root.number] = 1.0
         for i, node in enumerate(order):
             if node.leaf is None and node.best >= 0:
                 for p, _, child in node.children[node.best]:
                     if position[child.number] > i:
-                        child.reach += node.reach * p
-        return order
+                        reach[child.number] += reach[node.number] * p
+        return order, reach
 
     @staticmethod
     def _policy_children(node: _Node) -> Iterator[_Node]:
@@ -608,20 +810,22 @@ class _Search:
                 yield child
 
     def next_tip(self, root: _Node) -> _Node | None:
-        """The frontier node of the best policy with the most expected cost at stake (reach × estimate),
-        among those reached with at least ``prune_below``; None when there is none (the policy is
-        complete)."""
-        best: _Node | None = None
-        for node in self.best_policy(root):
-            open_tip = node.leaf is LeafKind.FRONTIER and node.reach >= self.prune_below and node.reach > 0.0
-            if open_tip and (best is None or node.reach * node.value > best.reach * best.value):
-                best = node
-        return best
+        """The frontier node of the best policy with the most expected cost at stake (reach × estimate;
+        of equal ones the most likely, then the oldest), among those reached with at least
+        ``prune_below``; None when there is none (the policy is complete). ``root`` is the start
+        :meth:`root` returned: the reaches are kept for it."""
+        tips = self._tips
+        while tips:
+            _, negative, _, node = tips[0]
+            if node.leaf is LeafKind.FRONTIER and node.reach == -negative:
+                return node
+            heapq.heappop(tips)
+        return None
 
     def policy(self, root: _Node) -> tuple[PolicyNode, float]:
         """The best policy as a graph of :class:`PolicyNode`, and the probability of ending at a leaf
         that is not a goal (absorption in the policy's Markov chain, solved as a linear system)."""
-        order = self.best_policy(root)
+        order, reach = self.best_policy(root)
         frozen: dict[int, PolicyNode] = {}
         for node in order:
             most_likely = int(np.argmax(self.belief(node)))
@@ -632,7 +836,7 @@ class _Search:
                 )
             else:
                 kind = node.leaf or LeafKind.LOOP
-                if kind is LeafKind.FRONTIER and node.reach < self.prune_below:
+                if kind is LeafKind.FRONTIER and reach[node.number] < self.prune_below:
                     kind = LeafKind.PRUNED
                 frozen[node.number] = PolicyNode(
                     node.number, node.value, node.max_belief, most_likely, None, None, kind
@@ -655,6 +859,35 @@ class _Search:
                 probabilities.append(p)
             policy_node.branches = tuple(branches)
         return frozen[root.number], _absorbed(ends, rows, cols, probabilities)
+
+
+PolicyPlanner._search_kind = _Search
+
+
+class _TraversalSearch(_Search):
+    """The search before its bookkeeping was incremental (kept as the reference the tests and
+    benchmarks/bench_contingent.py compare with): each tip is chosen by a traversal of the whole best
+    policy, its reaches computed afresh along the branches in topological order (loops cut where they
+    close), and of equal tips the first in that order is expanded."""
+
+    def _flow(self, pending: dict[_Node, float]) -> None:
+        pass
+
+    def next_tip(self, root: _Node) -> _Node | None:
+        order, reach = self.best_policy(root)
+        best: _Node | None = None
+        for node in order:
+            here = reach[node.number]
+            open_tip = node.leaf is LeafKind.FRONTIER and here >= self.prune_below and here > 0.0
+            if open_tip and (best is None or here * node.value > reach[best.number] * best.value):
+                best = node
+        return best
+
+
+class _TraversalPlanner(PolicyPlanner):
+    """:class:`PolicyPlanner` with :class:`_TraversalSearch` (the reference)."""
+
+    _search_kind = _TraversalSearch
 
 
 def _ends(node: _Node) -> bool:

@@ -1,0 +1,148 @@
+"""LAO*'s bookkeeping before and after it was made incremental (issue 28): ``plan --policy`` on a map, side by
+side in one run.
+
+Run by hand from the repository root (not part of the test suite)::
+
+    python benchmarks/bench_lao.py                       # maps/hallway.yaml, the three searches below
+    python benchmarks/bench_lao.py --map depot --max-expansions 32 --repeats 3
+    python benchmarks/bench_lao.py --append              # also append the table to results/contingent.md
+
+The searches, each from the uniform belief with the command line's defaults (threshold 0.95, the entropy
+estimate, ``--prune-below`` 0.001, 200,000 expansions) but a time limit of ``--time-limit`` (600 s) so
+that a slow one still finishes, in this order, one process, ``OPENBLAS_NUM_THREADS=1``:
+
+1. **before**: ``beliefloc/planning/contingent.py`` as it was at ``--before`` (git revision, default the
+   commit issue 28's LAO* work started from), loaded from git into a module of its own (every other module
+   is today's);
+2. **traversal**: today's module with the reference search it keeps (``_TraversalPlanner``: a traversal of
+   the whole best policy per expansion), so that the bookkeeping alone differs from (3);
+3. **incremental**: today's ``PolicyPlanner``.
+
+Per search: the status, expansions, the expected cost of the policy, its nodes, CPU seconds
+(``time.process_time``) and wall seconds, and milliseconds per expansion. The machine is shared: the
+ratios between the rows of one run are what to read.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import os
+import subprocess
+import sys
+import time
+import types
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the repository root: import benchmarks.*
+from benchmarks.machine import cpu_name
+from benchmarks.planning.settings import ROOT, say, single_threaded
+
+RESULTS = ROOT / "benchmarks" / "results" / "contingent.md"
+BEFORE = "e4ff6b3"
+"""The revision issue 28's LAO* work started from."""
+
+
+def load_before(revision: str) -> Any:
+    """``beliefloc.planning.contingent`` as it was at ``revision``, as a module of its own."""
+    source = subprocess.run(
+        ["git", "show", f"{revision}:beliefloc/planning/contingent.py"],
+        cwd=ROOT,
+        check=True,
+        capture_output=True,
+        text=True,
+    ).stdout
+    module = types.ModuleType("contingent_before")
+    module.__file__ = f"{revision}:beliefloc/planning/contingent.py"
+    sys.modules[module.__name__] = module  # dataclasses look their module up
+    exec(compile(source, module.__file__, "exec"), module.__dict__)
+    return module
+
+
+def run(name: str, planner: Any, belief: Any, args: argparse.Namespace) -> dict[str, Any]:
+    cpu, wall = time.process_time(), time.perf_counter()
+    result = planner.plan(belief, max_expansions=args.max_expansions, time_limit=args.time_limit)
+    cpu, wall = time.process_time() - cpu, time.perf_counter() - wall
+    row = {
+        "name": name,
+        "status": result.status.value,
+        "expanded": result.expanded,
+        "cost": result.expected_cost,
+        "nodes": result.nodes(),
+        "cpu": cpu,
+        "wall": wall,
+    }
+    say(f"  {name}: {row}")
+    return row
+
+
+def report(args: argparse.Namespace, rows: list[dict[str, Any]], load: tuple[float, float]) -> str:
+    first = {row["name"]: row for row in rows if row["repeat"] == 0}
+    lines = [
+        f"## LAO* bookkeeping, before and after ({datetime.date.today().isoformat()})",
+        "",
+        f"`python benchmarks/bench_lao.py {' '.join(args.argv)}`: `plan maps/{args.map}.yaml --policy` from the "
+        f"uniform belief, at most {args.max_expansions:,} expansions, time limit {args.time_limit:g} s. "
+        f"Machine: {cpu_name()}, {os.cpu_count()} cores, shared; OPENBLAS_NUM_THREADS=1; 1-minute load average "
+        f"{load[0]:.2f} at the start, {load[1]:.2f} at the end. before: `contingent.py` at `{args.before}`; "
+        "traversal: today's module with its reference search (a traversal of the best policy per expansion); "
+        "incremental: today's `PolicyPlanner`.",
+        "",
+        "| search | run | status | expansions | expected cost | policy nodes | CPU s | wall s | ms / expansion "
+        "| CPU vs before |",
+        "| --- | ---: | --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
+    ]
+    for row in rows:
+        base = first.get("before")
+        ratio = f"{base['cpu'] / row['cpu']:.1f}x" if base and row["cpu"] > 0 else "-"
+        lines.append(
+            f"| {row['name']} | {row['repeat'] + 1} | {row['status']} | {row['expanded']:,} | {row['cost']:.4f} | "
+            f"{row['nodes']:,} | {row['cpu']:.2f} | {row['wall']:.2f} | "
+            f"{1e3 * row['cpu'] / max(1, row['expanded']):.3f} | {ratio} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+def main(argv: list[str] | None = None) -> int:
+    single_threaded()
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--map", default="hallway", help="a map in maps/ (name without .yaml)")
+    parser.add_argument("--max-expansions", type=int, default=200_000)
+    parser.add_argument("--time-limit", type=float, default=600.0)
+    parser.add_argument("--before", default=BEFORE, help="git revision of the 'before' contingent.py")
+    parser.add_argument("--repeats", type=int, default=1, help="runs of each search (in turn)")
+    parser.add_argument("--skip", nargs="*", default=[], help="searches not to run (before, traversal, ...)")
+    parser.add_argument("--append", action="store_true", help=f"append the table to {RESULTS.name}")
+    args = parser.parse_args(argv)
+    args.argv = sys.argv[1:] if argv is None else argv
+
+    from beliefloc.belief import uniform
+    from beliefloc.planning import contingent
+    from beliefloc.semantic_map import compile_model, load_map
+
+    model = compile_model(load_map(ROOT / "maps" / f"{args.map}.yaml"))
+    before = load_before(args.before)
+    searches = {
+        "before": lambda: before.PolicyPlanner(model),
+        "traversal": lambda: contingent._TraversalPlanner(model),
+        "incremental": lambda: contingent.PolicyPlanner(model),
+    }
+    load_start = os.getloadavg()[0]
+    rows = []
+    for repeat in range(args.repeats):
+        for name, make in searches.items():
+            if name in args.skip:
+                continue
+            row = run(name, make(), uniform(model.n_states), args)
+            rows.append({**row, "repeat": repeat})
+    text = report(args, rows, (load_start, os.getloadavg()[0]))
+    print(text)
+    if args.append:
+        with RESULTS.open("a") as out:
+            out.write("\n" + text)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
