@@ -13,9 +13,8 @@ from beliefloc import compile_model, load_map
 from beliefloc.belief import predict, uniform
 from beliefloc.errors import InvalidValueError
 from beliefloc.model import Model
-from beliefloc.robots.line_protocol import motion
 from beliefloc.robots.localize import Command, SimulatedReadingRobot, localize
-from beliefloc.robots.odometry import FLAG_FLOOR, MotionReport, predict_reported
+from beliefloc.robots.odometry import FLAG_FLOOR, MotionReport, motion, predict_reported
 from beliefloc.robots.readings import RawReading, ReadingBinner
 from beliefloc.robots.surprise import SurpriseCheck, respread
 from beliefloc.semantic_map import SemanticMap, geometry

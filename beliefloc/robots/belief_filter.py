@@ -28,7 +28,7 @@ from beliefloc.continuous.pose_lattice import LatticeFilter as LatticeCore
 from beliefloc.continuous.pose_lattice import PoseLattice
 from beliefloc.errors import InvalidValueError
 from beliefloc.model import Action, GridLayout, Model
-from beliefloc.robots.odometry import MotionReport, predict_reported
+from beliefloc.robots.odometry import MotionReport, motion, predict_reported
 from beliefloc.robots.readings import ReadingBinner
 from beliefloc.robots.surprise import expected_log_likelihood, respread
 
@@ -93,10 +93,8 @@ def tracker_noise(grid: GridLayout) -> OdometryNoise:
 
 def commanded_deltas(grid: GridLayout, action: Action, lattice: PoseLattice) -> list[tuple[float, float, float]] | None:
     """The robot-frame motion ``action`` commands from each lattice yaw (one for all when the same),
-    as the line protocol's ``motion`` says it (:func:`beliefloc.robots.line_protocol.motion`); None
+    as the line protocol's ``motion`` says it (:func:`beliefloc.robots.odometry.motion`); None
     for an action that does not move."""
-    from beliefloc.robots.line_protocol import motion
-
     asked = motion(grid, action)
     if not asked:
         return None

@@ -135,3 +135,34 @@ def predict_odometry(
         raise InvalidValueError("'odometry': the reported motion takes every state the robot may be in off the map")
     out /= total
     return out
+
+
+def motion(grid: GridLayout | None, action: Action) -> dict[str, float] | None:
+    """What an actuation action asks the robot to do, in metres and radians (counter-clockwise
+    positive): ``{"turn": θ}`` for a rotation (``2π/headings``), ``{"advance": ±s}`` for forward and
+    backward (one cell of ``s`` metres along the heading), ``{"x": dx, "y": dy}`` for a compass move
+    (map-frame metres). None for a perception action or a model without a grid.
+
+    **Diagonals.** beliefloc does not know the robot's heading, and on an 8-heading grid a move
+    along a diagonal heading goes to the diagonal neighbour's centre (``s·√2`` away, as the model's
+    ``T_a`` says). The message therefore carries both distances on an 8-heading grid:
+    ``{"advance": ±s, "advance_diagonal": ±s·√2}``; the robot drives ``advance_diagonal`` when its
+    heading is a diagonal one (NE, SE, SW, NW), ``advance`` otherwise: always to the centre of the
+    next cell along its heading."""
+    if grid is None or not action.is_actuation:
+        return None
+    step = grid.cell_size
+    if action.name in ("rotate_cw", "rotate_ccw"):
+        turn = 2 * math.pi / grid.headings
+        return {"turn": turn if action.name == "rotate_ccw" else -turn}
+    if action.name in ("forward", "backward"):
+        sign = 1.0 if action.name == "forward" else -1.0
+        if grid.headings == 8:
+            return {"advance": sign * step, "advance_diagonal": sign * step * math.sqrt(2.0)}
+        return {"advance": sign * step}
+    grid_step = {"up": (0.0, step), "down": (0.0, -step), "left": (-step, 0.0), "right": (step, 0.0)}.get(action.name)
+    if grid_step is None:
+        return None
+    yaw = grid.frame.yaw
+    dx, dy = grid_step
+    return {"x": math.cos(yaw) * dx - math.sin(yaw) * dy, "y": math.sin(yaw) * dx + math.cos(yaw) * dy}

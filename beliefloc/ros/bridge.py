@@ -5,7 +5,7 @@
 :class:`~beliefloc.robots.line_protocol.LineRobot` is, so ``localize``'s loop is the same loop. For
 each action it:
 
-1. drives the action's motion (:func:`beliefloc.robots.line_protocol.motion`: a turn of one heading,
+1. drives the action's motion (:func:`beliefloc.robots.odometry.motion`: a turn of one heading,
    a straight move of one cell) as ``geometry_msgs/Twist`` on ``/cmd_vel``, closed on the odometry
    topic (:mod:`beliefloc.ros.motion_control`): each odometry message gives the next command; the
    drive stops early when the scan shows an obstacle in its way (then the move is *blocked*), and
@@ -49,9 +49,8 @@ import numpy as np
 from beliefloc.continuous.motion import relative
 from beliefloc.errors import ReplyError, UsageError
 from beliefloc.model import GridLayout, Model
-from beliefloc.robots.line_protocol import motion
 from beliefloc.robots.localize import Command
-from beliefloc.robots.odometry import MotionReport
+from beliefloc.robots.odometry import MotionReport, motion
 from beliefloc.robots.readings import RawReading, ReadingBinner
 from beliefloc.ros import messages
 from beliefloc.ros.motion_control import Goal, MotionLimits, obstacle_ahead, velocity
