@@ -11,8 +11,10 @@ at, in the grid frame -- at every lattice pose.
 **A lattice pose stands for the sub-cell and yaw step around it**, as the lattice's tables widen
 each sensor's noise by it (:mod:`beliefloc.semantic_map.lattice_sensors`): beam ``b`` of range ``z``
 scores with ``sigma_b = hypot(sigma_hit, spacing / √12, z · yaw_step / √12)``. End points are looked
-up at the nearest pixel of the distance field (the field's pixels are a few centimetres, well under
-``sigma_b``); beyond the image the distance is the cap.
+up at the nearest pixel of the distance field, whose pixels are at most :data:`FIELD_RESOLUTION`
+(a coarser image -- a hand-drawn grid's, one pixel a cell -- is split into finer pixels first, so
+that a hit on a wall's face is near it, not half a pixel off); beyond the image the distance is the
+cap.
 
 Pure numpy/scipy, no I/O. Loops run over chunks of poses, never over poses one by one.
 """
@@ -24,12 +26,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from beliefloc.continuous.image import OccupancyImage
 from beliefloc.continuous.likelihood_field import LaserModel, Scan, distance_field, select_beams
 from beliefloc.continuous.pose_lattice import PoseLattice
 
 LATTICE_LASER = LaserModel(max_beams=60)
 """The laser model the lattice scores whole scans with: AMCL's mixture and 60 beams
 (``max_beams``), ``sigma_hit`` as the grid filter's (:class:`LaserModel`), widened by the lattice."""
+FIELD_RESOLUTION = 0.05
+"""Metres: the coarsest pixel of the distance field (well under any beam's ``sigma_b``)."""
 CHUNK = 1_000_000
 """Pose × beam end points looked up at once (bounded memory: a few arrays of this many floats)."""
 
@@ -40,11 +45,19 @@ class LatticeScanModel:
 
     lattice: PoseLattice
     laser: LaserModel = LATTICE_LASER
+    image: OccupancyImage = field(init=False)
+    """The lattice's image, its pixels split to at most :data:`FIELD_RESOLUTION`."""
     distance: np.ndarray = field(init=False)
-    """Metres from each pixel of the lattice's image to the nearest blocked one (capped)."""
+    """Metres from each pixel of :attr:`image` to the nearest blocked one (capped)."""
 
     def __post_init__(self) -> None:
-        self.distance = distance_field(self.lattice.image, self.laser.likelihood_max_dist)
+        image = self.lattice.image
+        split = max(1, math.ceil(image.resolution / FIELD_RESOLUTION - 1e-9))
+        if split > 1:
+            blocked = np.repeat(np.repeat(np.asarray(image.blocked), split, axis=0), split, axis=1)
+            image = OccupancyImage(blocked, image.resolution / split, image.origin)
+        self.image = image
+        self.distance = distance_field(image, self.laser.likelihood_max_dist)
 
     def beam_sigmas(self, ranges: np.ndarray) -> np.ndarray:
         """Each beam's sigma: ``sigma_hit`` widened by the lattice's spacing and yaw step."""
@@ -67,7 +80,7 @@ class LatticeScanModel:
         scale = (-0.5 / sigma**2).astype(np.float32)
         floor = np.float32(self.laser.z_rand / beams.range_max)
         z_hit = np.float32(self.laser.z_hit)
-        image = self.lattice.image
+        image = self.image
         height, width = self.distance.shape
         cap = np.float32(self.laser.likelihood_max_dist)
         bx, by = beams.x[None, :], beams.y[None, :]
