@@ -170,15 +170,20 @@ def test_the_states_filter_reads_the_binned_beams_of_a_whole_scan(tb3: ReadingBi
     assert a.correct(scan, observation, {"scan": whole})[0] == pytest.approx(b.correct(scan, observation)[0])
 
 
-def test_one_whole_scan_puts_the_truth_among_the_most_likely_poses(tb3: ReadingBinner) -> None:
+@pytest.mark.parametrize("path", [TB3, KITCHEN], ids=["tb3-sandbox", "kitchen"])
+def test_one_whole_scan_puts_the_truth_among_the_most_likely_poses(path: Path) -> None:
     """From a uniform belief, one noiseless 360-ray scan taken at a lattice pose: that pose scores
-    within a few nats of the best, and the belief around it gains."""
-    tracker = LatticeFilter(tb3)
+    within 2 nats of the best (a symmetric twin may match it), and the belief around it gains.
+    (The kitchen's image is one pixel a cell: its field is computed on finer pixels, distances to
+    the walls' faces -- the square room's twins score alike.)"""
+    smap = load_map(path)
+    binner = ReadingBinner(smap, compile_model(smap))
+    tracker = LatticeFilter(binner)
     lattice = tracker.lattice
     poses = lattice.pose_array
-    grid = tb3.model.grid
+    grid = binner.model.grid
     assert grid is not None
-    setup = ContinuousSetup(tb3.smap, range_noise=0.0)
+    setup = ContinuousSetup(smap, range_noise=0.0)
     world = setup.world(np.random.default_rng(0))
     model = LatticeScanModel(lattice)
     rng = np.random.default_rng(11)
@@ -190,11 +195,13 @@ def test_one_whole_scan_puts_the_truth_among_the_most_likely_poses(tb3: ReadingB
         ranges = world.scan_ranges(np.tile([float(mx), float(my), float(map_yaw)], (360, 1)), angles)
         scan = Scan(-math.pi, 2 * math.pi / 360, np.where(np.isneginf(ranges), 0.0, ranges), 0.01, 12.0)
         log = model.log_likelihood(scan)
-        assert log.max() - log[truth] < 5.0
-        near = np.hypot(poses[:, 0] - x, poses[:, 1] - y) < 0.3
-        tracker.start(uniform(tb3.model.n_states))
+        assert log.max() - log[truth] < 2.0
+        turned = np.abs(np.remainder(poses[:, 2] - yaw + math.pi, 2 * math.pi) - math.pi)
+        near = (np.hypot(poses[:, 0] - x, poses[:, 1] - y) < 0.3) & (turned < math.radians(20))
+        tracker.start(uniform(binner.model.n_states))
         before = tracker.core.fine[near].sum()
-        tracker.core.correct("scan", [0, 0, 0], log, [0, 1, 2])
+        parts = len(tracker.core.tables["scan"])
+        tracker.core.correct("scan", [0] * parts, log, range(parts))
         assert tracker.core.fine[near].sum() > 20 * before
 
 

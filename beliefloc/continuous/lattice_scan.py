@@ -13,8 +13,11 @@ each sensor's noise by it (:mod:`beliefloc.semantic_map.lattice_sensors`): beam 
 scores with ``sigma_b = hypot(sigma_hit, spacing / √12, z · yaw_step / √12)``. End points are looked
 up at the nearest pixel of the distance field, whose pixels are at most :data:`FIELD_RESOLUTION`
 (a coarser image -- a hand-drawn grid's, one pixel a cell -- is split into finer pixels first, so
-that a hit on a wall's face is near it, not half a pixel off); beyond the image the distance is the
-cap.
+that a hit on a wall's face is near it, not half a cell off). A pixel's distance is to the nearest
+blocked pixel's *edge* (centre to centre less half a pixel, as the world's clearance): a ray stops
+on a pixel's face, and whether its end point rounds into the wall or the free pixel before it must
+not matter -- measured to centres, the two sides of a symmetric room differed by 14 nats for one
+scan (half a pixel on every beam). Beyond the image the distance is the cap.
 
 Pure numpy/scipy, no I/O. Loops run over chunks of poses, never over poses one by one.
 """
@@ -33,7 +36,7 @@ from beliefloc.continuous.pose_lattice import PoseLattice
 LATTICE_LASER = LaserModel(max_beams=60)
 """The laser model the lattice scores whole scans with: AMCL's mixture and 60 beams
 (``max_beams``), ``sigma_hit`` as the grid filter's (:class:`LaserModel`), widened by the lattice."""
-FIELD_RESOLUTION = 0.05
+FIELD_RESOLUTION = 0.025
 """Metres: the coarsest pixel of the distance field (well under any beam's ``sigma_b``)."""
 CHUNK = 1_000_000
 """Pose × beam end points looked up at once (bounded memory: a few arrays of this many floats)."""
@@ -57,7 +60,8 @@ class LatticeScanModel:
             blocked = np.repeat(np.repeat(np.asarray(image.blocked), split, axis=0), split, axis=1)
             image = OccupancyImage(blocked, image.resolution / split, image.origin)
         self.image = image
-        self.distance = distance_field(image, self.laser.likelihood_max_dist)
+        centres = distance_field(image, self.laser.likelihood_max_dist + image.resolution / 2)
+        self.distance = np.maximum(centres - np.float32(image.resolution / 2), np.float32(0.0))
 
     def beam_sigmas(self, ranges: np.ndarray) -> np.ndarray:
         """Each beam's sigma: ``sigma_hit`` widened by the lattice's spacing and yaw step."""
