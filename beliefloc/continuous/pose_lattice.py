@@ -30,7 +30,7 @@ Pure numpy/scipy, no I/O. Loops run over yaws and kernel taps, never over poses.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 
@@ -352,21 +352,47 @@ class LatticeFilter:
 
     # --- readings -------------------------------------------------------------------------------
 
-    def likelihood(self, action: str, readings: Sequence[int]) -> np.ndarray:
-        """``p(o | pose)`` at every valid pose for the part readings ``readings``."""
+    def likelihood(self, action: str, readings: Sequence[int], skip: Collection[int] = ()) -> np.ndarray:
+        """``p(o | pose)`` at every valid pose for the part readings ``readings`` (the parts in
+        ``skip`` left out)."""
         out = np.ones(self.lattice.n_poses)
-        for table, value in zip(self.tables[action], readings, strict=True):
-            out *= table[:, value]
+        for part, (table, value) in enumerate(zip(self.tables[action], readings, strict=True)):
+            if part not in skip:
+                out *= table[:, value]
         return out
 
-    def correct(self, action: str, readings: Sequence[int]) -> tuple[np.ndarray, float]:
+    def correct(
+        self,
+        action: str,
+        readings: Sequence[int],
+        log_likelihood: np.ndarray | None = None,
+        replaces: Collection[int] = (),
+    ) -> tuple[np.ndarray, float]:
         """Bayes' rule with the readings; ``(model belief, p(o | belief))``. Raises
-        :class:`ImpossibleObservationError` when no pose could have read them."""
+        :class:`ImpossibleObservationError` when no pose could have read them.
+
+        ``log_likelihood`` (per pose), when given, stands for the parts ``replaces`` in the update:
+        a whole scan scored in full instead of its binned beams' tables (issue 27), tempered as the
+        tables are. ``p(o | belief)`` stays the binned readings' own, so that what ``localize``'s
+        fit checks compare it with (:meth:`probabilities`, :meth:`expected_log_likelihood`) is
+        the same distribution."""
         likelihood = self.likelihood(action, readings)
         total = float(np.dot(self.fine, likelihood))
         if not total > 0:
             raise ImpossibleObservationError(f"{action}: no pose the robot may be at could read this")
-        weighted = self.fine * likelihood**self.temper if self.temper != 1.0 else self.fine * likelihood
+        if log_likelihood is None:
+            weighted = self.fine * likelihood**self.temper if self.temper != 1.0 else self.fine * likelihood
+        else:
+            own = likelihood if not replaces else self.likelihood(action, readings, replaces)
+            with np.errstate(divide="ignore"):
+                log = np.log(own) + np.asarray(log_likelihood, dtype=np.float64)
+            held = (self.fine > 0) & np.isfinite(log)
+            if not held.any():
+                raise ImpossibleObservationError(f"{action}: no pose the robot may be at could read this scan")
+            # relative to the best pose the robot may be at: no underflow however many beams
+            weighted = np.where(
+                held, self.fine * np.exp(self.temper * (np.where(held, log, 0.0) - log[held].max())), 0.0
+            )
         self.fine = weighted / weighted.sum()
         return self.belief, total
 

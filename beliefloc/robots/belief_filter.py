@@ -18,7 +18,8 @@ compared with), all in the model's terms.
 from __future__ import annotations
 
 import math
-from typing import Protocol
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
@@ -29,8 +30,11 @@ from beliefloc.continuous.pose_lattice import PoseLattice
 from beliefloc.errors import InvalidValueError
 from beliefloc.model import Action, GridLayout, Model
 from beliefloc.robots.odometry import MotionReport, motion, predict_reported
-from beliefloc.robots.readings import ReadingBinner
+from beliefloc.robots.readings import RawReading, ReadingBinner
 from beliefloc.robots.surprise import expected_log_likelihood, respread
+
+if TYPE_CHECKING:
+    from beliefloc.continuous.lattice_scan import LatticeScanModel
 
 
 class BeliefFilter(Protocol):
@@ -42,7 +46,9 @@ class BeliefFilter(Protocol):
 
     def probabilities(self, action: Action) -> np.ndarray: ...
 
-    def correct(self, action: Action, observation: int | None) -> tuple[np.ndarray, float]: ...
+    def correct(
+        self, action: Action, observation: int | None, readings: Mapping[str, RawReading] | None = None
+    ) -> tuple[np.ndarray, float]: ...
 
     def expected_log_likelihood(self, action: Action) -> float: ...
 
@@ -68,7 +74,11 @@ class ModelFilter:
     def probabilities(self, action: Action) -> np.ndarray:
         return action.observation.probabilities(self.belief)
 
-    def correct(self, action: Action, observation: int | None) -> tuple[np.ndarray, float]:
+    def correct(
+        self, action: Action, observation: int | None, readings: Mapping[str, RawReading] | None = None
+    ) -> tuple[np.ndarray, float]:
+        """The binned ``observation`` (a whole scan among ``readings`` counts by its binned beams:
+        the model's states read only those)."""
         self.belief, probability = correct(action, self.belief, observation)
         return self.belief, probability
 
@@ -130,6 +140,8 @@ class LatticeFilter:
         if grid is None:
             raise InvalidValueError(f"model {model.name!r} has no grid: a pose lattice needs cells and headings")
         self.model = model
+        self.binner = binner
+        self._scan_model: LatticeScanModel | None = None
         lattice = make_lattice(binner.smap, grid, max_poses)
         slots = {a.name: [(s.name, s.first_part, s.n_parts) for s in binner.sensors(a)] for a in model.actions}
         tables = sensor_tables(binner.smap, model, lattice, slots)
@@ -163,10 +175,31 @@ class LatticeFilter:
     def probabilities(self, action: Action) -> np.ndarray:
         return self.core.probabilities(action.name)
 
-    def correct(self, action: Action, observation: int | None) -> tuple[np.ndarray, float]:
+    def correct(
+        self, action: Action, observation: int | None, readings: Mapping[str, RawReading] | None = None
+    ) -> tuple[np.ndarray, float]:
+        """Bayes' rule with the binned ``observation``; a whole scan among the raw ``readings``
+        (:meth:`~beliefloc.robots.readings.ReadingBinner.full_scans`) is scored in full by the
+        likelihood field (:mod:`beliefloc.continuous.lattice_scan`) instead of its binned beams'
+        tables. The probability returned is the binned observation's either way."""
         if observation is None:
             return self.belief, 1.0
-        self.belief, probability = self.core.correct(action.name, action.observation.decode(observation))
+        digits = action.observation.decode(observation)
+        scans = self.binner.full_scans(action, readings) if readings else {}
+        if scans:
+            if self._scan_model is None:
+                from beliefloc.continuous.lattice_scan import LatticeScanModel
+
+                self._scan_model = LatticeScanModel(self.lattice)
+            log = np.zeros(self.lattice.n_poses)
+            replaces: list[int] = []
+            for slot in self.binner.sensors(action):
+                if slot.name in scans:
+                    log += self._scan_model.log_likelihood(scans[slot.name])
+                    replaces.extend(range(slot.first_part, slot.first_part + slot.n_parts))
+            self.belief, probability = self.core.correct(action.name, digits, log, replaces)
+        else:
+            self.belief, probability = self.core.correct(action.name, digits)
         self._peak = None
         return self.belief, probability
 

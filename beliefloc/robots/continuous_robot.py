@@ -10,6 +10,10 @@ from the same action message the line protocol sends (:func:`~beliefloc.robots.l
 so an episode in process and one through :class:`~beliefloc.robots.line_protocol.LineRobot` are the
 same episode.
 
+With ``full_scans=n`` a scan sensor answers a whole scan of ``n`` beams around the robot (the
+reply form of issue 27: ``angle_min``, ``angle_increment``, ``ranges`` with ``null`` for no return,
+``range_min``, ``range_max``; a return nearer than ``range_min`` as 0), as a lidar does.
+
 Headings: the robot knows its own yaw; on an 8-heading grid it drives ``advance_diagonal`` when its
 yaw is nearer a diagonal heading (the protocol's contract).
 """
@@ -44,7 +48,11 @@ class ContinuousReadingRobot:
         *,
         report_odometry: bool = True,
         report_blocked: bool = True,
+        full_scans: int = 0,
     ) -> None:
+        if full_scans < 0:
+            raise InvalidValueError(f"full_scans: {full_scans} is not a number of beams (0: the map's beams only)")
+        self.full_scans = full_scans
         self.robot = robot
         self.smap = smap
         self.binner = binner
@@ -116,8 +124,22 @@ class ContinuousReadingRobot:
             return self._look(spec)
         raise InvalidValueError(f"sensor {sensor['name']!r}: a continuous robot has no {kind} sensor")
 
-    def _scan(self, spec: Any) -> list[float | None]:
+    def _scan(self, spec: Any) -> list[float | None] | dict[str, Any]:
         pose = self.robot.pose
+        if self.full_scans:
+            n = self.full_scans
+            laser = self.robot.world.config.laser
+            increment = 2 * math.pi / n
+            ranges = self.robot.world.scan_ranges(
+                np.repeat(pose.reshape(1, 3), n, axis=0), -math.pi + increment * np.arange(n)
+            )
+            return {
+                "angle_min": -math.pi,
+                "angle_increment": increment,
+                "ranges": [None if r == math.inf else max(float(r), 0.0) for r in ranges],
+                "range_min": laser.range_min,
+                "range_max": laser.range_max,
+            }
         angles = np.radians(np.asarray(spec.beams, dtype=np.float64))  # counter-clockwise, as the laser's
         ranges = self.robot.world.scan_ranges(np.repeat(pose.reshape(1, 3), len(angles), axis=0), angles)
         return [None if r == math.inf else max(float(r), 0.0) for r in ranges]

@@ -267,7 +267,7 @@ def localize(
             break
         expected = tracker.probabilities(action) if observation is not None else None
         try:
-            belief, probability = tracker.correct(action, observation)
+            belief, probability = tracker.correct(action, observation, readings)
         except ImpossibleObservationError as exc:
             status, reason = EpisodeStatus.IMPOSSIBLE_OBSERVATION, f"action {command.seq}: {exc}"
             break

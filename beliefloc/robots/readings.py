@@ -9,7 +9,12 @@ A raw reading, per sensor type (the JSON values of ``beliefloc localize``'s prot
   may give the number alone). A range ``d`` falls in bin ``k`` when ``bins[k-1] < d <= bins[k]``
   (``bins[-1] = 0``), with compile.py's tolerance: the bin is ``bisect_left(bins, d - 1e-9)``.
   Beyond the last edge, ``null`` or ``Infinity`` is ``no_wall``. A negative range, NaN, a boolean
-  or a string is refused.
+  or a string is refused. Or **a whole scan** (issue 27), ``sensor_msgs/LaserScan``'s numbers:
+  ``{"angle_min", "angle_increment", "ranges", "range_min", "range_max"}`` (radians
+  counter-clockwise from the heading, REP 103; metres, ``null`` for no return, REP 117), at most
+  :data:`MAX_SCAN_BEAMS` ranges (:func:`parse_full_scan`). Its beams at the sensor's angles are
+  binned as above (the nearest ray, :func:`beliefloc.ros.sensors.beam_ranges`'s selection), and
+  :meth:`ReadingBinner.full_scans` keeps the whole scan for a filter that scores it in full.
 * **look** -- the classes detected, a list of class names (a class listed twice counts once). A
   sensor with ``angle_bins`` needs the viewing angle of each: ``{class: angle}`` in radians (its
   sign does not matter), binned like the range of a scan by ``bisect_left(angle_bins, |angle|° -
@@ -28,12 +33,21 @@ import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from beliefloc.errors import InvalidValueError, ModelError
 from beliefloc.model import Action, Model
 from beliefloc.semantic_map.schema import SemanticMap, here_classes
 from beliefloc.semantic_map.sections import HereSensor, LookSensor, ScanSensor, Sensor
+
+if TYPE_CHECKING:
+    from beliefloc.continuous.likelihood_field import Scan
+
+MAX_SCAN_BEAMS = 10_000
+"""The most ranges a whole-scan reading may carry (a 2-D lidar gives a few hundred to a few
+thousand; more is taken for a malformed reply rather than read)."""
+SCAN_FIELDS = ("angle_min", "angle_increment", "ranges", "range_min", "range_max")
+"""The keys of a whole-scan reading, ``sensor_msgs/LaserScan``'s names."""
 
 EDGE_TOLERANCE = 1e-9
 """A value within this of a bin's upper edge is in that bin (compile.py's ``- 1e-9``)."""
@@ -174,6 +188,20 @@ class ReadingBinner:
                 raise InvalidValueError(f"{slot.name}: {exc}") from None
         return act.observation.encode(digits)
 
+    def full_scans(self, action: str | Action, readings: Mapping[str, RawReading]) -> dict[str, Scan]:
+        """The whole scans among ``readings`` of ``action``'s scan sensors (sensor name -> scan; the
+        sensors read beam by beam are not in it). Raises :class:`InvalidValueError` naming the sensor
+        and field for a malformed one (as :meth:`observation` does)."""
+        out: dict[str, Scan] = {}
+        for slot in self.sensors(action):
+            raw = readings.get(slot.name)
+            if isinstance(slot.sensor, ScanSensor) and isinstance(raw, Mapping):
+                try:
+                    out[slot.name] = parse_full_scan(raw)
+                except InvalidValueError as exc:
+                    raise InvalidValueError(f"{slot.name}: {exc}") from None
+        return out
+
     def example(self, action: str | Action, observation: int | None) -> dict[str, RawReading]:
         """Raw readings that :meth:`observation` bins to ``observation``: the middle of each range or
         angle bin, ``None`` for ``no_wall``. (What the protocol sends as the expected reading, and
@@ -216,8 +244,82 @@ def _bin(slot: SensorSlot, raw: RawReading) -> list[int]:
     return [_bin_here(sensor, slot.classes, raw)]
 
 
+def parse_full_scan(raw: Mapping[str, Any]) -> Scan:
+    """A whole-scan reading (see the module) as a :class:`~beliefloc.continuous.likelihood_field.Scan`
+    (``null`` ranges as ``+inf``). Raises :class:`InvalidValueError` naming the field that is missing,
+    unknown or not a usable value."""
+    from beliefloc.continuous.likelihood_field import Scan
+
+    unknown = [key for key in raw if key not in SCAN_FIELDS]
+    if unknown:
+        raise InvalidValueError(
+            f"a whole scan has no field {', '.join(map(repr, unknown))}: give {', '.join(SCAN_FIELDS)}"
+        )
+    missing = [key for key in SCAN_FIELDS if key not in raw]
+    if missing:
+        raise InvalidValueError(f"a whole scan needs {', '.join(map(repr, missing))} (of {', '.join(SCAN_FIELDS)})")
+    numbers: dict[str, float] = {}
+    for key in ("angle_min", "angle_increment", "range_min", "range_max"):
+        value = raw[key]
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            unit = "radians" if key.startswith("angle") else "metres"
+            raise InvalidValueError(f"'{key}' should be a finite number of {unit}, got {_show(value)}")
+        numbers[key] = float(value)
+    if numbers["angle_increment"] == 0.0:
+        raise InvalidValueError("'angle_increment' is 0: the beams' angles must differ (either sign)")
+    if numbers["range_min"] < 0:
+        raise InvalidValueError(f"'range_min' cannot be negative, got {numbers['range_min']:g}")
+    if not numbers["range_min"] < numbers["range_max"]:
+        raise InvalidValueError(
+            f"'range_max' ({numbers['range_max']:g}) should exceed 'range_min' ({numbers['range_min']:g})"
+        )
+    ranges = raw["ranges"]
+    if not isinstance(ranges, list) or not ranges:
+        raise InvalidValueError(
+            f"'ranges' should be a non-empty list of metres or null (no return), got {_show(ranges)}"
+        )
+    if len(ranges) > MAX_SCAN_BEAMS:
+        raise InvalidValueError(f"'ranges' has {len(ranges)} readings, more than the {MAX_SCAN_BEAMS} read")
+    values: list[float | None] = []
+    for k, value in enumerate(ranges):
+        if value is None:
+            values.append(None)
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or math.isnan(value) or value < 0:
+            raise InvalidValueError(
+                f"'ranges[{k}]' should be a non-negative number of metres or null (no return), got {_show(value)}"
+            )
+        values.append(float(value))
+    return Scan.from_values(
+        numbers["angle_min"], numbers["angle_increment"], values, numbers["range_min"], numbers["range_max"]
+    )
+
+
+def full_scan_ranges(sensor: ScanSensor, scan: Scan) -> list[float | None]:
+    """The ranges of ``sensor``'s beams in a whole scan taken in the robot's frame: the nearest ray
+    to each (:func:`beliefloc.ros.sensors.beam_ranges`: ``null``, ``+inf`` or beyond ``range_max``
+    is no wall, below ``range_min`` a wall right there). Raises :class:`InvalidValueError` for a
+    beam the scan does not cover."""
+    from beliefloc.ros import sensors as ros
+
+    as_ros = ros.Scan(
+        "", 0, scan.angle_min, scan.angle_increment, scan.range_min, scan.range_max, tuple(scan.ranges.tolist())
+    )
+    beams = [math.radians(b) for b in sensor.beams]  # counter-clockwise, as describe() gives them
+    for theta, degrees in zip(beams, sensor.beams, strict=True):
+        if ros.beam_index(as_ros, math.remainder(theta, 2 * math.pi)) is None:
+            end = math.degrees(as_ros.angle(len(as_ros.ranges) - 1))
+            raise InvalidValueError(
+                f"'ranges': the sensor's beam at {degrees:g}° (counter-clockwise from the heading) is outside the "
+                f"scan, which covers {math.degrees(scan.angle_min):.4g}° to {end:.4g}°"
+            )
+    return ros.beam_ranges(as_ros, beams, (0.0, 0.0, 0.0), "")
+
+
 def _bin_scan(sensor: ScanSensor, raw: RawReading) -> list[int]:
     n = len(sensor.beams)
+    if isinstance(raw, Mapping):
+        raw = full_scan_ranges(sensor, parse_full_scan(raw))
     if isinstance(raw, list):
         ranges = raw
         if len(ranges) != n:
