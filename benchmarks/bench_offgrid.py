@@ -76,7 +76,11 @@ def run_map(
     print(f"{name}: {model.n_states} states, compiled in {compile_seconds:.1f} s", flush=True)
     for clutter in clutters:
         setup = ContinuousSetup(
-            smap, clutter=clutter, report_odometry=not args.protocol_1, lattice=args.filter == "lattice"
+            smap,
+            clutter=clutter,
+            report_odometry=not args.protocol_1,
+            lattice=args.filter == "lattice",
+            full_scans=args.full_scans,
         )
         for strategy in strategies:
             try:  # ec2-macros builds its macro table first: a region model on an occupancy map has none
@@ -160,6 +164,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--filter", choices=["lattice", "states"], default="lattice", help="localize's belief: pose lattice or states"
     )
+    parser.add_argument("--full-scans", type=int, default=0, help="scans answered whole, with this many beams")
     parser.add_argument("--protocol-1", action="store_true", help="replies carry readings only")
     parser.add_argument("--max-steps", type=int, default=60)
     parser.add_argument("--time-limit", type=float, default=2.0, help="seconds per plan call")

@@ -71,6 +71,9 @@ class ContinuousSetup:
     after a move and a reading from where the robot lands."""
     report_odometry: bool = True
     """Replies carry the wheels' odometry and the blocked flag (False: protocol 1, readings only)."""
+    full_scans: int = 0
+    """Scan sensors answer a whole scan of this many beams around the robot (a 2-D lidar's; the
+    lattice filter scores it in full); 0: the map's beams only."""
     lattice: bool = True
     """``localize`` keeps its belief over a pose lattice finer than the states
     (:class:`~beliefloc.robots.belief_filter.LatticeFilter`: the filter for a real robot); False:
@@ -155,7 +158,12 @@ class ContinuousSetup:
         robot = ContinuousRobot(world, start)
         binner = self.binner(model)
         reading = ContinuousReadingRobot(
-            robot, self.smap, binner, report_odometry=self.report_odometry, report_blocked=self.report_odometry
+            robot,
+            self.smap,
+            binner,
+            report_odometry=self.report_odometry,
+            report_blocked=self.report_odometry,
+            full_scans=self.full_scans,
         )
         name = StrategyName(strategy)
 
