@@ -216,7 +216,7 @@ def simulate(
       beliefloc simulate maps/kitchen.yaml -n 3 --record episode.gif --record-episode 2
       beliefloc simulate maps/kitchen.yaml -n 40 --workers 2 --out kitchen.jsonl --no-timings
       beliefloc simulate maps/kitchen.yaml -n 60 --workers 2 --out kitchen-60.jsonl --resume
-      beliefloc simulate maps/kitchen.yaml -n 3 --continuous --clutter 0.1 -s bestfirst -s ec2-macros   # exits 1
+      beliefloc simulate maps/kitchen.yaml -n 3 --continuous --clutter 0.1 -s bestfirst -s ec2-macros
     """
     from beliefloc.files.results_file import header
     from beliefloc.render.belief_grid import belief_view

@@ -33,6 +33,11 @@ from beliefloc.continuous.image import OccupancyImage
 from beliefloc.continuous.likelihood_field import LaserModel, Scan, distance_field, select_beams
 from beliefloc.continuous.pose_lattice import PoseLattice
 
+EFFECTIVE_BEAMS = 10
+"""A whole scan's log-likelihood counts as this many independent beams, however many are scored: the
+robot is never exactly at a lattice pose, and every beam of one scan shares that offset (measured on
+the depot with 360-beam scans: at the full 60 beams a look-alike aisle 2.9 m away was declared at
+p = 0.98 after four scans)."""
 LATTICE_LASER = LaserModel(max_beams=60)
 """The laser model the lattice scores whole scans with: AMCL's mixture and 60 beams
 (``max_beams``), ``sigma_hit`` as the grid filter's (:class:`LaserModel`), widened by the lattice."""
@@ -99,4 +104,6 @@ class LatticeScanModel:
             d = np.full(i.shape, cap, dtype=np.float32)
             d[inside] = self.distance[i[inside], j[inside]]
             out[start : start + step] = np.log(z_hit * np.exp(scale * d * d) + floor).sum(axis=1)
+        # the beams of one scan share the lattice pose's error: they count as EFFECTIVE_BEAMS readings
+        out *= min(1.0, EFFECTIVE_BEAMS / beams.count)
         return out
