@@ -156,7 +156,7 @@ class PoseLattice:
         self.stand = stand
         # valid poses ordered by lattice yaw, then row, then column
         g = np.arange(G)
-        heading = ((g + (m - 1) // 2) // m) % H
+        heading = self.yaw_headings()
         r, c = np.nonzero(stand)
         cell_index = np.full(L.rows * L.cols, -1, dtype=np.int64)
         cell_index[L.free_cells] = np.arange(len(L.free_cells))
@@ -169,6 +169,13 @@ class PoseLattice:
     @property
     def n_poses(self) -> int:
         return int(self.flat.size)
+
+    def yaw_headings(self) -> np.ndarray:
+        """The model heading each lattice yaw lies in (its sector's centre yaw and the ``m // 2``
+        yaws either side)."""
+        G = self.layout.headings * self.m
+        out: np.ndarray = ((np.arange(G) + (self.m - 1) // 2) // self.m) % self.layout.headings
+        return out
 
     @property
     def spacing(self) -> float:

@@ -83,7 +83,7 @@ from beliefloc.planning.settings import (
     DEFAULT_TIME_LIMIT,
     Heuristic,
 )
-from beliefloc.planning.successors import SuccessorEvaluator, SuccessorStats
+from beliefloc.planning.successors import SuccessorEvaluator, SuccessorStats, reading_keys
 
 _CACHE_BYTES = 256 * 2**20
 _PROGRESS_EVERY = 64
@@ -359,10 +359,7 @@ def _likelihood_columns(
     parts = action.observation.parts
     if not parts:
         return None
-    key = np.zeros(n_states, dtype=np.int64)
-    for part in parts:
-        key = key * part.confusion.shape[0] + part.truth
-    _, first, groups = np.unique(key, return_index=True, return_inverse=True)
+    _, first, groups = np.unique(reading_keys(action, n_states), return_index=True, return_inverse=True)
     by_signature = None
     if signature is not None:
         order, starts = signature

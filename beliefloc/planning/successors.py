@@ -64,13 +64,20 @@ class _Groups:
     """``C ln C`` is written ``C * log_likelihood`` with 0 where C = 0."""
 
 
+def reading_keys(action: Action, n_states: int) -> np.ndarray:
+    """Each state's *signature*: one integer for the tuple of its parts' confusion rows (states with
+    the same key read every part alike)."""
+    key = np.zeros(n_states, dtype=np.int64)
+    for part in action.observation.parts:
+        key = key * part.confusion.shape[0] + part.truth
+    return key
+
+
 def _groups(action: Action, n_states: int) -> _Groups | None:
     parts = action.observation.parts
     if not parts:
         return None
-    key = np.zeros(n_states, dtype=np.int64)
-    for part in parts:
-        key = key * part.confusion.shape[0] + part.truth
+    key = reading_keys(action, n_states)
     exact = all(part.confusion.dtype == np.float64 for part in parts)
     label: np.ndarray | None = None
     if n_states and key.min() >= 0 and key.max() < 2**16:

@@ -110,12 +110,10 @@ def commanded_deltas(grid: GridLayout, action: Action, lattice: PoseLattice) -> 
         return None
     if "turn" in asked:
         return [(0.0, 0.0, float(asked["turn"]))]
-    G = lattice.shape[0]
-    m = lattice.m
     if "advance" in asked:
         if "advance_diagonal" not in asked:
             return [(float(asked["advance"]), 0.0, 0.0)]
-        heading = ((np.arange(G) + (m - 1) // 2) // m) % grid.headings
+        heading = lattice.yaw_headings()
         return [
             (float(asked["advance_diagonal"] if h % 2 == 1 else asked["advance"]), 0.0, 0.0) for h in heading.tolist()
         ]
