@@ -78,8 +78,9 @@ class PoseEstimate:
         return {**self.pose.as_json(), "covariance": list(self.covariance)}
 
 
-def belief_pose(model: Model, belief: np.ndarray) -> PoseEstimate:
-    """The pose of ``belief``'s most likely state (lowest index on ties) and the belief's covariance.
+def belief_pose(model: Model, belief: np.ndarray, mode: int | None = None) -> PoseEstimate:
+    """The pose of ``belief``'s most likely state (lowest index on ties; ``mode`` when given: the state
+    a filter declared) and the belief's covariance.
 
     Each state ``i`` (probability ``b_i``) has a cell centre ``(x_i, y_i)`` and a heading yaw
     ``θ_i``; within the state the robot is uniform on the cell (side ``s``) and, independently, on
@@ -118,7 +119,7 @@ def belief_pose(model: Model, belief: np.ndarray) -> PoseEstimate:
     belief does not fit it.
     """
     grid, normalised = _grid_and_weights(model, belief)
-    mode = int(np.argmax(normalised))
+    mode = int(np.argmax(normalised)) if mode is None else int(mode)
     support = np.flatnonzero(normalised > 0.0)
     weight = normalised[support]
     row, col, heading = grid.cell_heading(support)
@@ -151,10 +152,10 @@ def belief_pose(model: Model, belief: np.ndarray) -> PoseEstimate:
     )
 
 
-def pose_json(model: Model, belief: np.ndarray) -> dict[str, object] | None:
+def pose_json(model: Model, belief: np.ndarray, mode: int | None = None) -> dict[str, object] | None:
     """The ``"pose"`` value of every ``--json`` that reports a most likely state:
-    ``belief_pose(model, belief).as_json()``, or None (JSON ``null``) when the model has no grid."""
-    return None if model.grid is None else belief_pose(model, belief).as_json()
+    ``belief_pose(model, belief, mode).as_json()``, or None (JSON ``null``) when the model has no grid."""
+    return None if model.grid is None else belief_pose(model, belief, mode).as_json()
 
 
 # --- modes: the separate places a belief holds ------------------------------------------------------
@@ -213,13 +214,35 @@ def belief_modes(
 
     ``belief`` is normalised here (it needs a positive, finite sum). Raises
     :class:`InvalidValueError` as :func:`belief_pose` does."""
+    found = _modes_with_members(model, belief, radius_cells, min_probability, max_modes)
+    return tuple(
+        sorted((mode for mode, _ in found), key=lambda m: -m.probability)
+    )  # stable: the greedy order on equal masses
+
+
+def gathered_modes(model: Model, belief: np.ndarray) -> np.ndarray:
+    """``belief`` (normalised) with each of its modes (:func:`belief_modes`) gathered on the mode's
+    best state: the mode's mass there, 0 on its other states; states in no mode keep theirs. A
+    planner given it tells places apart, not the neighbouring cells and headings of one place."""
+    _, weights = _grid_and_weights(model, belief)
+    out = weights.copy()
+    for mode, members in _modes_with_members(model, belief, MODE_RADIUS_CELLS, MODE_MIN_PROBABILITY, MAX_MODES):
+        out[members] = 0.0
+        out[mode.state] = mode.probability
+    return out
+
+
+def _modes_with_members(
+    model: Model, belief: np.ndarray, radius_cells: float, min_probability: float, max_modes: int
+) -> list[tuple[Mode, np.ndarray]]:
+    """:func:`belief_modes`' greedy search, in the order found, each mode with its states' indices."""
     grid, weights = _grid_and_weights(model, belief)
     support = np.flatnonzero(weights > 0.0)
     rest = weights[support]
     row, col, heading = grid.cell_heading(support)
     x, y = grid.cell_centre(row, col)
     reach = radius_cells * grid.cell_size
-    found: list[Mode] = []
+    found: list[tuple[Mode, np.ndarray]] = []
     left = np.ones(support.size, dtype=bool)
     while len(found) < max_modes and float(rest[left].sum()) >= min_probability:
         best = int(np.flatnonzero(left)[np.argmax(rest[left])])
@@ -227,9 +250,9 @@ def belief_modes(
         near_heading = np.minimum(turn, grid.headings - turn) <= 1
         near = left & near_heading & (np.hypot(x - x[best], y - y[best]) <= reach)
         state = int(support[best])
-        found.append(Mode(state, state_pose(grid, state), float(rest[near].sum()), int(near.sum())))
+        found.append((Mode(state, state_pose(grid, state), float(rest[near].sum()), int(near.sum())), support[near]))
         left &= ~near
-    return tuple(sorted(found, key=lambda m: -m.probability))  # stable: the greedy order on equal masses
+    return found
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from beliefloc import compile_model, load_map
 from beliefloc.belief import uniform
 from beliefloc.continuous.motion import OdometryNoise, sample_odometry
-from beliefloc.continuous.pose_lattice import PEAK_RADIUS, lattice_resolution
+from beliefloc.continuous.pose_lattice import REACH_CELLS, lattice_resolution
 from beliefloc.errors import ImpossibleObservationError
 from beliefloc.robots.belief_filter import LatticeFilter
 from beliefloc.robots.odometry import MotionReport
@@ -156,7 +156,7 @@ def test_a_reading_no_pose_can_give_stays_impossible(tmp_path) -> None:  # type:
         tracker.correct(look, lamp)
 
 
-def test_the_peak_counts_a_pose_known_on_the_border_of_two_cells_whole(kitchen: LatticeFilter) -> None:
+def test_the_declared_probability_counts_a_pose_known_on_the_border_of_two_cells_whole(kitchen: LatticeFilter) -> None:
     lattice = kitchen.lattice
     grid = kitchen.model.grid
     assert grid is not None
@@ -175,7 +175,44 @@ def test_the_peak_counts_a_pose_known_on_the_border_of_two_cells_whole(kitchen: 
     kitchen.core.fine = fine
     assert kitchen.core.belief.max() == pytest.approx(0.5)
     assert kitchen.core.peak() == pytest.approx(1.0)
-    assert PEAK_RADIUS * grid.cell_size + grid.cell_size / math.sqrt(2) < 1.5 * grid.cell_size
+    assert kitchen.core.declared()[0] in (state_a, state_b)
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), spread=st.floats(0.05, 5.0))
+def test_the_declared_probability_is_the_mass_within_reach_of_the_declared_state(
+    tb3: LatticeFilter, seed: int, spread: float
+) -> None:
+    """A belief bunched around a random pose, as one after a few readings is: the declared
+    probability is the mass of the poses within 1.5 cells and one sector of the declared state's
+    centre and heading (summed pose by pose here), and the most likely state's reach holds no more."""
+    rng = np.random.default_rng(seed)
+    core = tb3.core
+    lattice = core.lattice
+    grid = tb3.model.grid
+    assert grid is not None
+    poses = lattice.pose_array
+    centre = poses[rng.integers(lattice.n_poses)]
+    d = np.hypot(poses[:, 0] - centre[0], poses[:, 1] - centre[1]) / grid.cell_size
+    turn = np.abs(np.remainder(poses[:, 2] - centre[2] + math.pi, 2 * math.pi) - math.pi)
+    weight = np.exp(-(d**2 + (turn / 0.5) ** 2) / spread) * rng.uniform(0.5, 1.0, lattice.n_poses)
+    core.fine = weight / weight.sum()
+    state, probability = core.declared()
+
+    def reach(s: int) -> float:
+        row, col, heading = (int(v) for v in grid.cell_heading(s))
+        cx, cy = (col + 0.5) * grid.cell_size, (grid.rows - row - 0.5) * grid.cell_size
+        yaw = lattice.yaws()[heading * lattice.m]
+        inside = [
+            math.hypot(x - cx, y - cy) <= REACH_CELLS * grid.cell_size
+            and abs(math.remainder(t - yaw, 2 * math.pi)) <= 2 * math.pi / grid.headings + 1e-9
+            for x, y, t in poses.tolist()
+        ]
+        return float(core.fine[np.array(inside)].sum())
+
+    assert probability == pytest.approx(reach(state), rel=1e-6, abs=1e-12)
+    best = int(np.argmax(core.belief))
+    assert probability >= reach(best) - 1e-9
 
 
 @pytest.mark.slow

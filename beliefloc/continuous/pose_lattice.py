@@ -54,10 +54,17 @@ positions) until the lattice fits."""
 STAY = 0.02
 """A commanded move without odometry leaves the robot where it was with at least this probability
 (a wheel that slipped, a move refused): the pose it would have reached is not the only one kept."""
-PEAK_RADIUS = 0.75
-"""Cells: how far from the most likely state's mean pose :meth:`LatticeFilter.peak` counts mass (the
-mean lies within the state's cell, 0.71 cells at most from its centre: 0.75 + 0.71 < 1.5)."""
+REACH_CELLS = 1.5
+"""A state is declared with the probability that the robot is within this many cells of its cell's
+centre and :data:`REACH_SECTORS` heading sectors of its heading (:meth:`LatticeFilter.declared`):
+what "localized at this state" promises of an off-grid robot, and what a declaration is judged
+wrong by (``simulate --continuous``, issue 26)."""
+REACH_SECTORS = 1.0
+CANDIDATES = 16
+""":meth:`LatticeFilter.declared` weighs this many of the most likely states (and the neighbours of
+the most likely one) as the state to declare."""
 FLAG_FLOOR = 0.01
+"""The least weight a pose keeps when a ``blocked`` flag contradicts it (the flag may be wrong)."""
 TEMPER = 0.5
 """Readings count this much each in Bayes' rule (the likelihood to this power). The robot is never
 exactly at a lattice pose, so consecutive readings share the lattice's error: counted as independent
@@ -70,7 +77,6 @@ it was stopped (something not on the map: a person, a chair)."""
 FREE_PAST_WALL = 0.1
 """With odometry: the weight of a pose whose commanded path the map blocks when the robot says it
 was not stopped (the lattice position is up to half a spacing from the true pose)."""
-"""The least weight a pose keeps when a ``blocked`` flag contradicts it (the flag may be wrong)."""
 
 
 def lattice_resolution(
@@ -440,28 +446,55 @@ class LatticeFilter:
         self.fine /= self.fine.sum()
         return self.belief
 
-    def mode_pose(self) -> tuple[float, float, float]:
-        """The mean pose (grid frame) of the lattice poses of the most likely model state."""
-        best = int(np.argmax(self.belief))
-        mine = self.lattice.state == best
-        w = self.fine[mine]
-        w = w / w.sum() if w.sum() > 0 else np.full(w.size, 1.0 / w.size)
-        poses = self.lattice.pose_array[mine]
-        yaw = math.atan2(float(np.dot(w, np.sin(poses[:, 2]))), float(np.dot(w, np.cos(poses[:, 2]))))
-        return float(np.dot(w, poses[:, 0])), float(np.dot(w, poses[:, 1])), yaw
+    def declared(self) -> tuple[int, float]:
+        """The state to declare and the probability that the robot is within its reach: within
+        :data:`REACH_CELLS` cells of its cell's centre and :data:`REACH_SECTORS` sectors of its
+        heading. A robot on the border of two cells or sectors splits its mass between them however
+        well its pose is known, and a corridor's readings place it along the corridor less well
+        than across; the state's own mass says neither. Of the :data:`CANDIDATES` most likely states
+        and the neighbours of the most likely one (its 3 × 3 cells, its heading and the two beside
+        it), the one whose reach holds the most mass."""
+        lattice = self.lattice
+        layout = lattice.layout
+        belief = self.belief
+        order = np.argsort(belief)[::-1]
+        best = int(order[0])
+        candidates = set(order[:CANDIDATES].tolist())
+        row, col, heading = (int(v) for v in layout.cell_heading(best))
+        for dr in (-1, 0, 1):
+            for dc in (-1, 0, 1):
+                for dh in (-1, 0, 1) if layout.headings > 1 else (0,):
+                    state = layout.state_of(row + dr, col + dc, (heading + dh) % layout.headings)
+                    if state >= 0:
+                        candidates.add(state)
+        states = np.array(sorted(candidates))
+        rows, cols, headings = layout.cell_heading(states)
+        # each state's reach is one box of the lattice image, the same shape for every state: the
+        # positions within REACH_CELLS of the cell's centre, the yaws within REACH_SECTORS sectors
+        k, m = lattice.k, lattice.m
+        half = (k - 1) / 2  # the cell centre's offset from its first lattice position
+        lo, hi = math.ceil(half - REACH_CELLS * k - 1e-9), math.floor(half + REACH_CELLS * k + 1e-9)
+        offsets = np.arange(lo, hi + 1)
+        disc = np.hypot(*np.meshgrid(offsets - half, offsets - half, indexing="ij")) <= REACH_CELLS * k + 1e-9
+        G = lattice.shape[0]
+        turns = math.floor(REACH_SECTORS * m + 1e-9) if layout.headings > 1 else 0
+        yaw_offsets = np.arange(-min(turns, G // 2), min(turns, (G - 1) // 2) + 1)
+        pad = max(-lo, hi)
+        image = np.pad(lattice.image_of(self.fine), ((0, 0), (pad, pad), (pad, pad)))
+        r0 = rows * k + lo + pad
+        c0 = cols * k + lo + pad
+        span = offsets.size
+        g = (headings[:, None] * m + yaw_offsets[None, :]) % G  # (states, yaws)
+        r = r0[:, None] + np.arange(span)[None, :]  # (states, span)
+        c = c0[:, None] + np.arange(span)[None, :]
+        boxes = image[g[:, :, None, None], r[:, None, :, None], c[:, None, None, :]]
+        mass = (boxes * disc).sum(axis=(1, 2, 3))
+        # of the states whose reach holds the most, the likeliest (a point belief is within reach
+        # of its neighbours too: the state it is in is the one to name)
+        tied = np.flatnonzero(mass >= mass.max() * (1 - 1e-12))
+        i = int(tied[np.argmax(belief[states[tied]])])
+        return int(states[i]), min(1.0, float(mass[i]))
 
     def peak(self) -> float:
-        """The probability that the robot is where the model's most likely state says, to within
-        what that state's region allows: the larger of the state's own mass and the mass within
-        ``PEAK_RADIUS`` cells and half a heading sector of its mean pose (:meth:`mode_pose`). A
-        robot on the border of two cells or two sectors splits its mass between them however well
-        its pose is known; the second counts it whole. Either way the true pose is then within
-        1.5 cells of the state's centre and one sector of its heading."""
-        x, y, yaw = self.mode_pose()
-        poses = self.lattice.pose_array
-        layout = self.lattice.layout
-        near = np.hypot(poses[:, 0] - x, poses[:, 1] - y) <= PEAK_RADIUS * layout.cell_size
-        if layout.headings > 1:
-            sector = 2 * math.pi / layout.headings
-            near &= np.abs(np.remainder(poses[:, 2] - yaw + math.pi, 2 * math.pi) - math.pi) <= sector / 2
-        return max(float(self.belief.max()), float(self.fine[near].sum()))
+        """The probability compared with the threshold: :meth:`declared`'s."""
+        return self.declared()[1]

@@ -11,8 +11,9 @@ pose lattice finer than them (issue 26).
   a confusion rate. The planner still sees the model's belief (the lattice's, summed per state).
 
 Either answers :meth:`start`, :meth:`predict`, :meth:`probabilities`, :meth:`correct`,
-:meth:`expected_log_likelihood`, :meth:`respread` and :meth:`peak` (the probability the threshold is
-compared with), all in the model's terms.
+:meth:`expected_log_likelihood`, :meth:`respread`, :meth:`declared` (the state to declare and the
+probability the threshold is compared with) and :meth:`peak` (that probability), all in the model's
+terms.
 """
 
 from __future__ import annotations
@@ -29,6 +30,7 @@ from beliefloc.continuous.pose_lattice import LatticeFilter as LatticeCore
 from beliefloc.continuous.pose_lattice import PoseLattice
 from beliefloc.errors import InvalidValueError
 from beliefloc.model import Action, GridLayout, Model
+from beliefloc.pose import gathered_modes
 from beliefloc.robots.odometry import MotionReport, motion, predict_reported
 from beliefloc.robots.readings import RawReading, ReadingBinner
 from beliefloc.robots.surprise import expected_log_likelihood, respread
@@ -54,7 +56,11 @@ class BeliefFilter(Protocol):
 
     def respread(self) -> np.ndarray: ...
 
+    def declared(self) -> tuple[int, float]: ...
+
     def peak(self) -> float: ...
+
+    def planning_belief(self) -> np.ndarray: ...
 
 
 class ModelFilter:
@@ -89,9 +95,17 @@ class ModelFilter:
         self.belief = respread(self.belief)
         return self.belief
 
+    def declared(self) -> tuple[int, float]:
+        """The most likely state and its probability: what the threshold is compared with."""
+        state = int(np.argmax(self.belief))
+        return state, float(self.belief[state])
+
     def peak(self) -> float:
-        """The most likely state's probability: what the threshold is compared with."""
-        return float(self.belief.max())
+        return self.declared()[1]
+
+    def planning_belief(self) -> np.ndarray:
+        """The belief itself: the planner's goal is the threshold's."""
+        return self.belief
 
 
 def tracker_noise(grid: GridLayout) -> OdometryNoise:
@@ -150,7 +164,8 @@ class LatticeFilter:
                 motions[action.name] = deltas
         self.core = LatticeCore(lattice, tables, motions, noise or tracker_noise(grid))
         self.belief = self.core.start(np.ones(model.n_states) / model.n_states)
-        self._peak: float | None = None
+        self._declared: tuple[int, float] | None = None
+        self._planning: np.ndarray | None = None
 
     @property
     def lattice(self) -> PoseLattice:
@@ -158,7 +173,8 @@ class LatticeFilter:
 
     def start(self, belief: np.ndarray) -> np.ndarray:
         self.belief = self.core.start(belief)
-        self._peak = None
+        self._declared = None
+        self._planning = None
         return self.belief
 
     def predict(self, action: Action, report: MotionReport | None) -> None:
@@ -168,7 +184,8 @@ class LatticeFilter:
         blocked = report.blocked if report is not None else None
         self.core.predict(action.name, odometry, blocked)
         self.belief = self.core.belief
-        self._peak = None
+        self._declared = None
+        self._planning = None
 
     def probabilities(self, action: Action) -> np.ndarray:
         return self.core.probabilities(action.name)
@@ -198,7 +215,8 @@ class LatticeFilter:
             self.belief, probability = self.core.correct(action.name, digits, log, replaces)
         else:
             self.belief, probability = self.core.correct(action.name, digits)
-        self._peak = None
+        self._declared = None
+        self._planning = None
         return self.belief, probability
 
     def expected_log_likelihood(self, action: Action) -> float:
@@ -206,12 +224,29 @@ class LatticeFilter:
 
     def respread(self) -> np.ndarray:
         self.belief = self.core.respread()
-        self._peak = None
+        self._declared = None
+        self._planning = None
         return self.belief
 
+    def declared(self) -> tuple[int, float]:
+        """The state whose reach holds the most mass, and that mass: the probability that the robot is
+        within 1.5 cells and one sector of it
+        (:meth:`beliefloc.continuous.pose_lattice.LatticeFilter.declared`)."""
+        if self._declared is None:
+            self._declared = self.core.declared()
+        return self._declared
+
     def peak(self) -> float:
-        """The most likely state's probability, counting the neighbours' poses within its region's
-        reach (:meth:`beliefloc.continuous.pose_lattice.LatticeFilter.peak`)."""
-        if self._peak is None:
-            self._peak = self.core.peak()
-        return self._peak
+        return self.declared()[1]
+
+    def planning_belief(self) -> np.ndarray:
+        """The belief the planner plans from: each of its modes (:func:`beliefloc.pose.belief_modes`,
+        states within 1.5 cells and one heading of the mode's best one) gathered on its best state.
+        The threshold is compared with the mass within a state's reach (:meth:`declared`), not with
+        one state's: planning from the belief itself, the planner would spend the robot's moves
+        telling neighbouring cells apart -- which the exact model says a reading can, and an off-grid
+        robot's readings cannot -- instead of the places far apart that still share the belief (the
+        mirror twin of a symmetric floor)."""
+        if self._planning is None:
+            self._planning = gathered_modes(self.model, self.belief)
+        return self._planning

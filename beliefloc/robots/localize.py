@@ -103,26 +103,36 @@ class Localization:
     """How many times the readings stopped fitting and the belief was re-spread."""
     peak: float | None = None
     """The probability compared with the threshold (:meth:`BeliefFilter.peak`: with a pose lattice,
-    the most likely state's mass with its neighbours' poses within its region's reach); None: the
-    most likely state's probability."""
+    the probability that the robot is within the declared state's reach); None: the most likely
+    state's probability."""
+    state: int | None = None
+    """The state declared (:meth:`BeliefFilter.declared`); None: the most likely one."""
 
     @property
     def localized(self) -> bool:
         return self.status is EpisodeStatus.LOCALIZED
 
+    @property
+    def declared(self) -> tuple[int, float]:
+        """The state declared (or the most likely one) and the probability compared with the threshold."""
+        state, probability = most_likely(self.belief)
+        if self.state is not None:
+            state = self.state
+        if self.peak is not None:
+            probability = self.peak
+        return state, probability
+
     def as_json(self, model: Model) -> dict[str, Any]:
         """The outcome as plain data: the most likely state, its probability and its pose
         (:func:`beliefloc.pose.pose_json`) when localized, else null; ``max_belief`` either way."""
-        state, probability = most_likely(self.belief)
-        if self.peak is not None:
-            probability = max(probability, self.peak)
+        state, probability = self.declared
         done = self.localized
         return {
             "status": self.status.value,
             "localized": done,
             "state": model.states.name(state) if done else None,
             "probability": probability if done else None,
-            "pose": pose_json(model, self.belief) if done else None,
+            "pose": pose_json(model, self.belief, state) if done else None,
             "max_belief": probability,
             "steps": self.steps,
             "cost": self.cost,
@@ -234,10 +244,17 @@ def localize(
                 status = EpisodeStatus.NO_PLAN
                 reason = "the belief reached the threshold, but every move was blocked: the state cannot be confirmed"
                 break
+        view = tracker.planning_belief()
+        if forced is None and view.max() >= settings.threshold:
+            # one place holds the threshold once its neighbouring cells are gathered, yet no state's
+            # reach does (the two draw the place's edge a little apart): plan from the belief itself
+            view = belief
+            if view.max() >= settings.threshold and untried:  # the planner's goal is met: move, read anew
+                forced = untried[int(draw.integers(len(untried)))]
         if forced is not None:
             decision, action, planned = forced.name, forced, None
         else:
-            choice = chooser.next_action(belief)
+            choice = chooser.next_action(view)
             if isinstance(choice, GiveUp):
                 status, reason = choice.status, _GIVE_UP_REASONS.get(choice.status, "")
                 break
@@ -317,9 +334,12 @@ def localize(
             if on_step is not None:
                 on_step(LocalizeStep(command, observation, probability, belief))
             continue
-        chooser.observed(decision, observation, belief)  # an unexpected observation: the plan is dropped
+        chooser.observed(
+            decision, observation, tracker.planning_belief()
+        )  # an unexpected observation: the plan is dropped
         if on_step is not None:
             on_step(LocalizeStep(command, observation, probability, belief))
+    declared_state, declared_probability = tracker.declared()
     return Localization(
         status,
         belief,
@@ -330,7 +350,8 @@ def localize(
         reason,
         check.confidence,
         recovered,
-        tracker.peak(),
+        peak=declared_probability,
+        state=declared_state,
     )
 
 

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from beliefloc.belief import most_likely
+from beliefloc.continuous.pose_lattice import REACH_CELLS, REACH_SECTORS
 from beliefloc.continuous.world import Clutter, ContinuousRobot, ContinuousWorld, LaserSpec, MotionError, WorldConfig
 from beliefloc.errors import InvalidValueError
 from beliefloc.model import GridLayout, Model, wrap_angle
@@ -45,9 +45,10 @@ from beliefloc.simulation.episode import ContinuousOutcome, EpisodeRecord, OnSte
 from beliefloc.simulation.settings import StrategyName
 from beliefloc.simulation.strategies import EpisodeStatus, PlannerSettings, SharedWork, Strategy, make_strategy
 
-WRONG_CELLS = 1.5
+WRONG_CELLS = REACH_CELLS
 """An episode declared localized is wrong when the true pose is more than this many cells from the
-reported state's centre (or more than one heading sector from its heading)."""
+reported state's centre (or more than one heading sector from its heading): beyond the reach the
+lattice filter's declared probability speaks of."""
 MOVES_STREAM = 26
 """The third key of the generator of the moves ``localize`` makes instead of a repeated reading."""
 
@@ -200,7 +201,7 @@ class ContinuousSetup:
             confirm=self.confirm,
             belief_filter=self.belief_filter(model),
         )
-        state, probability = most_likely(outcome.belief)
+        state, probability = outcome.declared
         true_state = state_at(grid, robot.pose)
         record.final = model.states.name(state)
         record.true_final = _state_name(model, robot.pose)
@@ -211,7 +212,7 @@ class ContinuousSetup:
         record.replans = outcome.replans
         record.plan_seconds = list(outcome.plan_seconds)
         record.max_belief = probability
-        record.pose = belief_pose(model, outcome.belief)
+        record.pose = belief_pose(model, outcome.belief, state)
         position_error, yaw_error = pose_errors(grid, state, robot.pose)
         record.continuous = ContinuousOutcome(
             start_pose=_triple(start),
@@ -262,7 +263,7 @@ def pose_errors(grid: GridLayout, state: int, pose: np.ndarray) -> tuple[float, 
 def is_wrong(grid: GridLayout, position_error: float, yaw_error: float) -> bool:
     """More than :data:`WRONG_CELLS` cells or one heading sector from the reported state."""
     sector = 2 * math.pi / grid.headings if grid.headings > 1 else math.inf
-    return position_error > WRONG_CELLS * grid.cell_size or yaw_error > sector
+    return position_error > WRONG_CELLS * grid.cell_size or yaw_error > REACH_SECTORS * sector
 
 
 def _state_name(model: Model, pose: np.ndarray) -> str:
