@@ -30,6 +30,7 @@ Pure numpy/scipy, no I/O.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -194,6 +195,42 @@ def log_hit_mixture(d: np.ndarray, sigma: float, model: LaserModel, range_max: f
     return out
 
 
+def phase_split(image: np.ndarray, m: int) -> np.ndarray:
+    """``P[a, b, i, j] = image[a + i m, b + j m]``: ``image`` (both sides multiples of ``m``) split in
+    ``m x m`` phase images, so that every ``m``-th pixel from any start pixel is one contiguous
+    slice of one phase (what :func:`add_shifted` adds)."""
+    h, w = image.shape
+    out: np.ndarray = np.ascontiguousarray(image.reshape(h // m, m, w // m, m).transpose(1, 3, 0, 2))
+    return out
+
+
+def add_shifted(
+    target: np.ndarray,
+    images: Sequence[np.ndarray],
+    starts_p: Sequence[int],
+    starts_q: Sequence[int],
+    m: int,
+    *,
+    clip: bool = False,
+) -> None:
+    """``target[i, j] += sum_b F_b[p_b + i m, q_b + j m]``: the shifted-image sum of the likelihood
+    field method. ``images[b]`` is ``F_b`` split by :func:`phase_split` (stride ``m``), ``(p_b, q_b)``
+    the pixel of ``F_b`` that ``target[0, 0]`` reads; each term is one contiguous slice (the loop
+    runs over the terms -- beams --, never over ``target``'s elements). Every slice must lie inside
+    its image, or with ``clip`` the part of it outside is skipped (read as 0)."""
+    rows, cols = target.shape
+    for phases, p, q in zip(images, starts_p, starts_q, strict=True):
+        i0, j0 = p // m, q // m
+        if not clip:
+            target += phases[p % m, q % m, i0 : i0 + rows, j0 : j0 + cols]
+            continue
+        height, width = phases.shape[2:]
+        t0, t1 = max(0, -i0), min(rows, height - i0)
+        s0, s1 = max(0, -j0), min(cols, width - j0)
+        if t0 < t1 and s0 < s1:
+            target[t0:t1, s0:s1] += phases[p % m, q % m, i0 + t0 : i0 + t1, j0 + s0 : j0 + s1]
+
+
 @dataclass(frozen=True)
 class CellWindow:
     """A window of a cell grid laid over an occupancy image (the grid of
@@ -289,10 +326,7 @@ class LikelihoodField:
         key = round(sigma, 6), round(range_max, 6)
         cached = self._bands.get(key)
         if cached is None:
-            field = log_hit_mixture(self._lattice_distance, sigma, self.model, range_max)
-            m = self.m
-            h, w = field.shape
-            cached = np.ascontiguousarray(field.reshape(h // m, m, w // m, m).transpose(1, 3, 0, 2))
+            cached = phase_split(log_hit_mixture(self._lattice_distance, sigma, self.model, range_max), self.m)
             self._bands[key] = cached
         return cached
 
@@ -362,10 +396,8 @@ class LikelihoodField:
                 target = layer if n == 0 else acc
                 if n:
                     target.fill(0.0)
-                for p, q, sigma in zip((dp + sp).tolist(), (dq + sq).tolist(), bs.tolist(), strict=True):
-                    phases = bands[sigma]
-                    i0, j0 = p // m + r0, q // m + c0
-                    target += phases[p % m, q % m, i0 : i0 + rows, j0 : j0 + cols]
+                images = [bands[sigma] for sigma in bs.tolist()]
+                add_shifted(target, images, (dp + sp + r0 * m).tolist(), (dq + sq + c0 * m).tolist(), m)
                 if n:
                     np.maximum(layer, acc, out=layer)
         return out
