@@ -13,7 +13,7 @@ each sensor's noise by it (:mod:`beliefloc.semantic_map.lattice_sensors`): beam 
 scores with ``sigma_b = hypot(sigma_hit, spacing / √12, z · yaw_step / √12)``. End points are looked
 up at the nearest pixel of the distance field, whose pixels are at most :data:`FIELD_RESOLUTION`
 (a coarser image -- a hand-drawn grid's, one pixel a cell -- is split into finer pixels first, so
-that a hit on a wall's face is near it, not half a cell off; finer still, up to :data:`MAX_GROUP`
+that a hit on a wall's face is near it, not half a cell off; finer still, up to :data:`MAX_SPLIT`
 times, when that makes the lattice's spacing a whole number of pixels -- see below). A pixel's
 distance is to the nearest blocked pixel's *edge* (centre to centre less half a pixel, as the
 world's clearance): a ray stops on a pixel's face, and whether its end point rounds into the wall
@@ -76,8 +76,12 @@ BAND_RATIO = 1.1
 """Successive sigma bands differ by this factor; a beam's sigma is rounded to the nearest band (at
 most 4.9 % off, which moves a beam's log-likelihood by at most 0.12 nats -- less than half a pixel's
 shift of its end point does at the narrowest sigma)."""
+MAX_SPLIT = 4
+"""The field's pixels are made at most this many times finer than :data:`FIELD_RESOLUTION` asks
+when that makes the lattice's spacing a whole number of them (memory: this squared)."""
 MAX_GROUP = 12
-"""The fast path needs ``q <= MAX_GROUP`` lattice steps to make a whole number of field pixels."""
+"""Else the fast path needs ``q <= MAX_GROUP`` lattice steps to make a whole number of field pixels
+(``q²`` offset groups, each its own loop over yaws and beams)."""
 MAX_BAND_IMAGES = 64
 """Mixture images kept at most (the cache is emptied beyond: a scan uses about 25 bands)."""
 
@@ -111,6 +115,12 @@ class LatticeScanModel:
         r0, r1, c0, c1 = self._box
         self._gather = (g * (r1 - r0) + (r - r0)) * (c1 - c0) + (c - c0)
         self._bands: dict[tuple[int, float], np.ndarray] = {}
+
+    @property
+    def offset_groups(self) -> int | None:
+        """``q``: the lattice's positions are scored in ``q x q`` offset groups (1: all at once);
+        None: pose by pose (see the module)."""
+        return None if self._stride is None else self._stride[0]
 
     def beam_sigmas(self, ranges: np.ndarray) -> np.ndarray:
         """Each beam's sigma: ``sigma_hit`` widened by the lattice's spacing and yaw step."""
@@ -228,11 +238,11 @@ class LatticeScanModel:
 
 def _field_split(resolution: float, spacing: float) -> int:
     """Field pixels per image pixel along each side: the fewest that make the pixel at most
-    :data:`FIELD_RESOLUTION`, or, when a multiple of that (at most :data:`MAX_GROUP` times) makes the
+    :data:`FIELD_RESOLUTION`, or, when a multiple of that (at most :data:`MAX_SPLIT` times) makes the
     lattice's spacing a whole number of pixels, that multiple (every lattice position then reads the
     field at the same phase: one offset group)."""
     base = max(1, math.ceil(resolution / FIELD_RESOLUTION - 1e-9))
-    for factor in range(1, MAX_GROUP + 1):
+    for factor in range(1, MAX_SPLIT + 1):
         if _group_stride(spacing / (resolution / (base * factor)), 1) is not None:
             return base * factor
     return base
