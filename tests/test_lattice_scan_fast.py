@@ -16,9 +16,10 @@ from beliefloc.model import GridLayout
 from beliefloc.semantic_map.regions import blocked_image
 
 
-def _lattice(cell: float, pixel: float, k: int, m: int = 3, headings: int = 4) -> PoseLattice:
+def _lattice(cell: float, pixel: float, k: int, m: int = 3, headings: int = 4, states_cols: int = 6) -> PoseLattice:
     """A small room (5 x 6 cells of ``cell`` metres, drawn at ``pixel`` metres) with a wall stub and
-    a pillar, one cell blocked: a lattice of ``k x k`` positions per cell and ``m`` yaws a sector."""
+    a pillar, one cell blocked and the states in the first ``states_cols`` columns: a lattice of
+    ``k x k`` positions per cell and ``m`` yaws a sector."""
     rows, cols = 5, 6
     per = round(cell / pixel)
     blocked = np.zeros((rows * per, cols * per), dtype=bool)
@@ -26,6 +27,7 @@ def _lattice(cell: float, pixel: float, k: int, m: int = 3, headings: int = 4) -
     blocked[3 * per + per // 3 : 4 * per - per // 3, per + per // 3 : 2 * per - per // 3] = True  # a pillar
     free = np.ones((rows, cols), dtype=bool)
     free[0, 0] = False
+    free[:, states_cols:] = False
     layout = GridLayout(rows, cols, headings, cell, free)
     return PoseLattice(layout, blocked_image(blocked, pixel), k, m)
 
@@ -135,3 +137,20 @@ def test_band_images_are_built_once_and_reused_by_the_next_scan() -> None:
     built = dict(model._bands)
     model.log_likelihood(scan)
     assert model._bands.keys() == built.keys() and all(model._bands[k] is v for k, v in built.items())
+
+
+def test_a_short_laser_reads_only_the_field_around_the_lattice_and_still_scores_as_the_per_pose_lookup() -> None:
+    """A 0.6 m laser in a 2.4 m room, the states in its left third: the mixture images cover the
+    lattice's positions and 0.6 m around them, not the whole field, and every pose scores as the
+    per-pose lookup."""
+    model = LatticeScanModel(_lattice(0.4, 0.05, 4, states_cols=2))
+    rng = np.random.default_rng(32)
+    ranges = rng.uniform(0.05, 0.7, 360)
+    ranges[rng.random(360) < 0.2] = np.inf
+    scan = Scan(float(rng.uniform(-math.pi, math.pi)), 2 * math.pi / 360, ranges, 0.1, 0.6)
+    mount = (0.05, -0.02, 1.0)
+    fast = model.log_likelihood(scan, mount)
+    (key,) = {key[2] for key in model._bands}
+    i0, i1, j0, j1 = key
+    assert (i1 - i0) * (j1 - j0) < 0.9 * model.distance.size
+    np.testing.assert_allclose(fast, model.log_likelihood_per_pose(scan, mount, banded=True), rtol=0, atol=2e-4)

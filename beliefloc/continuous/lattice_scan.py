@@ -114,7 +114,7 @@ class LatticeScanModel:
         r, c = np.divmod(rc, cols)
         r0, r1, c0, c1 = self._box
         self._gather = (g * (r1 - r0) + (r - r0)) * (c1 - c0) + (c - c0)
-        self._bands: dict[tuple[int, float], np.ndarray] = {}
+        self._bands: dict[tuple[int, float, tuple[int, int, int, int]], np.ndarray] = {}
 
     @property
     def offset_groups(self) -> int | None:
@@ -154,7 +154,10 @@ class LatticeScanModel:
         bands, sigmas = self.band_sigmas(beams.ranges)
         # each band's image less its value at the cap, so that an end point off the image adds 0;
         # every beam's value at the cap is added at the end
-        images = [self._band_image(int(n), float(sd), beams.range_max, P) for n, sd in zip(bands, sigmas, strict=True)]
+        crop = self._crop(beams.range_max + math.hypot(mount[0], mount[1]))  # no valid end point is farther
+        images = [
+            self._band_image(int(n), float(sd), beams.range_max, P, crop) for n, sd in zip(bands, sigmas, strict=True)
+        ]
         cap = np.full(1, self.laser.likelihood_max_dist, dtype=np.float32)
         off_image = sum(float(log_hit_mixture(cap, float(sd), self.laser, beams.range_max)[0]) for sd in sigmas)
         G, rows, _cols = lattice.shape
@@ -172,7 +175,7 @@ class LatticeScanModel:
                 # the pixels the group's first position reads, as the per-pose lookup floors them; the
                 # group's position (t, s) reads (i + t P, j + s P)
                 i, j = image.pixel_of(x + ex, y + ey)
-                starts_i, starts_j = i.tolist(), j.tolist()
+                starts_i, starts_j = (i - crop[0]).tolist(), (j - crop[2]).tolist()
                 for g in range(G):
                     add_shifted(full[g, a::q, b::q], images, starts_i[g], starts_j[g], P, clip=True)
         out: np.ndarray = full.reshape(-1)[self._gather].astype(np.float64) + off_image
@@ -180,17 +183,40 @@ class LatticeScanModel:
         out *= min(1.0, EFFECTIVE_BEAMS / beams.count)
         return out
 
-    def _band_image(self, band: int, sigma: float, range_max: float, stride: int) -> np.ndarray:
-        """The mixture image of one sigma band less its value at the cap, over the distance field
-        (padded with the cap to a multiple of ``stride``), split in phases; cached."""
-        key = (band, range_max)
+    def _crop(self, reach: float) -> tuple[int, int, int, int]:
+        """``(i0, i1, j0, j1)``: the field's pixels within ``reach`` metres of a lattice position
+        (its valid positions' bounding box), with a pixel's margin: every end point of a beam no
+        longer than ``reach`` lies in them or off the image."""
+        image, res = self.image, self.image.resolution
+        rows = self.lattice.shape[1]
+        r0, r1, c0, c1 = self._box
+        spacing = self.lattice.spacing
+        top, left = image.pixel_of(c0 * spacing - reach, (rows - r0) * spacing + reach)
+        bottom, right = image.pixel_of(c1 * spacing + reach, (rows - r1) * spacing - reach)
+        margin = 1 + math.ceil(spacing / res)
+        height, width = self.distance.shape
+        return (
+            max(0, int(top) - margin),
+            min(height, int(bottom) + margin + 1),
+            max(0, int(left) - margin),
+            min(width, int(right) + margin + 1),
+        )
+
+    def _band_image(
+        self, band: int, sigma: float, range_max: float, stride: int, crop: tuple[int, int, int, int]
+    ) -> np.ndarray:
+        """The mixture image of one sigma band less its value at the cap, over the ``crop`` of the
+        distance field (padded with the cap to a multiple of ``stride``), split in phases; cached."""
+        key = (band, range_max, crop)
         cached = self._bands.get(key)
         if cached is None:
             if len(self._bands) >= MAX_BAND_IMAGES:
                 self._bands.clear()
-            h, w = self.distance.shape
+            i0, i1, j0, j1 = crop
+            h, w = i1 - i0, j1 - j0
             cap = np.float32(self.laser.likelihood_max_dist)
-            padded = np.pad(self.distance, ((0, -h % stride), (0, -w % stride)), constant_values=cap)
+            distance = self.distance[i0:i1, j0:j1]
+            padded = np.pad(distance, ((0, -h % stride), (0, -w % stride)), constant_values=cap)
             mixture = log_hit_mixture(padded, sigma, self.laser, range_max)
             mixture -= log_hit_mixture(np.full(1, cap), sigma, self.laser, range_max)[0]
             cached = phase_split(mixture, stride)
