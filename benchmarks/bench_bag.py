@@ -131,7 +131,7 @@ def warehouse_lattice(positions: int, rng: np.random.Generator) -> PoseLattice:
     for _ in range(positions // 400):  # shelves
         r, c = rng.integers(4, blocked.shape[0] - 30), rng.integers(4, blocked.shape[1] - 12)
         blocked[r : r + 24, c : c + 6] = True
-    free = ~blocked.reshape(rows, 2, cols, 2).any(axis=(1, 3))
+    free = np.logical_not(blocked.reshape(rows, 2, cols, 2).any(axis=(1, 3)))
     layout = GridLayout(rows, cols, 36, 0.1, free)
     return PoseLattice(layout, blocked_image(blocked, 0.05), 1, 1)
 

@@ -217,18 +217,28 @@ def add_shifted(
     field method. ``images[b]`` is ``F_b`` split by :func:`phase_split` (stride ``m``), ``(p_b, q_b)``
     the pixel of ``F_b`` that ``target[0, 0]`` reads; each term is one contiguous slice (the loop
     runs over the terms -- beams --, never over ``target``'s elements). Every slice must lie inside
-    its image, or with ``clip`` the part of it outside is skipped (read as 0)."""
+    its image, or with ``clip`` the part of it outside is skipped (read as 0; the images then all of
+    one size)."""
     rows, cols = target.shape
-    for phases, p, q in zip(images, starts_p, starts_q, strict=True):
-        i0, j0 = p // m, q // m
-        if not clip:
+    if not clip:
+        for phases, p, q in zip(images, starts_p, starts_q, strict=True):
+            i0, j0 = p // m, q // m
             target += phases[p % m, q % m, i0 : i0 + rows, j0 : j0 + cols]
-            continue
-        height, width = phases.shape[2:]
-        t0, t1 = max(0, -i0), min(rows, height - i0)
-        s0, s1 = max(0, -j0), min(cols, width - j0)
-        if t0 < t1 and s0 < s1:
-            target[t0:t1, s0:s1] += phases[p % m, q % m, i0 + t0 : i0 + t1, j0 + s0 : j0 + s1]
+        return
+    # the slices' bounds at once (every image of one call has the same size)
+    p_arr, q_arr = np.asarray(starts_p, dtype=np.int64), np.asarray(starts_q, dtype=np.int64)
+    top, left = p_arr // m, q_arr // m
+    height, width = images[0].shape[2:] if images else (0, 0)
+    t0, t1 = np.maximum(0, -top), np.minimum(rows, height - top)
+    s0, s1 = np.maximum(0, -left), np.minimum(cols, width - left)
+    inside = ((t0 < t1) & (s0 < s1)).tolist()
+    bounds = zip(
+        images, inside, (p_arr % m).tolist(), (q_arr % m).tolist(), top.tolist(), left.tolist(),
+        t0.tolist(), t1.tolist(), s0.tolist(), s1.tolist(), strict=True,
+    )  # fmt: skip
+    for phases, use, a, c, i, j, r0, r1, c0, c1 in bounds:
+        if use:
+            target[r0:r1, c0:c1] += phases[a, c, i + r0 : i + r1, j + c0 : j + c1]
 
 
 @dataclass(frozen=True)
