@@ -220,25 +220,25 @@ def add_shifted(
     its image, or with ``clip`` the part of it outside is skipped (read as 0; the images then all of
     one size)."""
     rows, cols = target.shape
-    if not clip:
-        for phases, p, q in zip(images, starts_p, starts_q, strict=True):
-            i0, j0 = p // m, q // m
-            target += phases[p % m, q % m, i0 : i0 + rows, j0 : j0 + cols]
-        return
-    # the slices' bounds at once (every image of one call has the same size)
-    p_arr, q_arr = np.asarray(starts_p, dtype=np.int64), np.asarray(starts_q, dtype=np.int64)
-    top, left = p_arr // m, q_arr // m
-    height, width = images[0].shape[2:] if images else (0, 0)
-    t0, t1 = np.maximum(0, -top), np.minimum(rows, height - top)
-    s0, s1 = np.maximum(0, -left), np.minimum(cols, width - left)
-    inside = ((t0 < t1) & (s0 < s1)).tolist()
-    bounds = zip(
-        images, inside, (p_arr % m).tolist(), (q_arr % m).tolist(), top.tolist(), left.tolist(),
-        t0.tolist(), t1.tolist(), s0.tolist(), s1.tolist(), strict=True,
-    )  # fmt: skip
-    for phases, use, a, c, i, j, r0, r1, c0, c1 in bounds:
-        if use:
-            target[r0:r1, c0:c1] += phases[a, c, i + r0 : i + r1, j + c0 : j + c1]
+    if clip and images:  # the slices' bounds at once (every image of one call has the same size)
+        height, width = images[0].shape[2:]
+        p_arr, q_arr = np.asarray(starts_p, dtype=np.int64), np.asarray(starts_q, dtype=np.int64)
+        top, left = p_arr // m, q_arr // m
+        if top.min() < 0 or left.min() < 0 or top.max() + rows > height or left.max() + cols > width:
+            t0, t1 = np.maximum(0, -top), np.minimum(rows, height - top)
+            s0, s1 = np.maximum(0, -left), np.minimum(cols, width - left)
+            inside = ((t0 < t1) & (s0 < s1)).tolist()
+            bounds = zip(
+                images, inside, (p_arr % m).tolist(), (q_arr % m).tolist(), top.tolist(), left.tolist(),
+                t0.tolist(), t1.tolist(), s0.tolist(), s1.tolist(), strict=True,
+            )  # fmt: skip
+            for phases, use, a, c, i, j, r0, r1, c0, c1 in bounds:
+                if use:
+                    target[r0:r1, c0:c1] += phases[a, c, i + r0 : i + r1, j + c0 : j + c1]
+            return
+    for phases, p, q in zip(images, starts_p, starts_q, strict=True):
+        i0, j0 = p // m, q // m
+        target += phases[p % m, q % m, i0 : i0 + rows, j0 : j0 + cols]
 
 
 @dataclass(frozen=True)
