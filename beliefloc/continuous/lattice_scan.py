@@ -93,7 +93,8 @@ class LatticeScanModel:
     lattice: PoseLattice
     laser: LaserModel = LATTICE_LASER
     image: OccupancyImage = field(init=False)
-    """The lattice's image, its pixels split to at most :data:`FIELD_RESOLUTION`."""
+    """The lattice's image, its pixels split to at most :data:`FIELD_RESOLUTION` (finer when that
+    makes the lattice's spacing a whole number of them: :data:`MAX_SPLIT`)."""
     distance: np.ndarray = field(init=False)
     """Metres from each pixel of :attr:`image` to the nearest blocked one (capped)."""
 
