@@ -13,9 +13,10 @@ A raw reading, per sensor type (the JSON values of ``beliefloc localize``'s prot
   ``{"angle_min", "angle_increment", "ranges", "range_min", "range_max"}`` (radians
   counter-clockwise from the heading, REP 103; metres, ``null`` for no return, REP 117), at most
   :data:`MAX_SCAN_BEAMS` ranges (:func:`parse_full_scan`), and optionally the laser's pose on the
-  base, ``"mount": [x, y, yaw]`` (:data:`SCAN_MOUNT`; else the base's centre). Its beams at the sensor's angles are
-  binned as above (the nearest ray, :func:`beliefloc.ros.sensors.beam_ranges`'s selection), and
-  :meth:`ReadingBinner.full_scans` keeps the whole scan for a filter that scores it in full.
+  base, ``"mount": [x, y, yaw]`` (:data:`SCAN_MOUNT`; else the base's centre). Its beams at the
+  sensor's angles are binned as above (the nearest ray,
+  :func:`beliefloc.ros.sensors.beam_ranges`'s selection), and :meth:`ReadingBinner.full_scans`
+  keeps the whole scan for a filter that scores it in full.
 * **look** -- the classes detected, a list of class names (a class listed twice counts once). A
   sensor with ``angle_bins`` needs the viewing angle of each: ``{class: angle}`` in radians (its
   sign does not matter), binned like the range of a scan by ``bisect_left(angle_bins, |angle|° -
@@ -48,11 +49,11 @@ MAX_SCAN_BEAMS = 10_000
 """The most ranges a whole-scan reading may carry (a 2-D lidar gives a few hundred to a few
 thousand; more is taken for a malformed reply rather than read)."""
 SCAN_FIELDS = ("angle_min", "angle_increment", "ranges", "range_min", "range_max")
+"""The keys of a whole-scan reading, ``sensor_msgs/LaserScan``'s names."""
 SCAN_MOUNT = "mount"
 """A whole scan's optional field: the laser's pose on the base, ``[x, y, yaw]`` (metres, radians,
 REP 103), as the ROS link knows it; without it the ranges are from the base's centre and the angles
 from its heading."""
-"""The keys of a whole-scan reading, ``sensor_msgs/LaserScan``'s names."""
 
 EDGE_TOLERANCE = 1e-9
 """A value within this of a bin's upper edge is in that bin (compile.py's ``- 1e-9``)."""
