@@ -12,6 +12,7 @@ import pytest
 from beliefloc import compile_model, load_map
 from beliefloc.belief import uniform
 from beliefloc.cli.app import app
+from beliefloc.continuous.likelihood_field import Scan
 from beliefloc.model import Model
 from beliefloc.robots.localize import Command, Places, SimulatedReadingRobot, localize, moved
 from beliefloc.robots.odometry import MotionReport
@@ -161,9 +162,40 @@ def test_simulate_continuous_on_the_command_line(runner, tmp_path: Path) -> None
     assert resumed.exit_code == 2 and ":2:" in resumed.stderr and "yaw_error" in resumed.stderr
 
 
+def test_simulate_continuous_full_scans_answers_whole_scans_scored_at_every_lattice_pose(
+    runner, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``--full-scans BEAMS``: every scan reply is a whole scan of BEAMS rays, which the pose-lattice
+    filter scores in full (counted here at the lattice's scan model), and the results file's header
+    says so."""
+    from beliefloc.continuous.lattice_scan import LatticeScanModel
+
+    sizes: list[int] = []
+    score = LatticeScanModel.log_likelihood
+
+    def counted(self: LatticeScanModel, scan: Scan, *args: object) -> np.ndarray:
+        sizes.append(scan.ranges.size)
+        return score(self, scan, *args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(LatticeScanModel, "log_likelihood", counted)
+    out = tmp_path / "k.jsonl"
+    sandbox = str(MAPS / "tb3-sandbox.yaml")  # a map whose plans scan (the kitchen's look first)
+    args = ["simulate", sandbox, "-n", "1", "--continuous", "--full-scans", "90", "--max-steps", "3", "--no-timings"]
+    result = runner.invoke(app, [*args, "--json", "--out", str(out)])
+    assert result.exit_code in (0, 1), result.output
+    (episode,) = json.loads(result.stdout)["episodes"]
+    assert episode["steps"] >= 1 and "true_pose" in episode["continuous"]
+    assert sizes and set(sizes) == {90}
+    settings = json.loads(out.read_text().splitlines()[0])["settings"]
+    assert settings["continuous"] == {"clutter": 0.0, "full_scans": 90}
+
+
 @pytest.mark.parametrize(
     ("extra", "says"),
     [
+        (["--full-scans", "90"], "--continuous"),
+        (["--continuous", "--full-scans", "0"], "--full-scans"),
+        (["--continuous", "--full-scans", "10001"], "--full-scans"),
         (["--clutter", "0.1"], "--continuous"),
         (["--continuous", "--world", KITCHEN], "--world"),
         (["--continuous", "--start", "1,1,0"], "--start"),
@@ -173,6 +205,14 @@ def test_simulate_continuous_on_the_command_line(runner, tmp_path: Path) -> None
 def test_continuous_options_out_of_place_are_refused(runner, extra: list[str], says: str) -> None:
     result = runner.invoke(app, ["simulate", KITCHEN, "-n", "1", *extra])
     assert result.exit_code == 2 and says in result.stderr
+    assert "Traceback" not in result.output
+
+
+def test_full_scans_on_a_map_without_a_scan_sensor_is_refused(runner) -> None:
+    result = runner.invoke(
+        app, ["simulate", str(MAPS / "khalvati-example1.yaml"), "--continuous", "--full-scans", "90"]
+    )
+    assert result.exit_code == 2 and "--full-scans" in result.stderr and "no scan sensor" in result.stderr
     assert "Traceback" not in result.output
 
 

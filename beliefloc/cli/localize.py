@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import enum
 import json
 import os
@@ -151,7 +152,8 @@ def localize(
             help="The belief between actions: 'states' is the papers' filter over the map's states (a robot at "
             "the cell centres, turning by whole headings); 'lattice' follows the robot's pose finer than the "
             "states (sub-cell positions and sub-sector yaws, the sensors' continuous noise): for a real robot "
-            "off the cell centres, best with odometry in the replies (docs/localize-protocol.md).",
+            "off the cell centres, best with odometry in the replies (docs/localize-protocol.md); with --rosbridge "
+            "it reads each LaserScan whole, scored at every lattice pose by the likelihood field.",
         ),
     ] = BeliefFilterKind.STATES,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
@@ -281,6 +283,8 @@ def localize(
         from beliefloc.cli import localize_ros
 
         link = localize_ros.with_map_radius(link, robot_radius, smap.grid.robot_radius)
+        if tracker is not None:  # the lattice filter scores a whole LaserScan in full: send it all
+            link = dataclasses.replace(link, whole_scans=True)
         outcome = localize_ros.run(rosbridge, link, model, start, binner, settings, max_steps, on_step, tracker)
     else:
         robot = LineRobot(binner, _timed_reader(reply_timeout), _write_line, source="stdin")

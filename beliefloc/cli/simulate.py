@@ -75,6 +75,8 @@ if TYPE_CHECKING:
 
 """``--record-frames``: a GIF of 200 frames at 0.6 s a frame lasts two minutes."""
 
+MAX_FULL_SCAN_BEAMS = 10_000
+"""``--full-scans``: the most rays of a whole scan (the most a reply may carry, ``readings.MAX_SCAN_BEAMS``)."""
 MAX_EPISODES = 100_000_000
 """The most episodes ``-n`` takes: far more than a sweep of a day, far fewer than ``2**200``."""
 
@@ -163,6 +165,18 @@ def simulate(
             help="With --continuous: the share of Scan beams that read a random range (unmapped obstacles).",
         ),
     ] = 0.0,
+    full_scans: Annotated[
+        int,
+        typer.Option(
+            "--full-scans",
+            parser=whole(low=1, high=MAX_FULL_SCAN_BEAMS),
+            metavar="BEAMS",
+            help="With --continuous: the robot answers each scan with a whole scan of BEAMS rays around it "
+            f"(at most {MAX_FULL_SCAN_BEAMS:,}; a 2-D lidar's, as a real robot may reply), which the pose-lattice "
+            "filter scores in full with the likelihood field; without it, only the map's beams.",
+            show_default=False,
+        ),
+    ] = 0,
     show: Annotated[bool, typer.Option("--show", help="Print the belief grid after every step.")] = False,
     record: Annotated[
         Path | None,
@@ -240,10 +254,10 @@ def simulate(
     _check_in_process(show, record, resume, workers, scheduler)
     check_sweep_options(workers, scheduler, out_file, resume, tuple(inputs))
     recording = _recording(record, record_episode, record_frames, episodes, inputs)
-    _check_continuous(continuous, clutter, world, start)
+    _check_continuous(continuous, clutter, world, start, full_scans)
     wants_map = recording is not None or continuous
     model, smap = open_with_map(map_file) if wants_map else (open_model(map_file), None)
-    robot = _continuous_robot(map_file, model, smap, clutter) if continuous else None
+    robot = _continuous_robot(map_file, model, smap, clutter, full_scans) if continuous else None
     start_belief = initial_belief(model, belief, smap)
     refuse_unreachable(model, start_belief, threshold, json_output)
     start_state = None if start in ("random", "prior") else model.states.index(start)
@@ -339,7 +353,7 @@ def simulate(
             "simulate",
             "episode",
             episodes,
-            _settings(map_file, world, macros, belief, start, sweep, continuous, clutter),
+            _settings(map_file, world, macros, belief, start, sweep, continuous, clutter, full_scans),
         ),
         serial_start=((lambda: sweep.runner(on_step=on_any_step, on_episode=on_episode)) if hooked else None),
         progress=not show,
@@ -407,10 +421,11 @@ def _settings(
     sweep: EpisodeSweep,
     continuous: bool = False,
     clutter: float = 0.0,
+    full_scans: int = 0,
 ) -> dict[str, object]:
     """What decides a run's results, for the header of its --out file: the inputs (and their bytes'
     digests), the strategies and every planner setting (and, for a continuous robot only, its
-    clutter: the header of a grid run is as before)."""
+    clutter and whole scans: the header of a grid run is as before)."""
     from beliefloc.files.results_file import digest
 
     settings = sweep.settings
@@ -433,15 +448,21 @@ def _settings(
         "gamma": settings.gamma,
         "max_steps": sweep.max_steps,
         "timings": sweep.timings,
-        **({"continuous": {"clutter": clutter}} if continuous else {}),
+        **(
+            {"continuous": {"clutter": clutter, **({"full_scans": full_scans} if full_scans else {})}}
+            if continuous
+            else {}
+        ),
     }
 
 
-def _check_continuous(continuous: bool, clutter: float, world: Path | None, start: str) -> None:
-    """--continuous's company: its own robot and starts; --clutter only with it."""
+def _check_continuous(continuous: bool, clutter: float, world: Path | None, start: str, full_scans: int = 0) -> None:
+    """--continuous's company: its own robot and starts; --clutter and --full-scans only with it."""
     if not continuous:
         if clutter:
             raise UsageError(f"--clutter {clutter:g}: is for the continuous robot; add --continuous")
+        if full_scans:
+            raise UsageError(f"--full-scans {full_scans}: is for the continuous robot; add --continuous")
         return
     if world is not None:
         raise UsageError(f"--world {world}: --continuous simulates its own robot on the map; leave out one of them")
@@ -451,12 +472,16 @@ def _check_continuous(continuous: bool, clutter: float, world: Path | None, star
         )
 
 
-def _continuous_robot(map_file: Path, model: Model, smap: SemanticMap | None, clutter: float) -> ContinuousSetup:
+def _continuous_robot(
+    map_file: Path, model: Model, smap: SemanticMap | None, clutter: float, full_scans: int = 0
+) -> ContinuousSetup:
     from beliefloc.simulation.continuous_episode import ContinuousSetup
 
     if smap is None or model.grid is None:
         raise UsageError(f"--continuous: {map_file} is a model without its map; give the map file (.yaml)")
-    return ContinuousSetup(smap, clutter=clutter)
+    if full_scans and not any(sensor.type == "scan" for sensor in smap.sensors.values()):
+        raise UsageError(f"--full-scans {full_scans}: {map_file} has no scan sensor to answer with whole scans")
+    return ContinuousSetup(smap, clutter=clutter, full_scans=full_scans)
 
 
 def _continuous_line(records: list[EpisodeRecord]) -> str:

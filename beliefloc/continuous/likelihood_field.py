@@ -30,6 +30,7 @@ Pure numpy/scipy, no I/O.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -194,6 +195,52 @@ def log_hit_mixture(d: np.ndarray, sigma: float, model: LaserModel, range_max: f
     return out
 
 
+def phase_split(image: np.ndarray, m: int) -> np.ndarray:
+    """``P[a, b, i, j] = image[a + i m, b + j m]``: ``image`` (both sides multiples of ``m``) split in
+    ``m x m`` phase images, so that every ``m``-th pixel from any start pixel is one contiguous
+    slice of one phase (what :func:`add_shifted` adds)."""
+    h, w = image.shape
+    out: np.ndarray = np.ascontiguousarray(image.reshape(h // m, m, w // m, m).transpose(1, 3, 0, 2))
+    return out
+
+
+def add_shifted(
+    target: np.ndarray,
+    images: Sequence[np.ndarray],
+    starts_p: Sequence[int],
+    starts_q: Sequence[int],
+    m: int,
+    *,
+    clip: bool = False,
+) -> None:
+    """``target[i, j] += sum_b F_b[p_b + i m, q_b + j m]``: the shifted-image sum of the likelihood
+    field method. ``images[b]`` is ``F_b`` split by :func:`phase_split` (stride ``m``), ``(p_b, q_b)``
+    the pixel of ``F_b`` that ``target[0, 0]`` reads; each term is one contiguous slice (the loop
+    runs over the terms -- beams --, never over ``target``'s elements). Every slice must lie inside
+    its image, or with ``clip`` the part of it outside is skipped (read as 0; the images then all of
+    one size)."""
+    rows, cols = target.shape
+    if clip and images:  # the slices' bounds at once (every image of one call has the same size)
+        height, width = images[0].shape[2:]
+        p_arr, q_arr = np.asarray(starts_p, dtype=np.int64), np.asarray(starts_q, dtype=np.int64)
+        top, left = p_arr // m, q_arr // m
+        if top.min() < 0 or left.min() < 0 or top.max() + rows > height or left.max() + cols > width:
+            t0, t1 = np.maximum(0, -top), np.minimum(rows, height - top)
+            s0, s1 = np.maximum(0, -left), np.minimum(cols, width - left)
+            inside = ((t0 < t1) & (s0 < s1)).tolist()
+            bounds = zip(
+                images, inside, (p_arr % m).tolist(), (q_arr % m).tolist(), top.tolist(), left.tolist(),
+                t0.tolist(), t1.tolist(), s0.tolist(), s1.tolist(), strict=True,
+            )  # fmt: skip
+            for phases, use, a, c, i, j, r0, r1, c0, c1 in bounds:
+                if use:
+                    target[r0:r1, c0:c1] += phases[a, c, i + r0 : i + r1, j + c0 : j + c1]
+            return
+    for phases, p, q in zip(images, starts_p, starts_q, strict=True):
+        i0, j0 = p // m, q // m
+        target += phases[p % m, q % m, i0 : i0 + rows, j0 : j0 + cols]
+
+
 @dataclass(frozen=True)
 class CellWindow:
     """A window of a cell grid laid over an occupancy image (the grid of
@@ -289,10 +336,7 @@ class LikelihoodField:
         key = round(sigma, 6), round(range_max, 6)
         cached = self._bands.get(key)
         if cached is None:
-            field = log_hit_mixture(self._lattice_distance, sigma, self.model, range_max)
-            m = self.m
-            h, w = field.shape
-            cached = np.ascontiguousarray(field.reshape(h // m, m, w // m, m).transpose(1, 3, 0, 2))
+            cached = phase_split(log_hit_mixture(self._lattice_distance, sigma, self.model, range_max), self.m)
             self._bands[key] = cached
         return cached
 
@@ -362,10 +406,8 @@ class LikelihoodField:
                 target = layer if n == 0 else acc
                 if n:
                     target.fill(0.0)
-                for p, q, sigma in zip((dp + sp).tolist(), (dq + sq).tolist(), bs.tolist(), strict=True):
-                    phases = bands[sigma]
-                    i0, j0 = p // m + r0, q // m + c0
-                    target += phases[p % m, q % m, i0 : i0 + rows, j0 : j0 + cols]
+                images = [bands[sigma] for sigma in bs.tolist()]
+                add_shifted(target, images, (dp + sp + r0 * m).tolist(), (dq + sq + c0 * m).tolist(), m)
                 if n:
                     np.maximum(layer, acc, out=layer)
         return out

@@ -210,7 +210,8 @@ class LatticeFilter:
             replaces: list[int] = []
             for slot in self.binner.sensors(action):
                 if slot.name in scans:
-                    log += self._scan_model.log_likelihood(scans[slot.name])
+                    scan, mount = scans[slot.name]
+                    log += self._scan_model.log_likelihood(scan, mount)
                     replaces.extend(range(slot.first_part, slot.first_part + slot.n_parts))
             self.belief, probability = self.core.correct(action.name, digits, log, replaces)
         else:

@@ -12,9 +12,11 @@ A raw reading, per sensor type (the JSON values of ``beliefloc localize``'s prot
   or a string is refused. Or **a whole scan** (issue 27), ``sensor_msgs/LaserScan``'s numbers:
   ``{"angle_min", "angle_increment", "ranges", "range_min", "range_max"}`` (radians
   counter-clockwise from the heading, REP 103; metres, ``null`` for no return, REP 117), at most
-  :data:`MAX_SCAN_BEAMS` ranges (:func:`parse_full_scan`). Its beams at the sensor's angles are
-  binned as above (the nearest ray, :func:`beliefloc.ros.sensors.beam_ranges`'s selection), and
-  :meth:`ReadingBinner.full_scans` keeps the whole scan for a filter that scores it in full.
+  :data:`MAX_SCAN_BEAMS` ranges (:func:`parse_full_scan`), and optionally the laser's pose on the
+  base, ``"mount": [x, y, yaw]`` (:data:`SCAN_MOUNT`; else the base's centre). Its beams at the
+  sensor's angles are binned as above (the nearest ray,
+  :func:`beliefloc.ros.sensors.beam_ranges`'s selection), and :meth:`ReadingBinner.full_scans`
+  keeps the whole scan for a filter that scores it in full.
 * **look** -- the classes detected, a list of class names (a class listed twice counts once). A
   sensor with ``angle_bins`` needs the viewing angle of each: ``{class: angle}`` in radians (its
   sign does not matter), binned like the range of a scan by ``bisect_left(angle_bins, |angle|° -
@@ -48,6 +50,10 @@ MAX_SCAN_BEAMS = 10_000
 thousand; more is taken for a malformed reply rather than read)."""
 SCAN_FIELDS = ("angle_min", "angle_increment", "ranges", "range_min", "range_max")
 """The keys of a whole-scan reading, ``sensor_msgs/LaserScan``'s names."""
+SCAN_MOUNT = "mount"
+"""A whole scan's optional field: the laser's pose on the base, ``[x, y, yaw]`` (metres, radians,
+REP 103), as the ROS link knows it; without it the ranges are from the base's centre and the angles
+from its heading."""
 
 EDGE_TOLERANCE = 1e-9
 """A value within this of a bin's upper edge is in that bin (compile.py's ``- 1e-9``)."""
@@ -188,16 +194,19 @@ class ReadingBinner:
                 raise InvalidValueError(f"{slot.name}: {exc}") from None
         return act.observation.encode(digits)
 
-    def full_scans(self, action: str | Action, readings: Mapping[str, RawReading]) -> dict[str, Scan]:
-        """The whole scans among ``readings`` of ``action``'s scan sensors (sensor name -> scan; the
-        sensors read beam by beam are not in it). Raises :class:`InvalidValueError` naming the sensor
-        and field for a malformed one (as :meth:`observation` does)."""
-        out: dict[str, Scan] = {}
+    def full_scans(
+        self, action: str | Action, readings: Mapping[str, RawReading]
+    ) -> dict[str, tuple[Scan, tuple[float, float, float]]]:
+        """The whole scans among ``readings`` of ``action``'s scan sensors (sensor name -> the scan
+        and the laser's mount on the base, :data:`SCAN_MOUNT`; the sensors read beam by beam are not
+        in it). Raises :class:`InvalidValueError` naming the sensor and field for a malformed one (as
+        :meth:`observation` does)."""
+        out: dict[str, tuple[Scan, tuple[float, float, float]]] = {}
         for slot in self.sensors(action):
             raw = readings.get(slot.name)
             if isinstance(slot.sensor, ScanSensor) and isinstance(raw, Mapping):
                 try:
-                    out[slot.name] = parse_full_scan(raw)
+                    out[slot.name] = (parse_full_scan(raw), parse_scan_mount(raw))
                 except InvalidValueError as exc:
                     raise InvalidValueError(f"{slot.name}: {exc}") from None
         return out
@@ -250,10 +259,11 @@ def parse_full_scan(raw: Mapping[str, Any]) -> Scan:
     unknown or not a usable value."""
     from beliefloc.continuous.likelihood_field import Scan
 
-    unknown = [key for key in raw if key not in SCAN_FIELDS]
+    unknown = [key for key in raw if key not in SCAN_FIELDS and key != SCAN_MOUNT]
     if unknown:
         raise InvalidValueError(
-            f"a whole scan has no field {', '.join(map(repr, unknown))}: give {', '.join(SCAN_FIELDS)}"
+            f"a whole scan has no field {', '.join(map(repr, unknown))}: give {', '.join(SCAN_FIELDS)} "
+            f"(and optionally {SCAN_MOUNT!r})"
         )
     missing = [key for key in SCAN_FIELDS if key not in raw]
     if missing:
@@ -295,11 +305,31 @@ def parse_full_scan(raw: Mapping[str, Any]) -> Scan:
     )
 
 
-def full_scan_ranges(sensor: ScanSensor, scan: Scan) -> list[float | None]:
-    """The ranges of ``sensor``'s beams in a whole scan taken in the robot's frame: the nearest ray
-    to each (:func:`beliefloc.ros.sensors.beam_ranges`: ``null``, ``+inf`` or beyond ``range_max``
-    is no wall, below ``range_min`` a wall right there). Raises :class:`InvalidValueError` for a
-    beam the scan does not cover."""
+def parse_scan_mount(raw: Mapping[str, Any]) -> tuple[float, float, float]:
+    """A whole scan's :data:`SCAN_MOUNT` (the base's centre when it has none). Raises
+    :class:`InvalidValueError` naming the field when it is not three finite numbers."""
+    if SCAN_MOUNT not in raw:
+        return (0.0, 0.0, 0.0)
+    value = raw[SCAN_MOUNT]
+    if (
+        not isinstance(value, list)
+        or len(value) != 3
+        or not all(isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) for v in value)
+    ):
+        raise InvalidValueError(
+            f"'{SCAN_MOUNT}' should be the laser's pose on the base, [x, y, yaw] in metres and radians, "
+            f"got {_show(value)}"
+        )
+    return (float(value[0]), float(value[1]), float(value[2]))
+
+
+def full_scan_ranges(
+    sensor: ScanSensor, scan: Scan, mount: tuple[float, float, float] = (0.0, 0.0, 0.0)
+) -> list[float | None]:
+    """The ranges of ``sensor``'s beams in a whole scan taken by a laser at ``mount`` on the base:
+    the nearest ray to each, from the base's centre (:func:`beliefloc.ros.sensors.beam_ranges`:
+    ``null``, ``+inf`` or beyond ``range_max`` is no wall, below ``range_min`` a wall right there).
+    Raises :class:`InvalidValueError` for a beam the scan does not cover."""
     from beliefloc.ros import sensors as ros
 
     as_ros = ros.Scan(
@@ -307,19 +337,19 @@ def full_scan_ranges(sensor: ScanSensor, scan: Scan) -> list[float | None]:
     )
     beams = [math.radians(b) for b in sensor.beams]  # counter-clockwise, as describe() gives them
     for theta, degrees in zip(beams, sensor.beams, strict=True):
-        if ros.beam_index(as_ros, math.remainder(theta, 2 * math.pi)) is None:
+        if ros.beam_index(as_ros, math.remainder(theta - mount[2], 2 * math.pi)) is None:
             end = math.degrees(as_ros.angle(len(as_ros.ranges) - 1))
             raise InvalidValueError(
                 f"'ranges': the sensor's beam at {degrees:g}° (counter-clockwise from the heading) is outside the "
                 f"scan, which covers {math.degrees(scan.angle_min):.4g}° to {end:.4g}°"
             )
-    return ros.beam_ranges(as_ros, beams, (0.0, 0.0, 0.0), "")
+    return ros.beam_ranges(as_ros, beams, mount, "")
 
 
 def _bin_scan(sensor: ScanSensor, raw: RawReading) -> list[int]:
     n = len(sensor.beams)
     if isinstance(raw, Mapping):
-        raw = full_scan_ranges(sensor, parse_full_scan(raw))
+        raw = full_scan_ranges(sensor, parse_full_scan(raw), parse_scan_mount(raw))
     if isinstance(raw, list):
         ranges = raw
         if len(ranges) != n:

@@ -12,7 +12,9 @@ each action it:
    when it has not finished within ``motion_timeout`` (blocked as well; a base that moved less than
    :data:`STUCK_FRACTION` of the way in that time is *stuck*: an error);
 2. publishes a zero twist, waits ``settle`` seconds, and reads the sensors from the first messages
-   that arrive after that: the scan's beams at the map's angles (:func:`beliefloc.ros.sensors.beam_ranges`),
+   that arrive after that: the scan's beams at the map's angles (:func:`beliefloc.ros.sensors.beam_ranges`)
+   -- or, with :attr:`BridgeSettings.whole_scans` (``--filter lattice``), the whole scan and the
+   laser's mount, which the lattice filter scores in full --,
    the classes on the detection topic (the ones the map's Look sensor knows; others are ignored);
 3. answers with those raw readings, binned by the map's sensor models as the line protocol's are,
    and reports the odometry's motion ``start ⊖ end`` and the blocked flag
@@ -65,6 +67,7 @@ from beliefloc.ros.sensors import (
     parse_detections,
     parse_odometry,
     parse_scan,
+    whole_scan_reading,
 )
 from beliefloc.semantic_map.sections import HereSensor, LookSensor, ScanSensor
 
@@ -106,6 +109,10 @@ class BridgeSettings:
     """Seconds between the stop and the readings."""
     timeout: float = 10.0
     """Seconds to wait for the connection and for a topic's next message."""
+    whole_scans: bool = False
+    """Answer a scan sensor with the whole LaserScan and the laser's mount
+    (:func:`~beliefloc.ros.sensors.whole_scan_reading`), for the pose-lattice filter to score in
+    full; False: the map's beams only."""
 
 
 class Link(Protocol):
@@ -298,7 +305,10 @@ class RosbridgeRobot:
             if isinstance(sensor, ScanSensor):
                 scan = self._scan(settled, during)
                 beams = [float(b) for b in description["beams"]]
-                readings[slot.name] = beam_ranges(scan, beams, self.settings.laser_mount, self.settings.scan_topic)
+                scan_topic, mount = self.settings.scan_topic, self.settings.laser_mount
+                ranges = beam_ranges(scan, beams, mount, scan_topic)  # the map's beams must be in the sweep anyway
+                whole = self.settings.whole_scans
+                readings[slot.name] = whole_scan_reading(scan, mount, scan_topic) if whole else ranges
             elif isinstance(sensor, LookSensor):
                 topic = self.settings.detections_topic
                 assert topic is not None  # check_map

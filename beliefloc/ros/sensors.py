@@ -223,6 +223,38 @@ def beam_ranges(
     return out
 
 
+def whole_scan_reading(scan: Scan, mount: tuple[float, float, float], topic: str) -> dict[str, Any]:
+    """``scan`` as a whole-scan reading of ``localize``'s protocol (:mod:`beliefloc.robots.readings`):
+    the laser's own angles and ranges with its ``mount`` on the base, for a filter that scores the scan
+    in full. REP 117: no return (``+inf``), NaN and negative ranges are ``null``; too close (``-inf``)
+    is 0 m, below ``range_min`` (a wall right there, skipped by the likelihood field). Raises
+    :class:`ReplyError` naming the topic for a scan that cannot be read whole (an infinite
+    ``range_max``, ``range_min`` not below it, a zero ``angle_increment``)."""
+    if not (math.isfinite(scan.range_max) and 0.0 <= scan.range_min < scan.range_max):
+        raise ReplyError(
+            f"topic {topic}: a whole scan needs 0 <= range_min < range_max, both finite; got range_min "
+            f"{scan.range_min:g}, range_max {scan.range_max:g}"
+        )
+    if scan.angle_increment == 0:
+        raise ReplyError(f"topic {topic}: 'angle_increment' is 0: a whole scan's beams must differ in angle")
+    ranges: list[float | None] = []
+    for r in scan.ranges:
+        if r == -math.inf:
+            ranges.append(0.0)
+        elif math.isnan(r) or r == math.inf or r < 0:
+            ranges.append(None)
+        else:
+            ranges.append(r)
+    return {
+        "angle_min": scan.angle_min,
+        "angle_increment": scan.angle_increment,
+        "ranges": ranges,
+        "range_min": scan.range_min,
+        "range_max": scan.range_max,
+        "mount": list(mount),
+    }
+
+
 def base_points(scan: Scan, mount: tuple[float, float, float]) -> np.ndarray:
     """The scan's returns within range as points in the base frame, shape ``(N, 2)`` (for the
     obstacle stop)."""
