@@ -27,6 +27,7 @@ from beliefloc.planning.settings import DEFAULT_THRESHOLD
 from beliefloc.pose import (
     SECOND_MODE_SHARE,
     belief_modes,
+    gathered_modes,
     belief_pose,
     localization,
     nonnegative_covariance,
@@ -128,6 +129,26 @@ def test_two_far_cells_are_two_modes_and_neighbours_one() -> None:
     assert [(model.states.name(m.state), m.probability, m.states) for m in near] == [("0,3,1", 1.0, 2)]
     two_cells = belief_modes(model, on(model, {"0,1,1": 0.3, "0,3,1": 0.7}))  # two cells apart: two
     assert [m.probability for m in two_cells] == [0.7, 0.3]
+
+
+def test_gathered_modes_put_each_mode_on_its_best_state_and_keep_the_rest() -> None:
+    model = grid_model(1, 9, headings=1)
+    belief = on(model, {"0,0": 0.3, "0,1": 0.25, "0,4": 0.29, "0,8": 0.156, "0,6": 0.004})
+    gathered = gathered_modes(model, belief)
+    # the modes of the test below: 0,0 takes 0,1; 0,4 and 0,8 alone; 0,6 (0.004) is in no mode
+    assert gathered == pytest.approx(on(model, {"0,0": 0.55, "0,4": 0.29, "0,8": 0.156, "0,6": 0.004}))
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1))
+def test_gathered_modes_keep_the_mass_and_each_modes_share(seed: int) -> None:
+    model = grid_model(4, 5, headings=4)
+    rng = np.random.default_rng(seed)
+    belief = rng.dirichlet(np.full(model.n_states, 0.2))
+    gathered = gathered_modes(model, belief)
+    assert gathered.sum() == pytest.approx(1.0) and np.all(gathered >= 0) and np.all(np.isfinite(gathered))
+    for mode in belief_modes(model, belief):
+        assert gathered[mode.state] == pytest.approx(mode.probability)
 
 
 def test_a_mode_keeps_to_neighbouring_headings() -> None:
