@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from beliefloc import compile_model, load_map
 from beliefloc.belief import uniform
 from beliefloc.continuous.motion import OdometryNoise, sample_odometry
-from beliefloc.continuous.pose_lattice import REACH_CELLS, lattice_resolution
+from beliefloc.continuous.pose_lattice import REACH_CELLS, REACH_SECTORS, lattice_resolution
 from beliefloc.errors import ImpossibleObservationError
 from beliefloc.robots.belief_filter import LatticeFilter
 from beliefloc.robots.odometry import MotionReport
@@ -184,8 +184,8 @@ def test_the_declared_probability_is_the_mass_within_reach_of_the_declared_state
     tb3: LatticeFilter, seed: int, spread: float
 ) -> None:
     """A belief bunched around a random pose, as one after a few readings is: the declared
-    probability is the mass of the poses within 1.5 cells and one sector of the declared state's
-    centre and heading (summed pose by pose here), and the most likely state's reach holds no more."""
+    probability is the mass of the poses within REACH_CELLS cells and REACH_SECTORS sectors of the
+    declared state's centre and heading (summed pose by pose here), and the most likely state's reach holds no more."""
     rng = np.random.default_rng(seed)
     core = tb3.core
     lattice = core.lattice
@@ -199,13 +199,16 @@ def test_the_declared_probability_is_the_mass_within_reach_of_the_declared_state
     core.fine = weight / weight.sum()
     state, probability = core.declared()
 
+    # the reach's yaws: whole lattice yaw steps within REACH_SECTORS sectors
+    turns = math.floor(REACH_SECTORS * lattice.m + 1e-9) * lattice.yaw_step
+
     def reach(s: int) -> float:
         row, col, heading = (int(v) for v in grid.cell_heading(s))
         cx, cy = (col + 0.5) * grid.cell_size, (grid.rows - row - 0.5) * grid.cell_size
         yaw = lattice.yaws()[heading * lattice.m]
         inside = [
             math.hypot(x - cx, y - cy) <= REACH_CELLS * grid.cell_size
-            and abs(math.remainder(t - yaw, 2 * math.pi)) <= 2 * math.pi / grid.headings + 1e-9
+            and abs(math.remainder(t - yaw, 2 * math.pi)) <= turns + 1e-9
             for x, y, t in poses.tolist()
         ]
         return float(core.fine[np.array(inside)].sum())

@@ -27,8 +27,8 @@ from beliefloc.planning.settings import DEFAULT_THRESHOLD
 from beliefloc.pose import (
     SECOND_MODE_SHARE,
     belief_modes,
-    gathered_modes,
     belief_pose,
+    gathered_modes,
     localization,
     nonnegative_covariance,
 )

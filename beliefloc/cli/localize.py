@@ -155,7 +155,7 @@ def localize(
             "off the cell centres, best with odometry in the replies (docs/localize-protocol.md); with --rosbridge "
             "it reads each LaserScan whole, scored at every lattice pose by the likelihood field.",
         ),
-    ] = BeliefFilterKind.STATES,
+    ] = BeliefFilterKind.LATTICE,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
     reply_timeout: Annotated[
         float,

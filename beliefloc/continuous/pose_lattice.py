@@ -54,12 +54,13 @@ positions) until the lattice fits."""
 STAY = 0.02
 """A commanded move without odometry leaves the robot where it was with at least this probability
 (a wheel that slipped, a move refused): the pose it would have reached is not the only one kept."""
-REACH_CELLS = 1.5
+REACH_CELLS = 1.0
 """A state is declared with the probability that the robot is within this many cells of its cell's
 centre and :data:`REACH_SECTORS` heading sectors of its heading (:meth:`LatticeFilter.declared`):
-what "localized at this state" promises of an off-grid robot, and what a declaration is judged
-wrong by (``simulate --continuous``, issue 26)."""
-REACH_SECTORS = 1.0
+what "localized at this state" promises of an off-grid robot. A robot on the border of two cells
+or sectors is within reach of both; the promise stays inside what ``simulate --continuous`` judges
+wrong by (1.5 cells, one sector: issue 26), with room for the robot's motion while it is confirmed."""
+REACH_SECTORS = 0.75
 CANDIDATES = 16
 """:meth:`LatticeFilter.declared` weighs this many of the most likely states (and the neighbours of
 the most likely one) as the state to declare."""

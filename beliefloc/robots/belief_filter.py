@@ -231,7 +231,7 @@ class LatticeFilter:
 
     def declared(self) -> tuple[int, float]:
         """The state whose reach holds the most mass, and that mass: the probability that the robot is
-        within 1.5 cells and one sector of it
+        within one cell and ¾ of a sector of it
         (:meth:`beliefloc.continuous.pose_lattice.LatticeFilter.declared`)."""
         if self._declared is None:
             self._declared = self.core.declared()
