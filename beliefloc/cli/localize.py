@@ -149,11 +149,12 @@ def localize(
         typer.Option(
             "--filter",
             case_sensitive=False,
-            help="The belief between actions: 'states' is the papers' filter over the map's states (a robot at "
-            "the cell centres, turning by whole headings); 'lattice' follows the robot's pose finer than the "
-            "states (sub-cell positions and sub-sector yaws, the sensors' continuous noise): for a real robot "
-            "off the cell centres, best with odometry in the replies (docs/localize-protocol.md); with --rosbridge "
-            "it reads each LaserScan whole, scored at every lattice pose by the likelihood field.",
+            help="The belief between actions: 'lattice' follows the robot's pose finer than the states (sub-cell "
+            "positions and sub-sector yaws, the sensors' continuous noise): for a real robot off the cell centres, "
+            "best with odometry in the replies (docs/localize-protocol.md); 'localized' then means within one cell "
+            "and 3/4 of a heading sector of the state declared; with --rosbridge it reads each LaserScan whole, "
+            "scored at every lattice pose by the likelihood field. 'states' is the papers' filter over the map's "
+            "states (a robot at the cell centres, turning by whole headings).",
         ),
     ] = BeliefFilterKind.LATTICE,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
