@@ -61,9 +61,6 @@ what "localized at this state" promises of an off-grid robot. A robot on the bor
 or sectors is within reach of both; the promise stays inside what ``simulate --continuous`` judges
 wrong by (1.5 cells, one sector: issue 26), with room for the robot's motion while it is confirmed."""
 REACH_SECTORS = 0.75
-CANDIDATES = 16
-""":meth:`LatticeFilter.declared` weighs this many of the most likely states (and the neighbours of
-the most likely one) as the state to declare."""
 FLAG_FLOOR = 0.01
 """The least weight a pose keeps when a ``blocked`` flag contradicts it (the flag may be wrong)."""
 TEMPER = 0.5
@@ -448,53 +445,31 @@ class LatticeFilter:
         return self.belief
 
     def declared(self) -> tuple[int, float]:
-        """The state to declare and the probability that the robot is within its reach: within
+        """The most likely state and the probability that the robot is within its reach: within
         :data:`REACH_CELLS` cells of its cell's centre and :data:`REACH_SECTORS` sectors of its
         heading. A robot on the border of two cells or sectors splits its mass between them however
         well its pose is known, and a corridor's readings place it along the corridor less well
-        than across; the state's own mass says neither. Of the :data:`CANDIDATES` most likely states
-        and the neighbours of the most likely one (its 3 × 3 cells, its heading and the two beside
-        it), the one whose reach holds the most mass."""
+        than across; the state's own mass says neither. (The state is the belief's most likely one,
+        as every other report of the belief names it: ``pose``, pictures, ``--belief-out``.)"""
         lattice = self.lattice
         layout = lattice.layout
         belief = self.belief
-        order = np.argsort(belief)[::-1]
-        best = int(order[0])
-        candidates = set(order[:CANDIDATES].tolist())
+        best = int(np.argmax(belief))
         row, col, heading = (int(v) for v in layout.cell_heading(best))
-        for dr in (-1, 0, 1):
-            for dc in (-1, 0, 1):
-                for dh in (-1, 0, 1) if layout.headings > 1 else (0,):
-                    state = layout.state_of(row + dr, col + dc, (heading + dh) % layout.headings)
-                    if state >= 0:
-                        candidates.add(state)
-        states = np.array(sorted(candidates))
-        rows, cols, headings = layout.cell_heading(states)
-        # each state's reach is one box of the lattice image, the same shape for every state: the
-        # positions within REACH_CELLS of the cell's centre, the yaws within REACH_SECTORS sectors
+        # the reach is a box of the lattice image: the positions within REACH_CELLS of the cell's
+        # centre (a disc), the yaws within REACH_SECTORS sectors of the heading's
         k, m = lattice.k, lattice.m
+        G, rows, cols = lattice.shape
         half = (k - 1) / 2  # the cell centre's offset from its first lattice position
         lo, hi = math.ceil(half - REACH_CELLS * k - 1e-9), math.floor(half + REACH_CELLS * k + 1e-9)
         offsets = np.arange(lo, hi + 1)
         disc = np.hypot(*np.meshgrid(offsets - half, offsets - half, indexing="ij")) <= REACH_CELLS * k + 1e-9
-        G = lattice.shape[0]
         turns = math.floor(REACH_SECTORS * m + 1e-9) if layout.headings > 1 else 0
-        yaw_offsets = np.arange(-min(turns, G // 2), min(turns, (G - 1) // 2) + 1)
-        pad = max(-lo, hi)
-        image = np.pad(lattice.image_of(self.fine), ((0, 0), (pad, pad), (pad, pad)))
-        r0 = rows * k + lo + pad
-        c0 = cols * k + lo + pad
-        span = offsets.size
-        g = (headings[:, None] * m + yaw_offsets[None, :]) % G  # (states, yaws)
-        r = r0[:, None] + np.arange(span)[None, :]  # (states, span)
-        c = c0[:, None] + np.arange(span)[None, :]
-        boxes = image[g[:, :, None, None], r[:, None, :, None], c[:, None, None, :]]
-        mass = (boxes * disc).sum(axis=(1, 2, 3))
-        # of the states whose reach holds the most, the likeliest (a point belief is within reach
-        # of its neighbours too: the state it is in is the one to name)
-        tied = np.flatnonzero(mass >= mass.max() * (1 - 1e-12))
-        i = int(tied[np.argmax(belief[states[tied]])])
-        return int(states[i]), min(1.0, float(mass[i]))
+        g = (heading * m + np.arange(-min(turns, G // 2), min(turns, (G - 1) // 2) + 1)) % G
+        r, c = row * k + offsets, col * k + offsets
+        r_in, c_in = (r >= 0) & (r < rows), (c >= 0) & (c < cols)
+        box = lattice.image_of(self.fine)[np.ix_(g, r[r_in], c[c_in])]
+        return best, min(1.0, float((box * disc[np.ix_(r_in, c_in)]).sum()))
 
     def peak(self) -> float:
         """The probability compared with the threshold: :meth:`declared`'s."""
