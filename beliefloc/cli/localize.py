@@ -118,6 +118,7 @@ def _timed_reader(seconds: float) -> Callable[[int], str]:
 class BeliefFilterKind(str, enum.Enum):
     """``localize --filter``: the belief kept between actions (:mod:`beliefloc.robots.belief_filter`)."""
 
+    AUTO = "auto"
     LATTICE = "lattice"
     STATES = "states"
 
@@ -154,9 +155,11 @@ def localize(
             "best with odometry in the replies (docs/localize-protocol.md); 'localized' then means within one cell "
             "and 3/4 of a heading sector of the state declared; with --rosbridge it reads each LaserScan whole, "
             "scored at every lattice pose by the likelihood field. 'states' is the papers' filter over the map's "
-            "states (a robot at the cell centres, turning by whole headings).",
+            "states (a robot at the cell centres, turning by whole headings). 'auto': lattice on a map with an "
+            "occupancy image (a real floor, ray-cast sensors), states on a hand-drawn grid (sensors defined per "
+            "cell, as the papers' worlds are).",
         ),
-    ] = BeliefFilterKind.LATTICE,
+    ] = BeliefFilterKind.AUTO,
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress on stderr.")] = False,
     reply_timeout: Annotated[
         float,
@@ -252,6 +255,8 @@ def localize(
     smap, model = _open_map(map_file)
     binner = ReadingBinner(smap, model)
     tracker = None
+    if belief_filter is BeliefFilterKind.AUTO:
+        belief_filter = BeliefFilterKind.LATTICE if smap.occupancy_map is not None else BeliefFilterKind.STATES
     if belief_filter is BeliefFilterKind.LATTICE and model.grid is not None:
         from beliefloc.robots.belief_filter import LatticeFilter
 
