@@ -89,9 +89,9 @@ def _groups(action: Action, n_states: int) -> _Groups | None:
         present = np.flatnonzero(counts)
         starts = np.r_[0, np.cumsum(counts[present])[:-1]].astype(np.intp)
         if exact:
-            lookup = np.zeros(len(counts), dtype=np.int32)
-            lookup[present] = np.arange(len(present), dtype=np.int32)
-            label = lookup[small]
+            lookup = np.zeros(len(counts), dtype=np.intp)
+            lookup[present] = np.arange(len(present), dtype=np.intp)
+            label = lookup[small]  # intp: a gather by 32-bit labels converts them first (1.4 ms, not 0.5, at 10^6)
     else:
         order = np.argsort(key, kind="stable")
         sorted_key = key[order]
@@ -134,8 +134,12 @@ class SuccessorEvaluator:
             self._work = (np.empty(self.model.n_states), np.empty(self.model.n_states))
         return self._work
 
-    def evaluate(self, belief: np.ndarray) -> list[SuccessorStats]:
-        """Every successor of ``belief`` with non-zero probability, in action then observation order."""
+    def evaluate(self, belief: np.ndarray, beliefs: dict[int, np.ndarray] | None = None) -> list[SuccessorStats]:
+        """Every successor of ``belief`` with non-zero probability, in action then observation order.
+
+        With ``beliefs``, the successor beliefs that came out whole are put there by action index:
+        those of the actions that observe nothing, whose successor is the prediction itself (the
+        very array :meth:`successor` would compute again, at 50 ms a prediction at 10^7 states)."""
         out: list[SuccessorStats] = []
         work = self._buffers()[0]
         for index, action in enumerate(self.model.actions):
@@ -144,6 +148,8 @@ class SuccessorEvaluator:
             groups = self._groups[index]
             if groups is None:
                 out.append(SuccessorStats(index, None, 1.0, _entropy(predicted, work), float(predicted.max())))
+                if beliefs is not None:
+                    beliefs[index] = predicted if predicted is not belief else belief.copy()
                 continue
             out.extend(self._observe(index, groups, predicted))
         return out
@@ -189,9 +195,10 @@ class SuccessorEvaluator:
     def successor(self, belief: np.ndarray, action: int, observation: int | None) -> np.ndarray:
         """The successor belief itself (a new array)."""
         act = self.model.actions[action]
-        predicted = predict(act, belief)
         if observation is None:
-            return predicted
+            return predict(act, belief)
+        # a perception's prediction is the belief itself: the product below is the new array
+        predicted = belief if act.transition_transposed is None else predict(act, belief)
         weighted: np.ndarray = predicted * self._likelihood(action, observation)
         weighted /= weighted.sum()
         return weighted
