@@ -307,7 +307,12 @@ class _ModelReader:
         if h.grid is not None:
             g = h.grid
             limits.MODEL_ENTRIES.check(g.rows * g.cols * g.headings, f"{self.archive.path}: header field grid")
-            for k, (cls, r, c) in enumerate(g.landmarks):
+            # the common case, a million landmarks on the grid, checked by min and max (the loop that
+            # names the first one outside took 0.46 s at 10^7 states)
+            rows = [r for _, r, _ in g.landmarks]
+            cols = [c for _, _, c in g.landmarks]
+            inside = not rows or (min(rows) >= 0 and max(rows) < g.rows and min(cols) >= 0 and max(cols) < g.cols)
+            for k, (cls, r, c) in enumerate(() if inside else g.landmarks):
                 if not (0 <= r < g.rows and 0 <= c < g.cols):
                     raise self.broken(
                         f"header field grid.landmarks[{k}]: {cls} at [{r}, {c}] is outside the {g.rows}x{g.cols} grid"
