@@ -409,9 +409,13 @@ class _ModelReader:
             )
         data = archive.array(f"action{i}_data", "f", (nnz,)).astype(np.float64, copy=False)
         _check_probabilities(self, f"action{i}_data ({name})", data)
-        # each row's sum without an nnz-long row index (a 0 after the data: reduceat reads one entry
-        # at a row that starts at the end, and an empty row's sum is 0)
-        sums = np.add.reduceat(np.r_[data, 0.0], indptr[:-1]) if n else np.zeros(0)
+        # each row's sum without an nnz-long row index or a copy of the data: reduceat sums each row's
+        # slice, over the rows that start before the end (those after are empty; the last row before
+        # them ends at the end), and every empty row's sum is then set to 0
+        sums = np.zeros(n)
+        starting = int(np.searchsorted(indptr[:-1], nnz))
+        if starting:
+            sums[:starting] = np.add.reduceat(data, indptr[:starting])
         sums[steps == 0] = 0.0
         wrong = np.flatnonzero(np.abs(sums - 1.0) > TOLERANCE)
         if len(wrong):

@@ -65,6 +65,10 @@ from beliefloc.source.located import gc_paused
 KEY_RESOLUTION = 2**30
 """Beliefs are compared after rounding every entry to a multiple of 2^-30 (about 1e-9)."""
 _CACHE_BYTES = 256 * 2**20
+_CACHE_MIN_BELIEFS = 16
+"""The belief cache holds :data:`_CACHE_BYTES` of beliefs, and never fewer than this many: at 10^7
+states (80 MB a belief) four were too few, and a pop recomputed a chain of 2.5 Bayes updates on
+average (131 for 53 pops, each a 50-100 ms prediction); sixteen are 1.3 GB there."""
 
 
 SearchProgress = Callable[[int, int, float], None]
@@ -242,7 +246,7 @@ def _search(
     observation_of: list[int | None] = [None]
     g_of: list[float] = [0.0]
     stats_of: list[SuccessorStats | None] = [None]
-    cache = BeliefCache(max(4, _CACHE_BYTES // max(1, belief.nbytes)))
+    cache = BeliefCache(max(_CACHE_MIN_BELIEFS, _CACHE_BYTES // max(1, belief.nbytes)))
     cache.put(0, belief)
 
     # the beliefs of the last expanded node's children that are its predictions (actions that observe
