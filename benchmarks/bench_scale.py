@@ -5,6 +5,7 @@ Run by hand from the repository root (not part of the test suite)::
     python benchmarks/bench_scale.py                        # 10^6 and 10^7, 3 repeats (~15 min)
     python benchmarks/bench_scale.py --quick                # 10^6 only, 1 repeat
     python benchmarks/bench_scale.py --baseline e4ff6b3     # and the same runs on that commit's code
+    python benchmarks/bench_scale.py --baseline 6127da6 --time-limit 600   # searches that finish
 
 The worlds are ``beliefloc generate gridworld --states N --seed 0`` (objects seen model: an open grid,
 4 headings, four object classes, a noisy look; 86,153 landmarks and a 2.7 MB map at 10^6, 1,090,433
@@ -63,7 +64,7 @@ RAISED_LIMITS = {
 # --- children ---------------------------------------------------------------------------------------
 
 
-def child_phases(path: str, model_path: str, with_yaml: bool = True) -> dict[str, Any]:
+def child_phases(path: str, model_path: str, with_yaml: bool = True, time_limit: float | None = None) -> dict[str, Any]:
     """Imports, read, validate, compile, model-file read and search, timed apart in this process."""
     import resource
 
@@ -102,7 +103,8 @@ def child_phases(path: str, model_path: str, with_yaml: bool = True) -> dict[str
     model = load_model(model_path)
     out["npz_s"] = time.perf_counter() - t
     cpu = time.process_time()
-    result = plan(model, uniform(model.n_states))
+    budget = {} if time_limit is None else {"time_limit": time_limit}
+    result = plan(model, uniform(model.n_states), **budget)
     out.update(
         states=model.n_states,
         search_s=result.seconds,
@@ -162,7 +164,9 @@ def _prepare(folder: Path, states: int) -> tuple[Path, Path]:
     return yaml_path, npz_path
 
 
-def _measure(code: Path, yaml_path: Path, npz_path: Path, big: bool, repeats: int, with_yaml: bool) -> dict[str, Any]:
+def _measure(
+    code: Path, yaml_path: Path, npz_path: Path, big: bool, repeats: int, with_yaml: bool, time_limit: float | None
+) -> dict[str, Any]:
     env = _env(code, big)
     row: dict[str, Any] = {}
     kinds = (("yaml", yaml_path), ("npz", npz_path)) if with_yaml else (("npz", npz_path),)
@@ -170,6 +174,8 @@ def _measure(code: Path, yaml_path: Path, npz_path: Path, big: bool, repeats: in
         walls, cpus, peaks = [], [], []
         for _ in range(repeats):
             command = [sys.executable, "-m", "beliefloc", "plan", str(path), "--json"]
+            if time_limit is not None:
+                command += ["--time-limit", f"{time_limit:g}"]
             wall, cpu, peak, code_, text = _timed_process(command, env)
             if code_ not in (0, 1):
                 raise SystemExit(f"plan {path} exited {code_} with {code}")
@@ -187,7 +193,8 @@ def _measure(code: Path, yaml_path: Path, npz_path: Path, big: bool, repeats: in
     for _ in range(repeats):
         done = subprocess.run(
             [sys.executable, str(Path(__file__)), "--child", str(yaml_path), str(npz_path)]
-            + ([] if with_yaml else ["--no-yaml"]),
+            + ([] if with_yaml else ["--no-yaml"])
+            + ([] if time_limit is None else ["--time-limit", f"{time_limit:g}"]),
             stdout=subprocess.PIPE, text=True, check=True, env=env, cwd=ROOT,
         )  # fmt: skip
         phases: dict[str, Any] = json.loads(done.stdout.strip().splitlines()[-1])
@@ -285,7 +292,8 @@ def _report(rows: list[dict[str, Any]], args: argparse.Namespace, seconds: float
                 f"- {p['states']:,} states, the plan call (search): {p['search_s']:.2f} s ({p['search_cpu_s']:.2f} s "
                 f"of CPU); the whole process from the model file {r['npz_wall_s']:.2f} s ({r['npz_cpu_s']:.2f} s of "
                 f"CPU), from the map {cell(r.get('yaml_wall_s'))} s ({cell(r.get('yaml_cpu_s'))} s of CPU) "
-                f"(target <= {TARGET_1E6_S:g} s)"
+                f"(target <= {TARGET_1E6_S:g} s, the whole process): "
+                f"{'met' if r['npz_wall_s'] <= TARGET_1E6_S else 'not met'}"
             )
         else:
             met = r["npz_wall_s"] <= TARGET_1E7_S and r["npz_peak_mib"] / 1024 <= TARGET_1E7_GIB
@@ -320,10 +328,16 @@ def main() -> None:
     parser.add_argument("--baseline", metavar="REF", help="also run the code of this commit, side by side")
     parser.add_argument("--workdir", type=Path, default=Path(tempfile.gettempdir()) / "beliefloc-bench-scale")
     parser.add_argument("--quick", action="store_true", help="10^6 only, one repeat")
+    parser.add_argument(
+        "--time-limit",
+        type=float,
+        help="the plan call's seconds (default: the planner's, 60 s): on a loaded machine a 10^7 search runs "
+        "out of it, and two codes out of budget cannot be compared",
+    )
     parser.add_argument("--output", type=Path, default=RESULTS)
     args = parser.parse_args()
     if args.child:
-        print(json.dumps(child_phases(args.child[0], args.child[1], with_yaml=not args.no_yaml)))
+        print(json.dumps(child_phases(args.child[0], args.child[1], not args.no_yaml, args.time_limit)))
         return
     if args.quick:
         args.sizes, args.repeats = [1e6], 1
@@ -343,7 +357,7 @@ def main() -> None:
             # the codes take turns, so that both see the shared machine's load alike
             for name, code in codes.items():
                 print(f"{states:,} states, {name} ({code}), run {repeat + 1}:", file=sys.stderr, flush=True)
-                runs[name].append(_measure(code, yaml_path, npz_path, states > 4_000_000, 1, small))
+                runs[name].append(_measure(code, yaml_path, npz_path, states > 4_000_000, 1, small, args.time_limit))
         rows.append({name: _best(found) for name, found in runs.items()})
     text = _report(rows, args, time.perf_counter() - started)
     args.output.write_text(text, encoding="utf-8")

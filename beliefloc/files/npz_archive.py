@@ -124,7 +124,7 @@ class Archive:
                 # numpy's memory, not a bytearray: uninitialised (a bytearray is zeroed first) and, at 4 MB
                 # and up, in huge pages (numpy asks the kernel for them): a page fault per 2 MB, not per 4 kB
                 buffer = np.empty(nbytes, dtype=np.uint8)
-                view = memoryview(buffer)
+                view = buffer.data  # a memoryview of the bytes
                 done = 0
                 while done < nbytes:
                     count = stream.readinto(view[done:])  # type: ignore[attr-defined]

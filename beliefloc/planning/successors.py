@@ -24,6 +24,7 @@ contingent planner, which merges equal beliefs, takes them all with their statis
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -112,10 +113,15 @@ def _entropy(belief: np.ndarray, work: np.ndarray | None = None) -> float:
     """:func:`beliefloc.belief.entropy`, bit for bit, without copying a belief whose every entry is > 0
     (every belief of a noisy model: selecting them is most of the cost on 10^6 states); ``work``, an
     array of the belief's shape, holds ``b ln b`` instead of two new arrays."""
-    if belief.size and belief.min() > 0.0:
-        terms = np.log(belief, out=work)
-        np.multiply(belief, terms, out=terms)
-        return float(-terms.sum())  # -(Σ x) is Σ(-x) exactly: negation commutes with rounding
+    if belief.size:
+        # no pass to ask whether every entry is > 0 first: a 0 (log -inf, times 0: NaN) or a negative
+        # entry (NaN) makes the sum NaN, and only then are the entries selected
+        with np.errstate(divide="ignore", invalid="ignore"):
+            terms = np.log(belief, out=work)
+            np.multiply(belief, terms, out=terms)
+            total = float(terms.sum())
+        if not math.isnan(total):
+            return -total  # -(Σ x) is Σ(-x) exactly: negation commutes with rounding
     return entropy(belief)
 
 
@@ -172,14 +178,17 @@ class SuccessorEvaluator:
         first, second = self._buffers()
         # order is a permutation: "clip" never clips (and "raise" would copy through a buffer)
         ordered = np.take(predicted, groups.order, out=first, mode="clip")
-        if ordered.size and ordered.min() > 0.0:
-            xlogx = np.log(ordered, out=second)  # ordered ln ordered: the np.where below when no entry is 0
+        # ordered ln ordered: the np.where below when no entry is 0 (then no sum is NaN); no pass to
+        # ask first
+        with np.errstate(divide="ignore", invalid="ignore"):
+            xlogx = np.log(ordered, out=second)
             np.multiply(ordered, xlogx, out=xlogx)
-        else:
+        mass_log_mass = np.add.reduceat(xlogx, groups.starts)
+        if np.isnan(mass_log_mass).any():
             with np.errstate(divide="ignore", invalid="ignore"):
                 xlogx = np.where(ordered > 0.0, ordered * np.log(ordered), 0.0)
+            mass_log_mass = np.add.reduceat(xlogx, groups.starts)
         mass = np.add.reduceat(ordered, groups.starts)
-        mass_log_mass = np.add.reduceat(xlogx, groups.starts)
         peak = np.maximum.reduceat(ordered, groups.starts)
         table = groups.likelihood
         probability = mass @ table
