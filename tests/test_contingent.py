@@ -79,12 +79,14 @@ def exact_policy(model: Model, belief: np.ndarray, **budget: Any) -> PolicyResul
 # --- independent recomputations -----------------------------------------------------------------
 
 
-MERGED = 1e-9
-"""The planner merges beliefs that agree to 1e-9 in every state (or differ by less than 1e-15 where they
-are that small), and Bayes updates may magnify such differences: a dozen looks that contradict each other
-turn 1e-16 into 0.01. So a belief recomputed along a path must agree with the merged node's, and the
-policy's numbers with those recomputed here, to within this much *times the probability of that path*:
-what matters to the expected cost."""
+MERGED = 10 * contingent._MERGE
+"""The planner merges beliefs that differ by less than ``contingent._MERGE`` in total (the sum over states),
+and a belief recomputed along a path must agree with the merged node's -- and the policy's numbers with
+those recomputed here -- to within this much *times the probability of that path*: what matters to the
+expected cost. Bayes updates magnify a difference, but never beyond that: beliefs ``b, b'`` apart by ``δ``
+in total are, after any actions and observations of probability ``π`` and ``π'``, unnormalised vectors
+apart by at most ``δ`` (transitions are stochastic, likelihoods at most 1), so ``|π - π'| <= δ`` and the
+beliefs are apart by at most ``2δ / π``. Each merge along a path adds its ``2δ``; five merges are allowed."""
 
 
 def walk(model: Model, root: PolicyNode, belief: np.ndarray) -> list[tuple[PolicyNode, np.ndarray, float]]:

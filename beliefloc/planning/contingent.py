@@ -72,6 +72,7 @@ from typing import Any
 import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
+import scipy.special
 
 from beliefloc.belief import entropy, predict, uniform
 from beliefloc.model import Action, Model
@@ -83,7 +84,7 @@ from beliefloc.planning.settings import (
     DEFAULT_TIME_LIMIT,
     Heuristic,
 )
-from beliefloc.planning.successors import SuccessorEvaluator, SuccessorStats, reading_keys
+from beliefloc.planning.successors import SuccessorEvaluator, reading_keys
 
 _CACHE_BYTES = 256 * 2**20
 _PROGRESS_EVERY = 64
@@ -103,16 +104,21 @@ _INFORMATIVE = 1e-9
 """Less expected information than this (nats) from the uniform belief counts as none."""
 _SAME = 1e-12
 """Values closer than this (relative) are settled: the backups stop passing them on."""
-_MERGE = 1e-9
-"""Beliefs whose every probability agrees to this relative precision are one node (the same belief
-reached by updates in another order). Relative, because Bayes updates multiply: a tiny probability
-may grow large further down."""
-_NEGLIGIBLE = 1e-15
-"""...except probabilities this small, which may differ (repeated looks leave ever smaller ones, all
-different, behind: without this floor, beliefs that differ only in them would never merge)."""
-_SUMMARY_DIGITS = 9
-"""Beliefs are compared only with those of the same entropy, maximum and projection to this many
-digits."""
+_MERGE = 3e-6
+"""Beliefs closer than this in total (the sum over states of the differences) are one node. Each
+probability is cut to a multiple of ``_MERGE / n`` (n states) and equal cuts are the same belief, so two
+beliefs of one node differ by less than ``_MERGE / n`` in every state. Why not exact equality: repeated
+looks leave tiny probabilities behind (a false positive of 0.01 leaves 10^-8 after four looks) that
+differ from path to path, and beliefs that differ only in them would never merge: on the hallway LAO*
+expanded 44,167 beliefs, 5,283 of them distinct to 10^-6 (benchmarks/results/contingent.md, 2026-11-27).
+The expected cost of a policy is linear in the belief, so a merged branch's cost differs from its own
+belief's by at most ``_MERGE`` times the largest cost from one state; on the hallway the expected cost
+agreed to 10 digits with the exact merge."""
+_BATCH_ENTRIES = 2**16
+"""A model whose every likelihood matrix (states × observations) has at most this many entries has each
+action's successors computed as one matrix (:meth:`_Search._batched`); a larger one, one by one."""
+_HASH_SEED = 28
+"""The seed of the random weights that turn a belief's cut probabilities into one integer key."""
 
 
 class LeafKind(enum.Enum):
@@ -136,12 +142,15 @@ class _Node:
     __slots__ = (
         "best",
         "children",
+        "exits",
         "leaf",
         "max_belief",
         "number",
         "origin",
         "parents",
+        "q",
         "reach",
+        "stale",
         "value",
     )
 
@@ -156,7 +165,16 @@ class _Node:
         self.best = -1
         self.children: dict[int, list[tuple[float, int | None, _Node]]] = {}
         """Per action, its branches: (probability, observation, successor)."""
-        self.parents: list[_Node] = []
+        self.exits: list[tuple[float, list[tuple[float, _Node]]] | None] = []
+        """Per action index (None: no branch), the probability of a branch back to the node itself and the
+        other branches as (probability, successor), in :attr:`children`'s order: what a backup reads."""
+        self.q: list[float] = []
+        """Per action index, its expected cost (:meth:`_Search._q`; infinite without branches or when it
+        never leaves), as of the last backup that recomputed it."""
+        self.stale: set[int] | None = None
+        """The actions whose :attr:`q` a successor's change of value has made out of date."""
+        self.parents: list[tuple[_Node, int]] = []
+        """Per branch into the node: the node it leaves and its action."""
         self.reach = 0.0
         """The expected number of visits to the node under the best policy from the current start (at a
         leaf: the probability of ending there), kept up to date as the policy changes
@@ -470,10 +488,11 @@ class _Search:
         self.generated = 0
         self._numbers = itertools.count()
         self._signature = _signature_groups(model)
-        self._nodes: dict[tuple[float, float, float], list[_Node]] = {}
-        """Every node that is not a goal, by its belief's entropy, maximum and projection on
-        :attr:`_probe` (rounded)."""
-        self._probe = np.cos(np.arange(model.n_states) * 0.7548776662466927)
+        self._nodes: dict[int, list[_Node]] = {}
+        """Every node that is not a goal, by the key of its belief (:meth:`_key`)."""
+        self._quantum = _MERGE / max(1, model.n_states)
+        self._weights = np.random.default_rng(_HASH_SEED).integers(-(2**62), 2**62, size=model.n_states)
+        self._cut = (np.empty(model.n_states), np.empty(model.n_states, dtype=np.int64))
         self._cache = BeliefCache(max(4, _CACHE_BYTES // (8 * max(1, model.n_states))))
         self._starts: dict[int, np.ndarray] = {}
         """The beliefs of the nodes plans started from that no branch had reached."""
@@ -486,6 +505,17 @@ class _Search:
             self._signature_index = np.empty(model.n_states, dtype=np.intp)
             self._signature_index[order] = np.repeat(np.arange(len(starts)), np.diff(np.r_[starts, len(order)]))
         self._likelihoods = [_likelihood_columns(action, model.n_states, self._signature) for action in model.actions]
+        self._dense: list[np.ndarray | None] | None = None
+        """Per action, ``O_a`` transposed (observations × states; None: observes nothing), when every action's
+        has at most :data:`_BATCH_ENTRIES` entries (:meth:`_batched`); None otherwise."""
+        self._indicator: np.ndarray | None = None
+        """States × groups of :attr:`_signature`, 1 where the state is in the group (with :attr:`_dense`)."""
+        dense = [None if table is None else table[1][table[0]].T.copy() for table in self._likelihoods]
+        if all(d is None or d.size <= _BATCH_ENTRIES for d in dense):
+            self._dense = dense
+            if self._signature_index is not None:
+                self._indicator = np.zeros((model.n_states, self._signature_count))
+                self._indicator[np.arange(model.n_states), self._signature_index] = 1.0
         self._tips: list[tuple[float, float, int, _Node]] = []
         """The best policy's frontier leaves as a heap of ``(-reach × value, -reach, number, node)``; an entry
         whose reach is no longer the node's is stale (:meth:`next_tip` drops it)."""
@@ -494,7 +524,8 @@ class _Search:
 
     def root(self, belief: np.ndarray) -> _Node:
         """The node of ``belief`` (one the graph has already, or a new one) as the policy's start."""
-        node = self._node(None, entropy(belief), float(belief.max()), belief)
+        h, top = entropy(belief), float(belief.max())
+        node = self._node(None, top, belief, self._key(belief), self.estimate(belief, h))
         if node.origin is None:  # every chain of recomputation ends at a start: never evicted
             self._starts[node.number] = belief
         for reached in self._reached:
@@ -504,37 +535,31 @@ class _Search:
         return node
 
     def _node(
-        self,
-        origin: tuple[_Node, int, int | None] | None,
-        h: float,
-        top: float,
-        belief: np.ndarray,
-        mass: np.ndarray | None = None,
+        self, origin: tuple[_Node, int, int | None] | None, top: float, belief: np.ndarray, key: int, value: float
     ) -> _Node:
-        """The node of ``belief``: the one that has it already, or a new goal or frontier node."""
+        """The node of ``belief``: the one that has it already, or a new goal or frontier node (``key``: the
+        belief's :meth:`_key`; ``value``: its :meth:`estimate`, both ignored for a goal)."""
         if top >= self.threshold:
             node = _Node(next(self._numbers), origin, top)
             node.leaf = LeafKind.GOAL
             return node
-        # a summary picks the candidates (mirror images share entropy and maximum, not the projection);
-        # the beliefs themselves decide. The projection is einsum's loop, not BLAS's dot: a threaded dot
-        # of 50,000 states took 15 ms on a loaded 2-core machine (6 µs single-threaded), which made a
-        # plan call on the depot 15 times slower (benchmarks/results/contingent.md, 2026-11-27)
-        summary = (
-            round(h, _SUMMARY_DIGITS),
-            round(top, _SUMMARY_DIGITS),
-            round(float(np.einsum("i,i->", belief, self._probe)), _SUMMARY_DIGITS),
-        )
-        same = self._nodes.setdefault(summary, [])
-        for existing in same:
-            known = self.belief(existing)
-            if np.all(np.abs(known - belief) <= _MERGE * np.maximum(known, belief) + _NEGLIGIBLE):
+        same = self._nodes.setdefault(key, [])
+        for existing in same:  # a different cut of the same key is a 2^-64 chance, but is checked
+            if float(np.abs(self.belief(existing) - belief).max()) <= self._quantum:
                 return existing
         node = _Node(next(self._numbers), origin, top)
         same.append(node)
         self._cache.put(node.number, belief)
-        node.value = self.estimate(belief, h, mass) if self.kappa > 0.0 else 0.0
+        node.value = value
         return node
+
+    def _key(self, belief: np.ndarray) -> int:
+        """The belief's probabilities cut to multiples of :attr:`_quantum` (:data:`_MERGE`), as one integer:
+        their dot product with fixed random 64-bit weights (wrapping around), in two scratch arrays."""
+        scaled, cut = self._cut
+        np.multiply(belief, 1.0 / self._quantum, out=scaled)
+        cut[...] = scaled  # towards zero: probabilities are >= 0, so the floor
+        return int(cut @ self._weights)
 
     def estimate(self, belief: np.ndarray, h: float, mass: np.ndarray | None = None) -> float:
         """``κ · H(S | Σ) + ρ · H(Σ)``: the entropy within the groups of states that read alike (Σ, every
@@ -542,6 +567,8 @@ class _Search:
         which group the robot is in at the price of perceiving alone. ``mass``: the belief's mass in
         each group, when the caller has it (:meth:`_successors`)."""
         groups = self._signature
+        if self.kappa == 0.0:
+            return 0.0
         if groups is None:
             return self.kappa * h
         if mass is None:
@@ -572,25 +599,77 @@ class _Search:
         """Give ``node`` its actions' branches, then back the values up (:meth:`_revise`)."""
         belief = self.belief(node)
         node.leaf = None
-        for stats, successor, mass in self._successors(belief):
-            child = self._node(
-                (node, stats.action, stats.observation), stats.entropy, stats.max_belief, successor, mass
-            )
-            child.parents.append(node)
-            node.children.setdefault(stats.action, []).append((stats.probability, stats.observation, child))
+        for action, observation, probability, top, successor, key, value in self._successors(belief):
+            child = self._node((node, action, observation), top, successor, key, value)
+            child.parents.append((node, action))
+            node.children.setdefault(action, []).append((probability, observation, child))
             self.generated += 1
+        node.exits = [None] * len(self.costs)
+        for action, branches in node.children.items():
+            here = 0.0
+            for p, _, child in branches:
+                if child is node:
+                    here += p
+            node.exits[action] = (here, [(p, child) for p, _, child in branches if child is not node])
+        node.q = [math.inf] * len(self.costs)
+        node.stale = set(node.children)
         self._reroute(self._revise(node))
 
-    def _successors(self, belief: np.ndarray) -> Iterator[tuple[SuccessorStats, np.ndarray, np.ndarray | None]]:
+    def _successors(self, belief: np.ndarray) -> Iterator[tuple[int, int | None, float, float, np.ndarray, int, float]]:
+        """Every successor of ``belief`` with non-zero probability, in action then observation order, as
+        ``(action, observation, probability, maximum, belief, key, estimate)`` (:meth:`_key`,
+        :meth:`estimate`; both 0 for a goal). On a small model (:data:`_BATCH_ENTRIES`) all the successors
+        of an action come from one matrix: its likelihoods times the prediction, normalised row by row
+        (:meth:`_batched`); otherwise one by one (:meth:`_one_by_one`)."""
+        if self._dense is None:
+            yield from self._one_by_one(belief)
+            return
+        for index, action in enumerate(self.model.actions):
+            yield from self._batched(index, predict(action, belief), self._dense[index])
+
+    def _batched(
+        self, action: int, predicted: np.ndarray, likelihoods: np.ndarray | None
+    ) -> Iterator[tuple[int, int | None, float, float, np.ndarray, int, float]]:
+        """The successors of one action: ``likelihoods[o, j] = O_a[j, o]`` (None: the action observes
+        nothing), every row's entropy, maximum, key and estimate in one go."""
+        observations: list[int | None]
+        if likelihoods is None:
+            posteriors = predicted[None, :]
+            probabilities = [1.0]
+            observations = [None]
+        else:
+            joint = likelihoods * predicted
+            total = joint.sum(axis=1)
+            possible = np.flatnonzero(total > 0.0)
+            posteriors = joint[possible] / total[possible, None]
+            probabilities = total[possible].tolist()
+            observations = list(possible.tolist())
+        h = np.maximum(0.0, -scipy.special.xlogy(posteriors, posteriors).sum(axis=1))
+        tops = posteriors.max(axis=1)
+        keys = (posteriors * (1.0 / self._quantum)).astype(np.int64) @ self._weights
+        if self.kappa == 0.0:
+            values = np.zeros(len(observations))
+        elif self._indicator is None:
+            values = self.kappa * h
+        else:
+            masses = posteriors @ self._indicator
+            between = np.maximum(0.0, -scipy.special.xlogy(masses, masses).sum(axis=1))
+            values = self.kappa * np.maximum(0.0, h - between) + self.perceiving * between
+        for i, (observation, p, top, key, value) in enumerate(
+            zip(observations, probabilities, tops.tolist(), keys.tolist(), values.tolist(), strict=True)
+        ):
+            yield action, observation, p, top, posteriors[i], key, value
+
+    def _one_by_one(self, belief: np.ndarray) -> Iterator[tuple[int, int | None, float, float, np.ndarray, int, float]]:
         """:meth:`SuccessorEvaluator.successors`, with each observation's likelihood column gathered from
         :attr:`_likelihoods` (the same numbers: ``O[j, o]`` is the product of the parts' confusion
         entries in both) instead of :meth:`ObservationModel.likelihood`, which decodes ``o`` and gathers
         every part's column: 1.3 ms of the 1.4 ms a successor of a depot belief (49,592 states) took.
-        With each successor, its mass in every group of :attr:`_signature` (None when the model has
-        none): the prediction's, times the observation's likelihood there, so the estimate costs a
-        group's worth of work instead of a belief's."""
+        The estimate from each successor's mass in every group of :attr:`_signature`: the prediction's,
+        times the observation's likelihood there, a group's worth of work instead of a belief's."""
         stats = self.evaluator.evaluate(belief)
         i = 0
+        threshold = self.threshold
         for index, action in enumerate(self.model.actions):
             predicted = predict(action, belief)
             masses = None
@@ -598,18 +677,27 @@ class _Search:
                 masses = np.bincount(self._signature_index, weights=predicted, minlength=self._signature_count)
             table = self._likelihoods[index]
             if table is None:
-                yield stats[i], predicted, masses
+                here = stats[i]
+                if here.max_belief >= threshold:
+                    yield index, None, 1.0, here.max_belief, predicted, 0, 0.0
+                else:
+                    value = self.estimate(predicted, here.entropy, masses)
+                    yield index, None, 1.0, here.max_belief, predicted, self._key(predicted), value
                 i += 1
                 continue
             groups, columns, by_signature = table
             while i < len(stats) and stats[i].action == index:
-                observation = stats[i].observation
-                assert observation is not None
-                weighted: np.ndarray = predicted * columns[:, observation][groups]
-                weighted /= weighted.sum()
-                mass = None if masses is None or by_signature is None else masses * by_signature[:, observation]
-                yield stats[i], weighted, mass
+                here = stats[i]
                 i += 1
+                assert here.observation is not None
+                weighted: np.ndarray = predicted * columns[:, here.observation][groups]
+                weighted /= weighted.sum()
+                if here.max_belief >= threshold:
+                    yield index, here.observation, here.probability, here.max_belief, weighted, 0, 0.0
+                    continue
+                mass = None if masses is None or by_signature is None else masses * by_signature[:, here.observation]
+                value = self.estimate(weighted, here.entropy, mass)
+                yield index, here.observation, here.probability, here.max_belief, weighted, self._key(weighted), value
 
     def _successor(self, belief: np.ndarray, action: int, observation: int | None) -> np.ndarray:
         """:meth:`SuccessorEvaluator.successor` by :attr:`_likelihoods` (see :meth:`_successors`)."""
@@ -647,7 +735,7 @@ class _Search:
         changed: dict[_Node, int] = {}
         costs = self.costs
         pending = collections.deque([node])
-        queued = {node.number}
+        queued = {node}
         first = True  # the expanded node's value went from the estimate to its backup: always passed on
         for backups in range(_MAX_REVISIONS):
             if not pending:
@@ -656,25 +744,24 @@ class _Search:
                 for dead in self._dead_ends():
                     changed.setdefault(dead, dead.best)
                     dead.best, dead.value = -1, math.inf
-                    for parent in dead.parents:
-                        if parent.number not in queued:
-                            queued.add(parent.number)
-                            pending.append(parent)
+                    self._pass_on(dead, True, pending, queued)
             current = pending.popleft()
-            queued.discard(current.number)
-            best, value = -1, math.inf
-            for action, branches in current.children.items():  # _q, written out: the hot loop
-                here, total = 0.0, costs[action]
-                for p, _, child in branches:
-                    if child is current:
-                        here += p
-                    else:
+            queued.discard(current)
+            q, stale = current.q, current.stale
+            if stale:
+                exits = current.exits
+                for action in stale:  # _q, written out: the hot loop
+                    here, others = exits[action]  # type: ignore[misc]
+                    if here >= 1.0 - _SAME:
+                        q[action] = math.inf
+                        continue
+                    total = costs[action]
+                    for p, child in others:
                         total += p * child.value
-                if here >= 1.0 - _SAME:
-                    continue
-                q = total / (1.0 - here)
-                if q < value:
-                    best, value = action, q
+                    q[action] = total / (1.0 - here)
+                current.stale = None
+            value = min(q) if q else math.inf
+            best = q.index(value) if value < math.inf else -1
             if best != current.best:
                 changed.setdefault(current, current.best)
             current.best = best
@@ -682,12 +769,27 @@ class _Search:
             if settled and not first:
                 continue
             first = False
+            rose = value > current.value
             current.value = value
-            for parent in current.parents:
-                if parent.number not in queued:
-                    queued.add(parent.number)
-                    pending.append(parent)
+            self._pass_on(current, rose, pending, queued)
         return changed
+
+    @staticmethod
+    def _pass_on(node: _Node, rose: bool, pending: collections.deque[_Node], queued: set[_Node]) -> None:
+        """``node``'s value changed (``rose``: went up): the actions that lead to it are stale, and their nodes
+        queued for a backup, except where the value rose under an action that is not the node's best: that
+        action's expected cost only rose, so the node's best action and value stay (the action is recomputed
+        at the node's next backup)."""
+        for parent, action in node.parents:
+            if parent.stale is None:
+                parent.stale = {action}
+            else:
+                parent.stale.add(action)
+            if rose and action != parent.best:
+                continue
+            if parent not in queued:
+                queued.add(parent)
+                pending.append(parent)
 
     def _reroute(self, changed: dict[_Node, int]) -> None:
         """The reaches after the best action of each node of ``changed`` went from the one given there to
@@ -731,17 +833,14 @@ class _Search:
                 continue
             if node.leaf is not None or node.best < 0 or abs(delta) <= _SETTLED_REACH * abs(node.reach):
                 continue
-            branches = node.children[node.best]
-            back = sum(p for p, _, child in branches if child is node)
+            back, others = node.exits[node.best]  # type: ignore[misc]
             if back >= 1.0 - _SAME:  # an action that never leaves: no policy's (worth nothing, _q)
                 continue
             if back > 0.0:  # the visits a branch back to the node itself adds, at once
                 extra = delta * back / (1.0 - back)
                 node.reach += extra
                 delta += extra
-            for p, _, child in branches:
-                if child is node:
-                    continue
+            for p, child in others:
                 if child not in pending:
                     pending[child] = 0.0
                     queue.append(child)
@@ -906,7 +1005,7 @@ def _reaching_an_end(nodes: list[_Node], alive: set[int]) -> set[int]:
     queue = [n for n in nodes if reaches(n)]
     reached.update(n.number for n in queue)
     while queue:
-        for parent in queue.pop().parents:
+        for parent, _ in queue.pop().parents:
             if parent.number in alive and parent.number not in reached and reaches(parent):
                 reached.add(parent.number)
                 queue.append(parent)
