@@ -508,14 +508,9 @@ class _Search:
         self._dense: list[np.ndarray | None] | None = None
         """Per action, ``O_a`` transposed (observations × states; None: observes nothing), when every action's
         has at most :data:`_BATCH_ENTRIES` entries (:meth:`_batched`); None otherwise."""
-        self._indicator: np.ndarray | None = None
-        """States × groups of :attr:`_signature`, 1 where the state is in the group (with :attr:`_dense`)."""
         dense = [None if table is None else table[1][table[0]].T.copy() for table in self._likelihoods]
         if all(d is None or d.size <= _BATCH_ENTRIES for d in dense):
             self._dense = dense
-            if self._signature_index is not None:
-                self._indicator = np.zeros((model.n_states, self._signature_count))
-                self._indicator[np.arange(model.n_states), self._signature_index] = 1.0
         self._tips: list[tuple[float, float, int, _Node]] = []
         """The best policy's frontier leaves as a heap of ``(-reach × value, -reach, number, node)``; an entry
         whose reach is no longer the node's is stale (:meth:`next_tip` drops it)."""
@@ -649,10 +644,11 @@ class _Search:
         keys = (posteriors * (1.0 / self._quantum)).astype(np.int64) @ self._weights
         if self.kappa == 0.0:
             values = np.zeros(len(observations))
-        elif self._indicator is None:
+        elif self._signature is None:
             values = self.kappa * h
         else:
-            masses = posteriors @ self._indicator
+            order, starts = self._signature
+            masses = np.add.reduceat(posteriors[:, order], starts, axis=1)  # not BLAS: threads cost more here
             between = np.maximum(0.0, -scipy.special.xlogy(masses, masses).sum(axis=1))
             values = self.kappa * np.maximum(0.0, h - between) + self.perceiving * between
         for i, (observation, p, top, key, value) in enumerate(
@@ -809,42 +805,53 @@ class _Search:
 
     def _flow(self, pending: dict[_Node, float]) -> None:
         """Add each change of reach in ``pending`` to its node and pass it down the node's best action,
-                weighted by the branches' probabilities, until every change is placed: only the part of the
-                policy whose reach changes is visited. Around a loop of the policy a change comes back smaller
-                each time; it stops when it is below :data:`_SETTLED_REACH` of the reach it adds to (a branch back to
-        the node itself is summed at once). A frontier leaf whose
-                reach changed goes (again) into :attr:`_tips`. Should the changes go round a loop more than
-                :data:`_MAX_FLOW` times (a loop the policy almost never leaves), the reaches are recomputed by one
-                traversal of the policy instead (loops cut where they close, :meth:`best_policy`)."""
+        weighted by the branches' probabilities, until every change is placed: only the part of the
+        policy whose reach changes is visited. Around a loop of the policy a change comes back smaller
+        each time; it stops when it is below :data:`_SETTLED_REACH` of the reach it adds to (a branch back
+        to the node itself is summed at once). A frontier leaf whose reach changed goes (again) into
+        :attr:`_tips`, once, when every change is placed. Should the changes go round a loop more than
+        :data:`_MAX_FLOW` times (a loop the policy almost never leaves), the reaches are recomputed by one
+        traversal of the policy instead (loops cut where they close, :meth:`best_policy`)."""
         queue = collections.deque(pending)
+        popleft, append, pop = queue.popleft, queue.append, pending.pop
+        reached = self._reached
+        frontier = LeafKind.FRONTIER
+        tips: dict[_Node, None] = {}
         for _ in range(_MAX_FLOW):
             if not queue:
+                prune_below = self.prune_below
+                for node in tips:
+                    if node.reach >= prune_below and node.reach > 0.0:
+                        heapq.heappush(self._tips, (-node.reach * node.value, -node.reach, node.number, node))
                 return
-            node = queue.popleft()
-            delta = pending.pop(node)
-            if node.reach == 0.0:
-                self._reached.append(node)
-            node.reach += delta
-            if delta < 0.0 and abs(node.reach) <= _CANCELLED * -delta:
-                node.reach = 0.0  # all of it taken away: what is left is the sums' rounding
-            if node.leaf is LeafKind.FRONTIER:
-                if node.reach >= self.prune_below and node.reach > 0.0:
-                    heapq.heappush(self._tips, (-node.reach * node.value, -node.reach, node.number, node))
+            node = popleft()
+            delta = pop(node)
+            reach = node.reach
+            if reach == 0.0:
+                reached.append(node)
+            reach += delta
+            if delta < 0.0 and abs(reach) <= _CANCELLED * -delta:
+                reach = 0.0  # all of it taken away: what is left is the sums' rounding
+            node.reach = reach
+            leaf = node.leaf
+            if leaf is frontier:
+                tips[node] = None
                 continue
-            if node.leaf is not None or node.best < 0 or abs(delta) <= _SETTLED_REACH * abs(node.reach):
+            if leaf is not None or node.best < 0 or abs(delta) <= _SETTLED_REACH * abs(reach):
                 continue
             back, others = node.exits[node.best]  # type: ignore[misc]
             if back >= 1.0 - _SAME:  # an action that never leaves: no policy's (worth nothing, _q)
                 continue
             if back > 0.0:  # the visits a branch back to the node itself adds, at once
                 extra = delta * back / (1.0 - back)
-                node.reach += extra
+                node.reach = reach + extra
                 delta += extra
             for p, child in others:
-                if child not in pending:
-                    pending[child] = 0.0
-                    queue.append(child)
-                pending[child] += delta * p
+                if child in pending:
+                    pending[child] += delta * p
+                else:
+                    pending[child] = delta * p
+                    append(child)
         self._retrace()
 
     def _retrace(self) -> None:
