@@ -115,8 +115,9 @@ The expected cost of a policy is linear in the belief, so a merged branch's cost
 belief's by at most ``_MERGE`` times the largest cost from one state; on the hallway the expected cost
 agreed to 10 digits with the exact merge."""
 _BATCH_ENTRIES = 2**16
-"""A model whose every likelihood matrix (states × observations) has at most this many entries has each
-action's successors computed as one matrix (:meth:`_Search._batched`); a larger one, one by one."""
+"""A model whose likelihoods of every action and observation (states × rows) have at most this many entries
+has the successors of a belief computed as one matrix (:meth:`_Search._successors`); a larger one, one by
+one."""
 _HASH_SEED = 28
 """The seed of the random weights that turn a belief's cut probabilities into one integer key."""
 
@@ -505,12 +506,17 @@ class _Search:
             self._signature_index = np.empty(model.n_states, dtype=np.intp)
             self._signature_index[order] = np.repeat(np.arange(len(starts)), np.diff(np.r_[starts, len(order)]))
         self._likelihoods = [_likelihood_columns(action, model.n_states, self._signature) for action in model.actions]
-        self._dense: list[np.ndarray | None] | None = None
-        """Per action, ``O_a`` transposed (observations × states; None: observes nothing), when every action's
-        has at most :data:`_BATCH_ENTRIES` entries (:meth:`_batched`); None otherwise."""
-        dense = [None if table is None else table[1][table[0]].T.copy() for table in self._likelihoods]
-        if all(d is None or d.size <= _BATCH_ENTRIES for d in dense):
-            self._dense = dense
+        self._dense: np.ndarray | None = None
+        """A row per action and observation (:attr:`_rows`): ``O_a[:, o]``, all ones for an action that
+        observes nothing; when it has at most :data:`_BATCH_ENTRIES` entries (:meth:`_successors`), else None."""
+        self._rows: list[tuple[int, int | None]] = []
+        for index, table in enumerate(self._likelihoods):
+            self._rows += [(index, None)] if table is None else [(index, o) for o in range(table[1].shape[1])]
+        self._row_action = np.array([action for action, _ in self._rows], dtype=np.intp)
+        if len(self._rows) * model.n_states <= _BATCH_ENTRIES:
+            self._dense = np.vstack(
+                [np.ones((1, model.n_states)) if table is None else table[1][table[0]].T for table in self._likelihoods]
+            )
         self._tips: list[tuple[float, float, int, _Node]] = []
         """The best policy's frontier leaves as a heap of ``(-reach × value, -reach, number, node)``; an entry
         whose reach is no longer the node's is stale (:meth:`next_tip` drops it)."""
@@ -613,37 +619,23 @@ class _Search:
     def _successors(self, belief: np.ndarray) -> Iterator[tuple[int, int | None, float, float, np.ndarray, int, float]]:
         """Every successor of ``belief`` with non-zero probability, in action then observation order, as
         ``(action, observation, probability, maximum, belief, key, estimate)`` (:meth:`_key`,
-        :meth:`estimate`; both 0 for a goal). On a small model (:data:`_BATCH_ENTRIES`) all the successors
-        of an action come from one matrix: its likelihoods times the prediction, normalised row by row
-        (:meth:`_batched`); otherwise one by one (:meth:`_one_by_one`)."""
+        :meth:`estimate`; both 0 for a goal). On a small model (:data:`_BATCH_ENTRIES`) all of them come
+        from one matrix, a row per action and observation: the observation's likelihoods times the action's
+        prediction, normalised row by row, each row's entropy, maximum, key and estimate in one go;
+        otherwise one by one (:meth:`_one_by_one`)."""
         if self._dense is None:
             yield from self._one_by_one(belief)
             return
-        for index, action in enumerate(self.model.actions):
-            yield from self._batched(index, predict(action, belief), self._dense[index])
-
-    def _batched(
-        self, action: int, predicted: np.ndarray, likelihoods: np.ndarray | None
-    ) -> Iterator[tuple[int, int | None, float, float, np.ndarray, int, float]]:
-        """The successors of one action: ``likelihoods[o, j] = O_a[j, o]`` (None: the action observes
-        nothing), every row's entropy, maximum, key and estimate in one go."""
-        observations: list[int | None]
-        if likelihoods is None:
-            posteriors = predicted[None, :]
-            probabilities = [1.0]
-            observations = [None]
-        else:
-            joint = likelihoods * predicted
-            total = joint.sum(axis=1)
-            possible = np.flatnonzero(total > 0.0)
-            posteriors = joint[possible] / total[possible, None]
-            probabilities = total[possible].tolist()
-            observations = list(possible.tolist())
+        predicted = np.stack([predict(action, belief) for action in self.model.actions])
+        joint = self._dense * predicted[self._row_action]
+        total = joint.sum(axis=1)
+        possible = np.flatnonzero(total > 0.0)
+        posteriors = joint[possible] / total[possible, None]
         h = np.maximum(0.0, -scipy.special.xlogy(posteriors, posteriors).sum(axis=1))
         tops = posteriors.max(axis=1)
         keys = (posteriors * (1.0 / self._quantum)).astype(np.int64) @ self._weights
         if self.kappa == 0.0:
-            values = np.zeros(len(observations))
+            values = np.zeros(len(possible))
         elif self._signature is None:
             values = self.kappa * h
         else:
@@ -651,9 +643,11 @@ class _Search:
             masses = np.add.reduceat(posteriors[:, order], starts, axis=1)  # not BLAS: threads cost more here
             between = np.maximum(0.0, -scipy.special.xlogy(masses, masses).sum(axis=1))
             values = self.kappa * np.maximum(0.0, h - between) + self.perceiving * between
-        for i, (observation, p, top, key, value) in enumerate(
-            zip(observations, probabilities, tops.tolist(), keys.tolist(), values.tolist(), strict=True)
+        rows = self._rows
+        for i, (row, p, top, key, value) in enumerate(
+            zip(possible.tolist(), total[possible].tolist(), tops.tolist(), keys.tolist(), values.tolist(), strict=True)
         ):
+            action, observation = rows[row]
             yield action, observation, p, top, posteriors[i], key, value
 
     def _one_by_one(self, belief: np.ndarray) -> Iterator[tuple[int, int | None, float, float, np.ndarray, int, float]]:
@@ -767,7 +761,14 @@ class _Search:
             first = False
             rose = value > current.value
             current.value = value
-            self._pass_on(current, rose, pending, queued)
+            for parent, action in current.parents:  # _pass_on, written out
+                if parent.stale is None:
+                    parent.stale = {action}
+                else:
+                    parent.stale.add(action)
+                if (not rose or action == parent.best) and parent not in queued:
+                    queued.add(parent)
+                    pending.append(parent)
         return changed
 
     @staticmethod
