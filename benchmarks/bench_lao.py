@@ -5,6 +5,7 @@ Run by hand from the repository root (not part of the test suite)::
     python benchmarks/bench_lao.py                       # maps/hallway.yaml, the three searches below
     python benchmarks/bench_lao.py --map depot --max-expansions 32 --repeats 3
     python benchmarks/bench_lao.py --cli --repeats 3     # the whole command, before and after
+    python benchmarks/bench_lao.py --simulate 20 --map tb3-sandbox   # simulate -s contingent, before and after
     python benchmarks/bench_lao.py --append              # also append the table to results/contingent.md
 
 The searches, each from the uniform belief with the command line's defaults (threshold 0.95, the entropy
@@ -27,6 +28,10 @@ With ``--cli`` the whole command ``python -m beliefloc plan maps/MAP.yaml --poli
 as it was at ``--before`` (``git archive`` into a temporary directory, on ``PYTHONPATH``) and with today's,
 ``--repeats`` times: wall seconds and the child's CPU seconds (user + system), and from its JSON the status,
 expansions, expected cost and policy nodes.
+
+With ``--simulate N`` the command is ``python -m beliefloc simulate maps/MAP.yaml -n N -s contingent --seed
+SEED --json`` (the same episodes for both codes): per code its summary (localized, correct, mean cost, mean
+plan seconds a call, replans) and the child's CPU seconds.
 """
 
 from __future__ import annotations
@@ -178,6 +183,52 @@ def report_cli(args: argparse.Namespace, rows: list[dict[str, Any]], load: tuple
     return "\n".join(lines) + "\n"
 
 
+def run_simulate(name: str, code: Path, args: argparse.Namespace) -> dict[str, Any]:
+    """``simulate -s contingent --json`` as a child process with ``code`` on PYTHONPATH."""
+    command = [sys.executable, "-m", "beliefloc", "simulate", f"maps/{args.map}.yaml", "-n", str(args.simulate)]
+    command += ["-s", "contingent", "--seed", str(args.seed), "--json"]
+    env = {**os.environ, "PYTHONPATH": str(code)}
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    wall = time.perf_counter()
+    done = subprocess.run(command, stdout=subprocess.PIPE, text=True, check=False, env=env, cwd=ROOT)
+    wall = time.perf_counter() - wall
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if done.returncode not in (0, 1):
+        raise SystemExit(f"{name}: {' '.join(command)} failed (exit {done.returncode})")
+    summary = json.loads(done.stdout)["summary"]["contingent"]
+    row = {
+        "name": name,
+        **summary,
+        "cpu": (after.ru_utime - usage.ru_utime) + (after.ru_stime - usage.ru_stime),
+        "wall": wall,
+    }
+    say(f"  {name}: {row}")
+    return row
+
+
+def report_simulate(args: argparse.Namespace, rows: list[dict[str, Any]], load: tuple[float, float]) -> str:
+    lines = [
+        f"## `simulate maps/{args.map}.yaml -s contingent`, before and after ({datetime.date.today()})",
+        "",
+        f"`python benchmarks/bench_lao.py {' '.join(args.argv)}`: `python -m beliefloc simulate maps/{args.map}.yaml "
+        f"-n {args.simulate} -s contingent --seed {args.seed} --json` (the library's defaults), in turn with the "
+        f"package at `{args.before}` (`git archive`) and today's: the same episodes. Machine: {cpu_name()}, "
+        f"{os.cpu_count()} cores, shared; OPENBLAS_NUM_THREADS=1; 1-minute load average {load[0]:.2f} at the "
+        f"start, {load[1]:.2f} at the end. Plan s: mean wall seconds of a plan call; CPU: the child's user + "
+        "system seconds for the whole run.",
+        "",
+        "| code | run | episodes | localized | correct | mean cost | plan s | replans | steps | CPU s | wall s |",
+        "| --- | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: | ---: |",
+    ]
+    for row in rows:
+        lines.append(
+            f"| {row['name']} | {row['repeat'] + 1} | {row['episodes']} | {row['localized']} | {row['correct']} | "
+            f"{row['mean_cost']:.2f} | {row['mean_plan_seconds']:.3f} | {row['mean_replans']:.2f} | "
+            f"{row['mean_steps']:.1f} | {row['cpu']:.1f} | {row['wall']:.1f} |"
+        )
+    return "\n".join(lines) + "\n"
+
+
 def main_cli(args: argparse.Namespace) -> str:
     load_start = os.getloadavg()[0]
     rows = []
@@ -186,8 +237,10 @@ def main_cli(args: argparse.Namespace) -> str:
         for repeat in range(args.repeats):
             for name, code in codes.items():
                 if name not in args.skip:
-                    rows.append({**run_cli(name, code, args), "repeat": repeat})
-    return report_cli(args, rows, (load_start, os.getloadavg()[0]))
+                    run = run_simulate if args.simulate else run_cli
+                    rows.append({**run(name, code, args), "repeat": repeat})
+    report = report_simulate if args.simulate else report_cli
+    return report(args, rows, (load_start, os.getloadavg()[0]))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -201,9 +254,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--skip", nargs="*", default=[], help="searches not to run (before, traversal, ...)")
     parser.add_argument("--append", action="store_true", help=f"append the table to {RESULTS.name}")
     parser.add_argument("--cli", action="store_true", help="time the whole plan command, before and after")
+    parser.add_argument("--simulate", type=int, default=0, help="episodes of simulate -s contingent, before and after")
+    parser.add_argument("--seed", type=int, default=0, help="--simulate: the episodes' seed")
     args = parser.parse_args(argv)
     args.argv = sys.argv[1:] if argv is None else argv
-    if args.cli:
+    if args.cli or args.simulate:
         text = main_cli(args)
         print(text)
         if args.append:
