@@ -25,9 +25,9 @@ ratios between the rows of one run are what to read.
 
 With ``--cli`` the whole command ``python -m beliefloc plan maps/MAP.yaml --policy --json`` is timed instead
 (what issue 28's "<= 3 s" is about: process start, map compilation and the search), in turn with the package
-as it was at ``--before`` (``git archive`` into a temporary directory, on ``PYTHONPATH``) and with today's,
-``--repeats`` times: wall seconds and the child's CPU seconds (user + system), and from its JSON the status,
-expansions, expected cost and policy nodes.
+as it was at ``--before`` (``git archive`` into a temporary directory, on ``PYTHONPATH``; ``python -P`` keeps
+the working directory's package out) and with today's, ``--repeats`` times: wall seconds and the child's
+CPU seconds (user + system), and from its JSON the status, expansions, expected cost and policy nodes.
 
 With ``--simulate N`` the command is ``python -m beliefloc simulate maps/MAP.yaml -n N -s contingent --seed
 SEED --json`` (the same episodes for both codes): per code its summary (localized, correct, mean cost, mean
@@ -130,10 +130,20 @@ def policy_nodes(policy: dict[str, Any]) -> int:
     return len(seen)
 
 
+def check_code(code: Path) -> None:
+    """The package a child with ``code`` on PYTHONPATH imports must be ``code``'s: ``-P`` keeps the working
+    directory (the repository root, where the maps are) off ``sys.path``."""
+    probe = [sys.executable, "-P", "-c", "import beliefloc; print(beliefloc.__file__)"]
+    env = {**os.environ, "PYTHONPATH": str(code)}
+    found = subprocess.run(probe, stdout=subprocess.PIPE, text=True, check=True, env=env, cwd=ROOT).stdout.strip()
+    if not Path(found).resolve().is_relative_to(code.resolve()):
+        raise SystemExit(f"a child with PYTHONPATH={code} imports {found}")
+
+
 def run_cli(name: str, code: Path, args: argparse.Namespace) -> dict[str, Any]:
     """``plan --policy --json`` as a child process with ``code`` on PYTHONPATH (at the repository root, where
     the maps are)."""
-    command = [sys.executable, "-m", "beliefloc", "plan", f"maps/{args.map}.yaml", "--policy", "--json"]
+    command = [sys.executable, "-P", "-m", "beliefloc", "plan", f"maps/{args.map}.yaml", "--policy", "--json"]
     command += ["--max-expansions", str(args.max_expansions), "--time-limit", str(args.time_limit)]
     env = {**os.environ, "PYTHONPATH": str(code)}
     usage = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -185,7 +195,7 @@ def report_cli(args: argparse.Namespace, rows: list[dict[str, Any]], load: tuple
 
 def run_simulate(name: str, code: Path, args: argparse.Namespace) -> dict[str, Any]:
     """``simulate -s contingent --json`` as a child process with ``code`` on PYTHONPATH."""
-    command = [sys.executable, "-m", "beliefloc", "simulate", f"maps/{args.map}.yaml", "-n", str(args.simulate)]
+    command = [sys.executable, "-P", "-m", "beliefloc", "simulate", f"maps/{args.map}.yaml", "-n", str(args.simulate)]
     command += ["-s", "contingent", "--seed", str(args.seed), "--json"]
     env = {**os.environ, "PYTHONPATH": str(code)}
     usage = resource.getrusage(resource.RUSAGE_CHILDREN)
@@ -234,6 +244,8 @@ def main_cli(args: argparse.Namespace) -> str:
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         codes = {"before": export_revision(args.before, Path(tmp) / "before"), "after": ROOT}
+        for code in codes.values():
+            check_code(code)
         for repeat in range(args.repeats):
             for name, code in codes.items():
                 if name not in args.skip:

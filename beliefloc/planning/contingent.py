@@ -667,9 +667,9 @@ class _Search:
         :attr:`_likelihoods` (the same numbers: ``O[j, o]`` is the product of the parts' confusion
         entries in both) instead of :meth:`ObservationModel.likelihood`, which decodes ``o`` and gathers
         every part's column: 1.3 ms of the 1.4 ms a successor of a depot belief (49,592 states) took.
-        The estimate is computed only if the successor is a new node (a function here)
-        The estimate from each successor's mass in every group of :attr:`_signature`: the prediction's,
-        times the observation's likelihood there, a group's worth of work instead of a belief's."""
+        The estimate comes from each successor's mass in every group of :attr:`_signature` (the
+        prediction's, times the observation's likelihood there: a group's worth of work instead of a
+        belief's), and is computed only if the successor is a new node (here, a function)."""
         stats = self.evaluator.evaluate(belief)
         i = 0
         threshold = self.threshold
