@@ -519,6 +519,7 @@ class _Search:
         for index, table in enumerate(self._likelihoods):
             self._rows += [(index, None)] if table is None else [(index, o) for o in range(table[1].shape[1])]
         self._row_action = np.array([action for action, _ in self._rows], dtype=np.intp)
+        self._row_observes = np.array([observation is not None for _, observation in self._rows])
         if len(self._rows) * model.n_states <= _BATCH_ENTRIES:
             self._dense = np.vstack(
                 [np.ones((1, model.n_states)) if table is None else table[1][table[0]].T for table in self._likelihoods]
@@ -654,13 +655,18 @@ class _Search:
             masses = np.add.reduceat(posteriors[:, order], starts, axis=1)  # not BLAS: threads cost more here
             between = np.maximum(0.0, -scipy.special.xlogy(masses, masses).sum(axis=1))
             values = self.kappa * np.maximum(0.0, h - between) + self.perceiving * between
-        rows = self._rows
-        probabilities = np.minimum(total[possible], 1.0).tolist()  # a sum of 1 may round above it
-        for i, (row, p, top, key, value) in enumerate(
-            zip(possible.tolist(), probabilities, tops.tolist(), keys.tolist(), values.tolist(), strict=True)
-        ):
-            action, observation = rows[row]
-            yield action, observation, 1.0 if observation is None else p, top, posteriors[i], key, value
+        # a sum of 1 may round above it; an action that observes nothing has probability 1 exactly
+        probabilities = np.where(self._row_observes[possible], np.minimum(total[possible], 1.0), 1.0)
+        yield from zip(
+            self._row_action[possible].tolist(),
+            [self._rows[row][1] for row in possible.tolist()],
+            probabilities.tolist(),
+            tops.tolist(),
+            list(posteriors),
+            keys.tolist(),
+            values.tolist(),
+            strict=True,
+        )
 
     def _one_by_one(self, belief: np.ndarray) -> Iterator[_Successor]:
         """:meth:`SuccessorEvaluator.successors`, with each observation's likelihood column gathered from
