@@ -763,3 +763,45 @@ def test_reaches_recomputed_by_a_traversal_when_a_change_goes_round_too_long(dat
     assume(reference.found and retraced.found)
     assert retrace.called or retraced.expanded == 0
     assert retraced.expected_cost == pytest.approx(reference.expected_cost, rel=1e-9, abs=1e-12)
+
+
+# --- successors in one matrix, and merged beliefs -----------------------------------------------
+
+
+@QUICK
+@given(data=small_maps(), seed=st.integers(0, 2**16), heuristic=st.sampled_from(list(Heuristic)))
+def test_successors_in_one_matrix_equal_those_one_by_one(data: dict[str, Any], seed: int, heuristic: Heuristic):
+    """On a small model the successors of a belief come from one matrix (``_Search._successors``); the path
+    for large models computes them one by one (``_one_by_one``, through ``SuccessorEvaluator``): the same
+    successors in the same order, with the same probabilities, beliefs, maxima and estimates."""
+    model = model_of(data)
+    search = PolicyPlanner(model, threshold=THRESHOLD, heuristic=heuristic)._search
+    assert search._dense is not None
+    belief = np.random.default_rng(seed).dirichlet(np.ones(model.n_states))
+    batched = list(search._successors(belief))
+    single = list(search._one_by_one(belief))
+    assert [(a, o) for a, o, *_ in batched] == [(a, o) for a, o, *_ in single]
+    for (_, _, p, top, b, _, value), (_, _, p1, top1, b1, _, value1) in zip(batched, single, strict=True):
+        assert p == pytest.approx(p1, rel=1e-9, abs=1e-15) and 0.0 < p <= 1.0
+        assert top == pytest.approx(top1, rel=1e-9)
+        np.testing.assert_allclose(b, b1, rtol=1e-9, atol=1e-15)
+        if top < THRESHOLD:  # a goal's estimate is not computed
+            v1 = value1 if isinstance(value1, float) else value1()
+            assert value == pytest.approx(v1, rel=1e-9, abs=1e-12)
+
+
+def test_beliefs_closer_than_the_merge_tolerance_are_one_node():
+    """Beliefs that differ by less than ``_MERGE / n`` in every state (cut to the same multiples of it) are
+    one node; a belief that differs by more in one state is a node of its own."""
+    model = compile_model(load_map(MAPS / "hallway.yaml"))
+    search = PolicyPlanner(model)._search
+    quantum = contingent._MERGE / model.n_states
+    belief = np.random.default_rng(0).dirichlet(np.ones(model.n_states))
+    belief = (np.floor(belief / quantum) + 0.5) * quantum  # every probability mid-way between two cuts
+    node = search._node(None, float(belief.max()), belief, search._key(belief), 1.0)
+    near = belief + np.random.default_rng(1).uniform(-0.4, 0.4, model.n_states) * quantum
+    assert search._node(None, float(near.max()), near, search._key(near), 2.0) is node
+    far = belief.copy()
+    far[0] += quantum
+    other = search._node(None, float(far.max()), far, search._key(far), 3.0)
+    assert other is not node and other.value == 3.0 and node.value == 1.0
