@@ -798,10 +798,10 @@ def test_beliefs_closer_than_the_merge_tolerance_are_one_node():
     quantum = contingent._MERGE / model.n_states
     belief = np.random.default_rng(0).dirichlet(np.ones(model.n_states))
     belief = (np.floor(belief / quantum) + 0.5) * quantum  # every probability mid-way between two cuts
-    node = search._node(None, float(belief.max()), belief, search._key(belief), 1.0)
+    node = search._node(None, float(belief.max()), belief, search._key(belief, float(belief.max())), 1.0)
     near = belief + np.random.default_rng(1).uniform(-0.4, 0.4, model.n_states) * quantum
-    assert search._node(None, float(near.max()), near, search._key(near), 2.0) is node
+    assert search._node(None, float(near.max()), near, search._key(near, float(near.max())), 2.0) is node
     far = belief.copy()
     far[0] += quantum
-    other = search._node(None, float(far.max()), far, search._key(far), 3.0)
+    other = search._node(None, float(far.max()), far, search._key(far, float(far.max())), 3.0)
     assert other is not node and other.value == 3.0 and node.value == 1.0
