@@ -73,7 +73,6 @@ from typing import Any
 import numpy as np
 import scipy.sparse
 import scipy.sparse.linalg
-import scipy.special
 
 from beliefloc.belief import entropy, predict, uniform
 from beliefloc.model import Action, Model
@@ -658,7 +657,7 @@ class _Search:
         total = joint.sum(axis=1)
         possible = np.flatnonzero(total > 0.0)
         posteriors = joint[possible] / total[possible, None]
-        h = np.maximum(0.0, -scipy.special.xlogy(posteriors, posteriors).sum(axis=1))
+        h = np.maximum(0.0, -_xlogx(posteriors).sum(axis=1))
         tops = posteriors.max(axis=1)
         keys = np.einsum("ij,j->i", (posteriors * (1.0 / self._quantum)).astype(np.int64), self._weights)
         if self.kappa == 0.0:
@@ -668,7 +667,7 @@ class _Search:
         else:
             order, starts = self._signature
             masses = np.add.reduceat(posteriors[:, order], starts, axis=1)  # not BLAS: threads cost more here
-            between = np.maximum(0.0, -scipy.special.xlogy(masses, masses).sum(axis=1))
+            between = np.maximum(0.0, -_xlogx(masses).sum(axis=1))
             values = self.kappa * np.maximum(0.0, h - between) + self.perceiving * between
         # a sum of 1 may round above it; an action that observes nothing has probability 1 exactly
         probabilities = np.where(self._row_observes[possible], np.minimum(total[possible], 1.0), 1.0)
@@ -1027,6 +1026,13 @@ class _TraversalPlanner(PolicyPlanner):
     """:class:`PolicyPlanner` with :class:`_TraversalSearch` (the reference)."""
 
     _search_kind = _TraversalSearch
+
+
+def _xlogx(values: np.ndarray) -> np.ndarray:
+    """``x ln x`` of every entry, 0 where ``x`` is 0 (scipy.special.xlogy, without importing scipy.special:
+    0.2 s of a plan command's start on the loaded machine)."""
+    positive = values > 0.0
+    return np.where(positive, values * np.log(np.where(positive, values, 1.0)), 0.0)
 
 
 def _ends(node: _Node) -> bool:
