@@ -755,7 +755,12 @@ class _Search:
         :data:`_MAX_REVISIONS` backups per expansion). Values that keep climbing after
         :data:`_TRAP_CHECK` backups are looked at once: beliefs from which no policy reaches a goal or the
         frontier for sure (:meth:`_dead_ends`) are worth nothing (infinite), which ends their climb.
-        Returns the nodes whose best action changed, each with the action it had before."""
+        Returns the nodes whose best action changed, each with the action it had before.
+
+        A backup recomputes only the actions a change of value has made stale (:attr:`_Node.q`), and a
+        change is passed on to a node only where it can move its value: always under its best action;
+        under another, not when the value rose (that action only got dearer), and when it fell only if the
+        action, recomputed at once, is now at least as cheap as the best."""
         changed: dict[_Node, int] = {}
         costs = self.costs
         pending = collections.deque([node])
@@ -796,11 +801,29 @@ class _Search:
             rose = value > current.value
             current.value = value
             for parent, action in current.parents:  # _pass_on, written out
-                if parent.stale is None:
-                    parent.stale = {action}
+                if parent in queued or rose or action == parent.best:
+                    if parent.stale is None:
+                        parent.stale = {action}
+                    else:
+                        parent.stale.add(action)
+                    if parent not in queued and (not rose or action == parent.best):
+                        queued.add(parent)
+                        pending.append(parent)
+                    continue
+                # the value fell under an action that is not the parent's best: recomputed here, the parent
+                # is backed up only if that action may now be its best
+                here, others = parent.exits[action]  # type: ignore[misc]
+                if here >= 1.0 - _SAME:
+                    fell = math.inf
                 else:
-                    parent.stale.add(action)
-                if (not rose or action == parent.best) and parent not in queued:
+                    total = costs[action]
+                    for p, child in others:
+                        total += p * child.value
+                    fell = total / (1.0 - here)
+                parent.q[action] = fell
+                if parent.stale is not None:
+                    parent.stale.discard(action)
+                if fell < parent.value or (fell == parent.value and action < parent.best):
                     queued.add(parent)
                     pending.append(parent)
         return changed
