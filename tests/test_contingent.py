@@ -733,7 +733,12 @@ def test_incremental_lao_gives_the_policy_and_value_of_the_traversal(
     choose alike (the tip with the most at stake) but break ties differently (the traversal: the first
     in its walk; the incremental search: the most likely, then the oldest) and price loops differently
     (the traversal cuts a loop where it closes; the incremental search counts its visits). On the random
-    small maps that makes no difference to the complete policies: the same policy, the same value."""
+    small maps that makes no difference to the value of the complete policies, and almost none to the
+    policies: with noise-free sensors tips tie exactly, and since the successors of a small model are
+    computed as one matrix (their estimates differ from the one-by-one path's in the last bits) the two
+    searches broke such a tie differently on one map (2x2 cells, 4 headings, one landmark, noise-free
+    look): policies of the same value (38.625), 27 and 31 nodes. So: the same value, and where the
+    policies differ, both are worth what they claim."""
     model = model_of(data)
     start = uniform(model.n_states)
     options: dict[str, Any] = {"threshold": THRESHOLD, "heuristic": heuristic, "prune_below": prune}
@@ -741,7 +746,12 @@ def test_incremental_lao_gives_the_policy_and_value_of_the_traversal(
     reference = contingent._TraversalPlanner(model, **options).plan(start, max_expansions=800, time_limit=30.0)
     assume(incremental.found and reference.found)
     assert incremental.expected_cost == pytest.approx(reference.expected_cost, rel=1e-9, abs=1e-12)
-    assert same_policy(incremental, reference)
+    if same_policy(incremental, reference):
+        event("same policy")
+    else:
+        event("another policy of the same value")
+        for result in (incremental, reference):
+            assert solved_costs(model, result.root)[result.root.number] == pytest.approx(result.expected_cost, rel=1e-8)
     check_tree_against_bayes(model, incremental, start)
 
 

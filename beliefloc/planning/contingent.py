@@ -823,7 +823,10 @@ class _Search:
                 parent.q[action] = fell
                 if parent.stale is not None:
                     parent.stale.discard(action)
-                if fell < parent.value or (fell == parent.value and action < parent.best):
+                # against the best action's own Q (its value may lag it by a settled 10^-12): the choice a
+                # backup would make, ties to the first action included
+                cheapest = parent.q[parent.best] if parent.best >= 0 else math.inf
+                if fell < cheapest or (fell == cheapest and action < parent.best):
                     queued.add(parent)
                     pending.append(parent)
         return changed
