@@ -3,9 +3,10 @@
 Best-first search (:mod:`beliefloc.planning.best_first`) returns one path under the observations it
 expects and replans when the world differs. Here the plan is an AND-OR graph:
 
-* an *OR node* is a belief; the policy picks one action there. Equal beliefs are one node, whichever
-  path reaches them (looking then scanning, or scanning then looking), so what the search learns about
-  a belief serves every path to it, and a branch may lead back to a belief met before (a loop);
+* an *OR node* is a belief; the policy picks one action there. Equal beliefs (to :data:`_MERGE` in total)
+  are one node, whichever path reaches them (looking then scanning, or scanning then looking), so what the
+  search learns about a belief serves every path to it, and a branch may lead back to a belief met before
+  (a loop);
 * the action's *branches* are its observations ``o`` with ``p(o | a, b) > 0``, each leading to the
   successor belief (an action that observes nothing has one branch of probability 1);
 * a *goal* leaf holds ``max(b) >= threshold`` and costs nothing more.
