@@ -60,8 +60,10 @@ its policy is complete, :class:`beliefloc.simulation.strategies.ContingentStrate
 from __future__ import annotations
 
 import collections
+import contextlib
 import enum
 import functools
+import gc
 import heapq
 import itertools
 import math
@@ -463,14 +465,15 @@ class PolicyPlanner:
         root = search.root(belief)
         status = PlanStatus.FOUND
         expanded = 0
-        while (tip := search.next_tip(root)) is not None:
-            if expanded >= max_expansions or time.perf_counter() - start > time_limit:
-                status = PlanStatus.BUDGET_EXCEEDED
-                break
-            search.expand(tip)
-            expanded += 1
-            if progress is not None and expanded % _PROGRESS_EVERY == 0:
-                progress(expanded, search.generated - generated, time.perf_counter() - start)
+        with _no_cycle_collection():
+            while (tip := search.next_tip(root)) is not None:
+                if expanded >= max_expansions or time.perf_counter() - start > time_limit:
+                    status = PlanStatus.BUDGET_EXCEEDED
+                    break
+                search.expand(tip)
+                expanded += 1
+                if progress is not None and expanded % _PROGRESS_EVERY == 0:
+                    progress(expanded, search.generated - generated, time.perf_counter() - start)
         if root.leaf is None and root.best < 0:
             status = PlanStatus.NO_PLAN
         policy, open_share = search.policy(root)
@@ -1053,6 +1056,22 @@ class _TraversalPlanner(PolicyPlanner):
     """:class:`PolicyPlanner` with :class:`_TraversalSearch` (the reference)."""
 
     _search_kind = _TraversalSearch
+
+
+@contextlib.contextmanager
+def _no_cycle_collection() -> Iterator[None]:
+    """Python's cycle collector off while the search grows its graph (and back as it was after). Its nodes
+    are long-lived and point at each other (parents and children), and the collector, triggered by every
+    few hundred new objects, walked the whole graph again and again: a third of the hallway's search time
+    (2.4 s -> 1.6 s of CPU without it). The search makes next to no cyclic garbage (the nodes stay in the
+    graph), so nothing waits long for it."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
 
 
 def _xlogx(values: np.ndarray) -> np.ndarray:
