@@ -45,6 +45,7 @@ from beliefloc.continuous.fit import FitConfig, FitTracker, inlier_fraction, sur
 from beliefloc.continuous.image import OccupancyImage
 from beliefloc.continuous.likelihood_field import Beams, CellWindow, LaserModel, LikelihoodField
 from beliefloc.continuous.motion import OdometryNoise, compose, grid_yaws, odometry_parts, predict_grid, relative
+from beliefloc.continuous.raycast import cast_rays_within
 from beliefloc.model import wrap_angle
 from beliefloc.semantic_map.occupancy_grid import free_cells
 from beliefloc.semantic_map.occupancy_map import OccupancyMap
@@ -143,6 +144,11 @@ class FilterConfig:
     clutter_extent: float = 0.8
     """Metres: the size of one unmapped object -- beams whose end points (at the rival's pose, in
     the map) lie within this of the object's most favourable beam are set aside with it."""
+    wall_tolerance: float = 0.15
+    """Metres: a beam in the best place's favour whose ray, with the robot at the rival place, would
+    have crossed one of the rival's walls more than this before its end point is never set aside
+    as clutter (:meth:`GridFilter._walled`): an object only stops a beam short. (3 ``sigma_hit``: an end
+    point this near beyond a wall's face is a hit on it.) Negative: no beam is exempt."""
     beam_weight: float = 1.0
     """Exponent on each beam's likelihood (1: beams independent, Table 6.3). Below 1 tempers the
     update for beams that are not independent."""
@@ -171,6 +177,7 @@ class FilterConfig:
             "beam_weight": 0 < self.beam_weight <= 1,
             "clutter_objects": self.clutter_objects >= 0,
             "clutter_extent": self.clutter_extent >= 0,
+            "wall_tolerance": True,
             "negligible": 0 <= self.negligible < 1,
         }
         for name, ok in checks.items():
@@ -232,7 +239,13 @@ class Update:
 
 
 def trimmed_gap(
-    mine: np.ndarray, theirs: np.ndarray, x: np.ndarray, y: np.ndarray, objects: int, extent: float
+    mine: np.ndarray,
+    theirs: np.ndarray,
+    x: np.ndarray,
+    y: np.ndarray,
+    objects: int,
+    extent: float,
+    fixed: np.ndarray | None = None,
 ) -> float:
     """How much better one pose explains some beams than another, robust to clutter: ``sum_b
     (mine_b - theirs_b)`` over the beams' log-likelihoods at the two poses (any shape, e.g. scans x
@@ -240,10 +253,14 @@ def trimmed_gap(
     could have made. Greedily: the beam most in the first pose's favour, and every beam in its
     favour whose end point at the second pose (map-frame ``x``, ``y``) lies within ``extent`` metres
     of that beam's, are set aside; then again, ``objects`` times. An object seen in every scan
-    of a remembered run is one object: it is set aside in all of them at once."""
+    of a remembered run is one object: it is set aside in all of them at once. ``fixed`` (optional,
+    boolean, the beams' shape): beams no object could have made -- never set aside, nor taken as an
+    object's centre."""
     d = (np.asarray(mine, dtype=np.float64) - np.asarray(theirs, dtype=np.float64)).ravel()
     total = float(d.sum())
     favour = np.maximum(d, 0.0)
+    if fixed is not None:
+        favour[np.ravel(fixed)] = 0.0
     ex, ey = np.ravel(x), np.ravel(y)
     for _ in range(objects):
         if favour.size == 0:
@@ -550,28 +567,58 @@ class GridFilter:
                 continue
             self.rivals.append([refined[0], refined[1], refined[2], 0.0])
 
-    def _history_beams(self, pose: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(ll, x, y)``: the remembered scans' beam log-likelihoods and map-frame end points for
-        the robot at ``pose`` now, carried back along the odometry to each remembered update (the
-        scans' beams concatenated)."""
+    def _history_beams(
+        self, pose: tuple[float, float, float]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(ll, x, y, ox, oy)``: the remembered scans' beam log-likelihoods, map-frame end points
+        and the base's map-frame position at each beam's scan, for the robot at ``pose`` now,
+        carried back along the odometry to each remembered update (the scans' beams concatenated)."""
         if not self._history:
-            return np.zeros(0), np.zeros(0), np.zeros(0)
+            return np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0)
         now = self._history[-1][0]
-        lls, xs, ys = [], [], []
+        lls, xs, ys, oxs, oys = [], [], [], [], []
         for odom, beams in self._history:
             back = compose(np.array([pose]), relative(now, odom))
             lls.append(self.field.beam_log_likelihoods(back, beams)[0])
             x, y = self.field.end_points(back, beams)
             xs.append(x[0])
             ys.append(y[0])
-        return np.concatenate(lls), np.concatenate(xs), np.concatenate(ys)
+            oxs.append(np.full(beams.count, back[0, 0]))
+            oys.append(np.full(beams.count, back[0, 1]))
+        return tuple(np.concatenate(v) for v in (lls, xs, ys, oxs, oys))  # type: ignore[return-value]
+
+    def _walled(
+        self, mine: np.ndarray, theirs: np.ndarray, ox: np.ndarray, oy: np.ndarray, x: np.ndarray, y: np.ndarray
+    ) -> np.ndarray | None:
+        """The beams in the first pose's favour (``mine > theirs``) that with the robot at the second
+        pose -- its base at ``(ox, oy)``, the beams ending at ``(x, y)`` -- would have passed through
+        one of its map's walls more than :attr:`FilterConfig.wall_tolerance` before their end point.
+        An unmapped object can only stop a beam short; none can carry it through a wall, so what
+        these beams say against the second pose is evidence no clutter made (:func:`trimmed_gap`'s
+        ``fixed``). None when the tolerance is negative (no beam exempt)."""
+        tol = self.config.wall_tolerance
+        if tol < 0:
+            return None
+        ox, oy, x, y = (np.ravel(v) for v in (ox, oy, x, y))
+        out = np.zeros(x.size, dtype=bool)
+        favoured = np.flatnonzero(np.ravel(mine) > np.ravel(theirs))
+        if favoured.size == 0:
+            return out
+        dx, dy = x[favoured] - ox[favoured], y[favoured] - oy[favoured]
+        reach = np.hypot(dx, dy) - tol
+        stopped = cast_rays_within(self.field.image, ox[favoured], oy[favoured], np.arctan2(dy, dx), reach)
+        out[favoured] = np.isfinite(stopped) & (reach > 0)
+        return out
 
     def _remembered_gap(self, mine: np.ndarray, pose: tuple[float, float, float]) -> float:
         """How much better the remembered scans' beams ``mine`` (:meth:`_history_beams` of the best)
         are explained than with the robot at ``pose``, clutter-trimmed over all of them at once
-        (:func:`trimmed_gap`)."""
-        theirs, x, y = self._history_beams(pose)
-        return trimmed_gap(mine, theirs, x, y, self.config.clutter_objects, self.config.clutter_extent)
+        (:func:`trimmed_gap`; the beams that would have passed through a wall at ``pose`` are kept,
+        :meth:`_walled`)."""
+        theirs, x, y, ox, oy = self._history_beams(pose)
+        c = self.config
+        fixed = self._walled(mine, theirs, ox, oy, x, y)
+        return trimmed_gap(mine, theirs, x, y, c.clutter_objects, c.clutter_extent, fixed)
 
     def rival_gap(self, best: Mode, beams: Beams) -> tuple[float, float, float]:
         """``(now, remembered, raw)``: ``min`` over the rivals farther than ``mode_radius`` from
@@ -593,7 +640,8 @@ class GridFilter:
                 continue  # the same place as the best: not a rival
             theirs = self.field.beam_log_likelihoods(np.array([pose]), beams)[0]
             x, y = self.field.end_points(np.array([pose]), beams)
-            difference = trimmed_gap(mine, theirs, x, y, c.clutter_objects, c.clutter_extent)
+            fixed = self._walled(mine, theirs, np.full(beams.count, pose[0]), np.full(beams.count, pose[1]), x, y)
+            difference = trimmed_gap(mine, theirs, x, y, c.clutter_objects, c.clutter_extent, fixed)
             strikes = rival[3] + 1 if difference > c.rival_drop * beams.count else 0.0
             if strikes >= c.distinct_updates:
                 continue  # ruled out by the scans
