@@ -557,11 +557,12 @@ class GridFilter:
             return
         mine = self._history_beams((best.x, best.y, best.yaw))[0]
         total_beams = sum(b.count for _, b in self._history)
-        for pose in candidates:
-            refined = self.refine(pose, beams)
-            if math.hypot(refined[0] - best.x, refined[1] - best.y) <= c.mode_radius:
-                continue
-            if self._remembered_gap(mine, refined) > c.rival_drop * total_beams:
+        refined_all = [self.refine(pose, beams) for pose in candidates]
+        refined_all = [p for p in refined_all if math.hypot(p[0] - best.x, p[1] - best.y) > c.mode_radius]
+        past = [self._history_beams(p) for p in refined_all]
+        fixed = self._walled_all([(mine, theirs, ox, oy, x, y) for theirs, x, y, ox, oy in past])
+        for refined, (theirs, x, y, _, _), kept in zip(refined_all, past, fixed, strict=True):
+            if trimmed_gap(mine, theirs, x, y, c.clutter_objects, c.clutter_extent, kept) > c.rival_drop * total_beams:
                 continue  # the remembered scans rule it out
             if any(math.hypot(refined[0] - r[0], refined[1] - r[1]) <= c.mode_radius for r in self.rivals):
                 continue
@@ -596,58 +597,86 @@ class GridFilter:
         An unmapped object can only stop a beam short; none can carry it through a wall, so what
         these beams say against the second pose is evidence no clutter made (:func:`trimmed_gap`'s
         ``fixed``). None when the tolerance is negative (no beam exempt)."""
+        return self._walled_all([(mine, theirs, ox, oy, x, y)])[0]
+
+    def _walled_all(
+        self, groups: list[tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]]
+    ) -> list[np.ndarray | None]:
+        """:meth:`_walled` of several ``(mine, theirs, ox, oy, x, y)`` at once: one ray cast for all
+        their beams (a cast's cost is mostly per step along the longest ray, not per ray)."""
         tol = self.config.wall_tolerance
         if tol < 0:
-            return None
-        ox, oy, x, y = (np.ravel(v) for v in (ox, oy, x, y))
-        out = np.zeros(x.size, dtype=bool)
-        favoured = np.flatnonzero(np.ravel(mine) > np.ravel(theirs))
-        if favoured.size == 0:
-            return out
-        dx, dy = x[favoured] - ox[favoured], y[favoured] - oy[favoured]
+            return [None] * len(groups)
+        starts, xs, ys, ends_x, ends_y, picks = [], [], [], [], [], []
+        for mine, theirs, ox, oy, x, y in groups:
+            favoured = np.flatnonzero(np.ravel(mine) > np.ravel(theirs))
+            picks.append(favoured)
+            xs.append(np.ravel(ox)[favoured])
+            ys.append(np.ravel(oy)[favoured])
+            ends_x.append(np.ravel(x)[favoured])
+            ends_y.append(np.ravel(y)[favoured])
+            starts.append(favoured.size)
+        bx, by = np.concatenate(xs), np.concatenate(ys)
+        dx, dy = np.concatenate(ends_x) - bx, np.concatenate(ends_y) - by
         reach = np.hypot(dx, dy) - tol
-        stopped = cast_rays_within(self.field.image, ox[favoured], oy[favoured], np.arctan2(dy, dx), reach)
-        out[favoured] = np.isfinite(stopped) & (reach > 0)
+        crossed = np.zeros(bx.size, dtype=bool)
+        if bx.size:
+            stopped = cast_rays_within(self.field.image, bx, by, np.arctan2(dy, dx), reach)
+            crossed = np.isfinite(stopped) & (reach > 0)
+        out: list[np.ndarray | None] = []
+        offset = 0
+        for (mine, _, _, _, _, _), favoured, count in zip(groups, picks, starts, strict=True):
+            mask = np.zeros(np.size(mine), dtype=bool)
+            mask[favoured] = crossed[offset : offset + count]
+            offset += count
+            out.append(mask)
         return out
-
-    def _remembered_gap(self, mine: np.ndarray, pose: tuple[float, float, float]) -> float:
-        """How much better the remembered scans' beams ``mine`` (:meth:`_history_beams` of the best)
-        are explained than with the robot at ``pose``, clutter-trimmed over all of them at once
-        (:func:`trimmed_gap`; the beams that would have passed through a wall at ``pose`` are kept,
-        :meth:`_walled`)."""
-        theirs, x, y, ox, oy = self._history_beams(pose)
-        c = self.config
-        fixed = self._walled(mine, theirs, ox, oy, x, y)
-        return trimmed_gap(mine, theirs, x, y, c.clutter_objects, c.clutter_extent, fixed)
 
     def rival_gap(self, best: Mode, beams: Beams) -> tuple[float, float, float]:
         """``(now, remembered, raw)``: ``min`` over the rivals farther than ``mode_radius`` from
         ``best`` of how much better ``best``'s pose explains the scan than the rival's refined pose,
-        clutter-trimmed (:func:`trimmed_gap`); of the same over the remembered updates
-        (:meth:`_remembered_gap`); and of the plain difference of the scan's log-likelihoods. inf
-        with no rival. Refines every rival's pose in place, forgets rivals the scans have ruled out
-        (:attr:`FilterConfig.rival_drop`, trimmed too) and keeps the :attr:`FilterConfig.max_rivals` closest."""
+        clutter-trimmed (:func:`trimmed_gap`, the beams :meth:`_walled` kept); of the same over the
+        remembered updates (:meth:`_history_beams`, each rival carried back along the odometry); and
+        of the plain difference of the scan's log-likelihoods. inf with no rival. Refines every
+        rival's pose in place, forgets rivals the scans have ruled out (:attr:`FilterConfig.rival_drop`,
+        trimmed too) and keeps the :attr:`FilterConfig.max_rivals` closest."""
         if beams.count == 0:
             return math.inf, math.inf, math.inf
         c = self.config
         mine = self.field.beam_log_likelihoods(np.array([[best.x, best.y, best.yaw]]), beams)[0]
-        mine_remembered = self._history_beams((best.x, best.y, best.yaw))[0] if self.rivals else np.zeros(0)
+        mine_remembered = self._history_beams((best.x, best.y, best.yaw))[0]
         kept: list[tuple[float, list[float]]] = []
         gap = remembered = raw = math.inf
+        rivals = []  # (refined pose, strikes so far), beyond mode_radius of the best (else the best's own place)
         for rival in self.rivals:
             pose = self.refine((rival[0], rival[1], rival[2]), beams)
-            if math.hypot(pose[0] - best.x, pose[1] - best.y) <= c.mode_radius:
-                continue  # the same place as the best: not a rival
-            theirs = self.field.beam_log_likelihoods(np.array([pose]), beams)[0]
-            x, y = self.field.end_points(np.array([pose]), beams)
-            fixed = self._walled(mine, theirs, np.full(beams.count, pose[0]), np.full(beams.count, pose[1]), x, y)
-            difference = trimmed_gap(mine, theirs, x, y, c.clutter_objects, c.clutter_extent, fixed)
-            strikes = rival[3] + 1 if difference > c.rival_drop * beams.count else 0.0
+            if math.hypot(pose[0] - best.x, pose[1] - best.y) > c.mode_radius:
+                rivals.append((pose, rival[3]))
+        now = [self.field.beam_log_likelihoods(np.array([p]), beams)[0] for p, _ in rivals]
+        ends = [self.field.end_points(np.array([p]), beams) for p, _ in rivals]
+        past = [self._history_beams(p) for p, _ in rivals]
+        n = beams.count
+        fixed = self._walled_all(
+            [
+                (mine, theirs, np.full(n, p[0]), np.full(n, p[1]), x, y)
+                for (p, _), theirs, (x, y) in zip(rivals, now, ends, strict=True)
+            ]
+            + [(mine_remembered, theirs, ox, oy, x, y) for theirs, x, y, ox, oy in past]
+        )
+        for i, ((pose, strikes), theirs, (x, y), (h_theirs, hx, hy, _, _)) in enumerate(
+            zip(rivals, now, ends, past, strict=True)
+        ):
+            difference = trimmed_gap(mine, theirs, x, y, c.clutter_objects, c.clutter_extent, fixed[i])
+            strikes = strikes + 1 if difference > c.rival_drop * n else 0.0
             if strikes >= c.distinct_updates:
                 continue  # ruled out by the scans
             gap = min(gap, difference)
             raw = min(raw, float(mine.sum() - theirs.sum()))
-            remembered = min(remembered, self._remembered_gap(mine_remembered, pose))
+            h_fixed = fixed[len(rivals) + i]
+            remembered = min(
+                remembered,
+                trimmed_gap(mine_remembered, h_theirs, hx, hy, c.clutter_objects, c.clutter_extent, h_fixed),
+            )
             kept.append((difference, [pose[0], pose[1], pose[2], strikes]))
         kept.sort(key=lambda item: item[0])
         self.rivals = [r for _, r in kept[: c.max_rivals]]
