@@ -605,7 +605,7 @@ class GridFilter:
         """:meth:`_walled` of several ``(mine, theirs, ox, oy, x, y)`` at once: one ray cast for all
         their beams (a cast's cost is mostly per step along the longest ray, not per ray)."""
         tol = self.config.wall_tolerance
-        if tol < 0:
+        if tol < 0 or not groups:
             return [None] * len(groups)
         starts, xs, ys, ends_x, ends_y, picks = [], [], [], [], [], []
         for mine, theirs, ox, oy, x, y in groups:
