@@ -586,17 +586,20 @@ class GridFilter:
         carried back along the odometry to each remembered update (the scans' beams concatenated)."""
         if not self._history:
             return np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0)
-        now = self._history[-1][0]
-        lls, xs, ys, oxs, oys = [], [], [], [], []
-        for odom, beams in self._history:
-            back = compose(np.array([pose]), relative(now, odom))
-            lls.append(self.field.beam_log_likelihoods(back, beams)[0])
-            x, y = self.field.end_points(back, beams)
-            xs.append(x[0])
-            ys.append(y[0])
-            oxs.append(np.full(beams.count, back[0, 0]))
-            oys.append(np.full(beams.count, back[0, 1]))
-        return tuple(np.concatenate(v) for v in (lls, xs, ys, oxs, oys))  # type: ignore[return-value]
+        odoms = np.array([odom for odom, _ in self._history])
+        backs = compose(np.repeat([pose], len(odoms), axis=0), relative(odoms[-1], odoms))  # at each remembered update
+        counts = [beams.count for _, beams in self._history]
+        c, s = np.repeat(np.cos(backs[:, 2]), counts), np.repeat(np.sin(backs[:, 2]), counts)
+        bx = np.concatenate([beams.x for _, beams in self._history])
+        by = np.concatenate([beams.y for _, beams in self._history])
+        ox, oy = np.repeat(backs[:, 0], counts), np.repeat(backs[:, 1], counts)
+        x, y = ox + c * bx - s * by, oy + s * bx + c * by
+        range_max = np.repeat([beams.range_max for _, beams in self._history], counts)
+        ll = np.empty(x.size)
+        for value in np.unique(range_max):  # one field lookup per distinct range_max (all, as a rule)
+            same = range_max == value
+            ll[same] = self.field.point_log_likelihood(x[same], y[same], self.config.laser.sigma_hit, float(value))
+        return ll, x, y, ox, oy
 
     def _walled(
         self, mine: np.ndarray, theirs: np.ndarray, ox: np.ndarray, oy: np.ndarray, x: np.ndarray, y: np.ndarray
