@@ -126,7 +126,14 @@ class FilterConfig:
     global_check_every: int = 5
     """While a place holds the threshold, the global rival search runs again every this many updates."""
     distinct_updates: int = 3
-    """Unambiguous updates in a row that localized needs."""
+    """Unambiguous updates in a row that localized needs -- counted by the motion they follow: an
+    update counts in full after the odometry moved ``update_min_d`` or turned ``update_min_a``
+    since the last one, and by its share of that otherwise (:meth:`GridFilter.update_weight`). The
+    scans of a turn update the belief one after another, 0.075 rad apart at 0.6 rad/s and 8 Hz,
+    and see the same walls and the same clutter: three of them are not three confirmations.
+    Measured: on the depot with forty discs (held-out seed 414) three such updates at the start
+    of a turn declared a look-alike 16.5 m away before the global search had made the truth a
+    rival; counted by motion, the streak is not complete before the truth is a rival and is ahead."""
     recovery_alpha: float = 0.02
     """The uniform mass mixed in after an update whose scans do not fit a confident belief, or that a
     rival explains far better (by ``rival_drop`` per beam) than the belief's best place."""
@@ -325,11 +332,12 @@ class GridFilter:
         self.fit = FitTracker(config.fit)
         self.last_odometry: np.ndarray | None = None
         self.updates = 0
-        self.distinct_streak = 0
-        """Updates in a row in which no rival place explained the scan about as well as the best."""
-        self.told_streak = 0
+        self.distinct_streak = 0.0
+        """Updates in a row in which no rival place explained the scan about as well as the best,
+        each counted by :meth:`update_weight`."""
+        self.told_streak = 0.0
         """Updates in a row in which the remembered scans told the best from every rival
-        (:attr:`FilterConfig.history_margin`)."""
+        (:attr:`FilterConfig.history_margin`), each counted by :meth:`update_weight`."""
         self.rivals: list[list[float]] = []
         """Rival places: ``[x, y, yaw, strikes]`` (map frame), carried by the odometry; ``strikes``
         counts the updates in a row in which the scans ruled the place out."""
@@ -361,11 +369,28 @@ class GridFilter:
             or abs(angular_speed) >= c.turning_rate
         )
 
+    def update_weight(self, odometry: np.ndarray) -> float:
+        """How much an update at odometry pose ``odometry`` counts towards the streaks of
+        :attr:`FilterConfig.distinct_updates`: 1 for the first update and for one after the odometry
+        moved ``update_min_d`` or turned ``update_min_a`` since the last (what gates an update when
+        the base is not turning fast), else the larger share of either."""
+        c = self.config
+        if self.last_odometry is None:
+            return 1.0
+        delta = relative(self.last_odometry, np.asarray(odometry, dtype=np.float64))
+        shares = []
+        if c.update_min_d > 0:
+            shares.append(math.hypot(delta[0], delta[1]) / c.update_min_d)
+        if c.update_min_a > 0:
+            shares.append(abs(delta[2]) / c.update_min_a)
+        return min(1.0, max(shares)) if shares else 1.0
+
     def update(self, stamp: int, odometry: np.ndarray, beams: Beams) -> Update:
         """Predict by the odometry since the last update (none for the first) and correct by the
         scan's ``beams``; returns what the updated belief says."""
         c = self.config
         odom = np.asarray(odometry, dtype=np.float64).reshape(3)
+        weight = self.update_weight(odom)
         predicted = self.belief
         if self.last_odometry is not None:
             d = relative(self.last_odometry, odom)
@@ -414,19 +439,19 @@ class GridFilter:
             self._since_global = math.inf
         gap, remembered_gap, raw_gap = self.rival_gap(best, beams)
         if beams.count and gap >= c.rival_margin * beams.count:
-            self.distinct_streak += 1
+            self.distinct_streak += weight
         else:
-            self.distinct_streak = 0
+            self.distinct_streak = 0.0
         if remembered_gap >= c.history_margin * c.history and gap > -c.rival_margin * beams.count:
-            self.told_streak += 1
+            self.told_streak += weight
         else:
-            self.told_streak = 0
-        told_apart = self.told_streak >= c.distinct_updates
+            self.told_streak = 0.0
+        told_apart = self.told_streak >= c.distinct_updates - 1e-9
         distances = self.field.end_point_distances(np.array([best.x, best.y, best.yaw]), beams)
         fraction = inlier_fraction(distances, c.fit.inlier_distance)
         self.fit.add(fraction, surprise_per_beam)
         fits = self.fit.fits()
-        distinct = self.distinct_streak >= c.distinct_updates or told_apart
+        distinct = self.distinct_streak >= c.distinct_updates - 1e-9 or told_apart
         localized = best.probability >= c.threshold and fits and distinct
         recovered = False
         unfit = best.probability >= c.threshold and not fits and len(self.fit.fractions) >= c.fit.window
