@@ -21,9 +21,11 @@ the scan over new walls quickly; its sweeps are de-skewed by the caller).
 fit its pose (:mod:`beliefloc.continuous.fit`) AND no rival place explains them about as well
 (:attr:`FilterConfig.rival_margin`; the comparison is clutter-trimmed, :func:`trimmed_gap`: the
 evidence that a few unmapped objects could have made is set aside, an object seen in every scan
-counted once). When the scans stop fitting a confident belief, a
-little uniform mass is mixed back in (AMCL's recovery; Fox et al.'s re-spreading), so that a
-kidnapped robot can be found again.
+counted once -- but never a beam that at the rival's pose would have passed through one of its
+walls, which no object does, :attr:`FilterConfig.wall_tolerance`), in updates in a row counted by
+the motion between them (:attr:`FilterConfig.distinct_updates`). When the scans stop fitting a
+confident belief, a little uniform mass is mixed back in (AMCL's recovery; Fox et al.'s
+re-spreading), so that a kidnapped robot can be found again.
 
 **The pose** is the best state's refined against the field: a local search over continuous
 ``(x, y, yaw)`` around the state's cell centre and heading, scored beam by beam with ``sigma_hit``.
@@ -155,7 +157,9 @@ class FilterConfig:
     that clutter could not have made. Measured before: on the TurtleBot3 sandbox two discs by the
     wall where the mirror twin has a wall gave the twin 2.5 nats per beam, 5 nats per scan, in
     every scan (a persistent object is no independent evidence), and the twin was declared at 3.6 m
-    and 180° from the truth (3 of 235 runs with ten discs; 3 of 16 depot runs with forty)."""
+    and 180° from the truth (3 of 235 runs with ten discs; 3 of 16 depot runs with forty). An
+    object only stops a beam short: the beams that would have crossed the rival's walls are never
+    set aside (:attr:`wall_tolerance`)."""
     clutter_extent: float = 0.8
     """Metres: the size of one unmapped object -- beams whose end points (at the rival's pose, in
     the map) lie within this of the object's most favourable beam are set aside with it."""
