@@ -232,8 +232,8 @@ def clutter_sweep(folder: Path, held_out: bool = False) -> list[str]:
         wrong_runs, localized, close, seconds = [], 0, 0, 0.0
         for seed in seeds:
             run = simulate_scenario(occupancy, Scenario("clutter", plan, world=world, seed=seed))
-            paths = write_scenario(run, folder, f"clutter{seed}", ("sqlite3",))
-            truth = np.load(folder / f"clutter{seed}_truth.npz")
+            paths = write_scenario(run, folder, f"clutter{n}_{seed}", ("sqlite3",))
+            truth = np.load(folder / f"clutter{n}_{seed}_truth.npz")
             start = time.perf_counter()
             result = track_recording(occupancy, read_recording(paths["sqlite3"]), CONFIG)
             seconds += time.perf_counter() - start
