@@ -136,11 +136,13 @@ def belief_pose(model: Model, belief: np.ndarray, mode: int | None = None) -> Po
     if grid.headings == 1:
         cov[5, 5] = UNIFORM_YAW_VARIANCE
     else:
-        yaw = grid.heading_yaw(heading)
-        sin_sum, cos_sum = float(weight @ np.sin(yaw)), float(weight @ np.cos(yaw))
+        # the yaw, its sine and cosine and its deviation are functions of the heading alone: each is
+        # computed for the few headings and gathered per state (the same values, bit for bit)
+        yaw_of = grid.heading_yaw(np.arange(grid.headings))
+        sin_sum, cos_sum = float(weight @ np.sin(yaw_of)[heading]), float(weight @ np.cos(yaw_of)[heading])
         cancelled = math.hypot(sin_sum, cos_sum) < DEGENERATE_RESULTANT
         centre = mode_pose.yaw if cancelled else math.atan2(sin_sum, cos_sum)
-        dyaw = wrap_angle(yaw - centre)
+        dyaw = wrap_angle(yaw_of - centre)[heading]
         cov[5, 5] = float(weight @ (dyaw * dyaw)) + (2 * math.pi / grid.headings) ** 2 / 12.0
         cov[0, 5] = cov[5, 0] = float(weight @ (dx * dyaw))
         cov[1, 5] = cov[5, 1] = float(weight @ (dy * dyaw))

@@ -4,6 +4,7 @@
     python benchmarks/bench_bag.py --quick      # fewer seeds (~1 min)
     python benchmarks/bench_bag.py --clutter-sweep   # only 4., appended to bag.md as a dated section (~15 min)
     python benchmarks/bench_bag.py --lattice         # only 5., appended to bag.md as a dated section (~1 min)
+    python benchmarks/bench_bag.py --clutter-sweep --held-out   # 4. on seeds 400-... (not tuned on)
 
 1. **Laser update speed**: one :meth:`LikelihoodField.scan_log_likelihood` (60 beams, the filter's
    sub-pose setting) over every state of an open warehouse floor at 0.1 m x 36 headings (~10^6 states) and
@@ -312,19 +313,24 @@ CLUTTER_SETS: tuple[tuple[str, str, WorldConfig, tuple[int, ...]], ...] = (
     ),
 )
 """The clutter sweep's sets: a name, a map, a world, the seeds."""
+HELD_OUT_SEEDS = (tuple(range(400, 440)), tuple(range(400, 420)), tuple(range(400, 416)))
+"""``--held-out``: the same worlds on seeds no setting of the filter was chosen on (400-439, 400-419,
+400-415: as many runs as each set's, the sandbox's ten discs 40)."""
 
 
-def clutter_sweep(folder: Path) -> list[str]:
-    """Markdown rows of the clutter sweep (:data:`CLUTTER_SETS`), each run tracked in-process."""
+def clutter_sweep(folder: Path, held_out: bool = False) -> list[str]:
+    """Markdown rows of the clutter sweep (:data:`CLUTTER_SETS`, or the same worlds on
+    :data:`HELD_OUT_SEEDS`), each run tracked in-process."""
     rows = []
-    for name, map_file, world, seeds in CLUTTER_SETS:
+    for n, (name, map_file, world, tuned) in enumerate(CLUTTER_SETS):
+        seeds = HELD_OUT_SEEDS[n] if held_out else tuned
         occupancy = load_occupancy(MAPS / map_file)
         plan = SANDBOX_PLAN if map_file.startswith("tb3") else DEPOT_PLAN
         wrong_runs, localized, close, seconds = [], 0, 0, 0.0
         for seed in seeds:
             run = simulate_scenario(occupancy, Scenario("clutter", plan, world=world, seed=seed))
-            paths = write_scenario(run, folder, f"clutter{seed}", ("sqlite3",))
-            truth = np.load(folder / f"clutter{seed}_truth.npz")
+            paths = write_scenario(run, folder, f"clutter{n}_{seed}", ("sqlite3",))
+            truth = np.load(folder / f"clutter{n}_{seed}_truth.npz")
             start = time.perf_counter()
             result = track_recording(occupancy, read_recording(paths["sqlite3"]), CONFIG)
             seconds += time.perf_counter() - start
@@ -335,8 +341,9 @@ def clutter_sweep(folder: Path) -> list[str]:
             localized += int(result.localized)
             close += int(result.localized and err <= 0.15 and yerr <= 5.0)
             print(name, seed, wrong, result.localized, f"{err:.3f} {yerr:.2f}", flush=True)
+        label = f"{name}, held-out seeds {seeds[0]}-{seeds[-1]}" if held_out else name
         rows.append(
-            f"| {name} | {len(seeds)} | {len(wrong_runs)} {tuple(wrong_runs) if wrong_runs else ''} | {localized} "
+            f"| {label} | {len(seeds)} | {len(wrong_runs)} {tuple(wrong_runs) if wrong_runs else ''} | {localized} "
             f"| {close} | {seconds / len(seeds):.1f} |"
         )
     return rows
@@ -348,6 +355,7 @@ def main() -> None:
     parser.add_argument("--output", type=Path, default=RESULTS / "bag.md")
     parser.add_argument("--clutter-sweep", action="store_true", help="only the clutter sweep, appended to --output")
     parser.add_argument("--lattice", action="store_true", help="only the lattice update speed, appended to --output")
+    parser.add_argument("--held-out", action="store_true", help="the clutter sweep on the held-out seeds (400-...)")
     args = parser.parse_args()
     if args.lattice:
         section = lattice_section()
@@ -357,10 +365,11 @@ def main() -> None:
         return
     if args.clutter_sweep:
         with tempfile.TemporaryDirectory() as tmp:
-            rows = clutter_sweep(Path(tmp))
+            rows = clutter_sweep(Path(tmp), args.held_out)
+        which = "--clutter-sweep --held-out" if args.held_out else "--clutter-sweep"
         section = [
             "",
-            f"## Clutter sweep, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())} (`--clutter-sweep`)",
+            f"## Clutter sweep, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())} (`{which}`)",
             "",
             "| set | runs | runs confidently wrong (seeds) | localized | within 0.15 m, 5° | s per run |",
             "|---|---:|---|---:|---:|---:|",

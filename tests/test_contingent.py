@@ -79,12 +79,14 @@ def exact_policy(model: Model, belief: np.ndarray, **budget: Any) -> PolicyResul
 # --- independent recomputations -----------------------------------------------------------------
 
 
-MERGED = 1e-9
-"""The planner merges beliefs that agree to 1e-9 in every state (or differ by less than 1e-15 where they
-are that small), and Bayes updates may magnify such differences: a dozen looks that contradict each other
-turn 1e-16 into 0.01. So a belief recomputed along a path must agree with the merged node's, and the
-policy's numbers with those recomputed here, to within this much *times the probability of that path*:
-what matters to the expected cost."""
+MERGED = 10 * contingent._MERGE
+"""The planner merges beliefs that differ by less than ``contingent._MERGE`` in total (the sum over states),
+and a belief recomputed along a path must agree with the merged node's -- and the policy's numbers with
+those recomputed here -- to within this much *times the probability of that path*: what matters to the
+expected cost. Bayes updates magnify a difference, but never beyond that: beliefs ``b, b'`` apart by ``δ``
+in total are, after any actions and observations of probability ``π`` and ``π'``, unnormalised vectors
+apart by at most ``δ`` (transitions are stochastic, likelihoods at most 1), so ``|π - π'| <= δ`` and the
+beliefs are apart by at most ``2δ / π``. Each merge along a path adds its ``2δ``; five merges are allowed."""
 
 
 def walk(model: Model, root: PolicyNode, belief: np.ndarray) -> list[tuple[PolicyNode, np.ndarray, float]]:
@@ -731,7 +733,12 @@ def test_incremental_lao_gives_the_policy_and_value_of_the_traversal(
     choose alike (the tip with the most at stake) but break ties differently (the traversal: the first
     in its walk; the incremental search: the most likely, then the oldest) and price loops differently
     (the traversal cuts a loop where it closes; the incremental search counts its visits). On the random
-    small maps that makes no difference to the complete policies: the same policy, the same value."""
+    small maps that makes no difference to the value of the complete policies, and almost none to the
+    policies: with noise-free sensors tips tie exactly, and since the successors of a small model are
+    computed as one matrix (their estimates differ from the one-by-one path's in the last bits) the two
+    searches broke such a tie differently on one map (2x2 cells, 4 headings, one landmark, noise-free
+    look): policies of the same value (38.625), 27 and 31 nodes. So: the same value, and where the
+    policies differ, both are worth what they claim."""
     model = model_of(data)
     start = uniform(model.n_states)
     options: dict[str, Any] = {"threshold": THRESHOLD, "heuristic": heuristic, "prune_below": prune}
@@ -739,7 +746,12 @@ def test_incremental_lao_gives_the_policy_and_value_of_the_traversal(
     reference = contingent._TraversalPlanner(model, **options).plan(start, max_expansions=800, time_limit=30.0)
     assume(incremental.found and reference.found)
     assert incremental.expected_cost == pytest.approx(reference.expected_cost, rel=1e-9, abs=1e-12)
-    assert same_policy(incremental, reference)
+    if same_policy(incremental, reference):
+        event("same policy")
+    else:
+        event("another policy of the same value")
+        for result in (incremental, reference):
+            assert solved_costs(model, result.root)[result.root.number] == pytest.approx(result.expected_cost, rel=1e-8)
     check_tree_against_bayes(model, incremental, start)
 
 
@@ -761,3 +773,45 @@ def test_reaches_recomputed_by_a_traversal_when_a_change_goes_round_too_long(dat
     assume(reference.found and retraced.found)
     assert retrace.called or retraced.expanded == 0
     assert retraced.expected_cost == pytest.approx(reference.expected_cost, rel=1e-9, abs=1e-12)
+
+
+# --- successors in one matrix, and merged beliefs -----------------------------------------------
+
+
+@QUICK
+@given(data=small_maps(), seed=st.integers(0, 2**16), heuristic=st.sampled_from(list(Heuristic)))
+def test_successors_in_one_matrix_equal_those_one_by_one(data: dict[str, Any], seed: int, heuristic: Heuristic):
+    """On a small model the successors of a belief come from one matrix (``_Search._successors``); the path
+    for large models computes them one by one (``_one_by_one``, through ``SuccessorEvaluator``): the same
+    successors in the same order, with the same probabilities, beliefs, maxima and estimates."""
+    model = model_of(data)
+    search = PolicyPlanner(model, threshold=THRESHOLD, heuristic=heuristic)._search
+    assert search._dense is not None
+    belief = np.random.default_rng(seed).dirichlet(np.ones(model.n_states))
+    batched = list(search._successors(belief))
+    single = list(search._one_by_one(belief))
+    assert [(a, o) for a, o, *_ in batched] == [(a, o) for a, o, *_ in single]
+    for (_, _, p, top, b, _, value), (_, _, p1, top1, b1, _, value1) in zip(batched, single, strict=True):
+        assert p == pytest.approx(p1, rel=1e-9, abs=1e-15) and 0.0 < p <= 1.0
+        assert top == pytest.approx(top1, rel=1e-9)
+        np.testing.assert_allclose(b, b1, rtol=1e-9, atol=1e-15)
+        if top < THRESHOLD:  # a goal's estimate is not computed
+            v1 = value1 if isinstance(value1, float) else value1()
+            assert value == pytest.approx(v1, rel=1e-9, abs=1e-12)
+
+
+def test_beliefs_closer_than_the_merge_tolerance_are_one_node():
+    """Beliefs that differ by less than ``_MERGE / n`` in every state (cut to the same multiples of it) are
+    one node; a belief that differs by more in one state is a node of its own."""
+    model = compile_model(load_map(MAPS / "hallway.yaml"))
+    search = PolicyPlanner(model)._search
+    quantum = contingent._MERGE / model.n_states
+    belief = np.random.default_rng(0).dirichlet(np.ones(model.n_states))
+    belief = (np.floor(belief / quantum) + 0.5) * quantum  # every probability mid-way between two cuts
+    node = search._node(None, float(belief.max()), belief, search._key(belief, float(belief.max())), 1.0)
+    near = belief + np.random.default_rng(1).uniform(-0.4, 0.4, model.n_states) * quantum
+    assert search._node(None, float(near.max()), near, search._key(near, float(near.max())), 2.0) is node
+    far = belief.copy()
+    far[0] += quantum
+    other = search._node(None, float(far.max()), far, search._key(far, float(far.max())), 3.0)
+    assert other is not node and other.value == 3.0 and node.value == 1.0

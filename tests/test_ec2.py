@@ -190,3 +190,21 @@ def test_cli_select_with_nothing_to_gain_exits_1(runner, tmp_path):
     result = runner.invoke(_app(), [str(MAPS / "khalvati-example1.yaml"), "--belief", str(belief)])
     assert result.exit_code == 1
     assert "no candidate has a positive weight" in result.stderr
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.integers(0, 40), max_size=60), st.integers(0, 1))
+def test_counted_ranks_and_pair_counts_equal_the_sorted_ones(values, shift):
+    """ec2's ranks of small non-negative values (counted) are np.unique's inverse, and so are those of
+    values the count does not take (sorted); the look-alike pair count by counting equals the sorted one."""
+    from beliefloc.planning import ec2
+    from beliefloc.planning.macros import count_indistinguishable_pairs
+
+    array = np.array(values, dtype=np.int64) + shift * (ec2._COUNTED_RANGE - 20)
+    _, inverse = np.unique(array, return_inverse=True)
+    ranked = ec2._rank(array)
+    assert ranked.dtype == np.int64 and np.array_equal(ranked, inverse.ravel())
+    _, counts = np.unique(array, return_counts=True)
+    expected = int((counts * (counts - 1) // 2).sum())
+    assert count_indistinguishable_pairs(ranked) == expected
+    assert count_indistinguishable_pairs(array) == expected

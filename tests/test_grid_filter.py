@@ -165,6 +165,33 @@ def test_trimmed_gap_sets_aside_what_a_few_objects_could_have_made() -> None:
     # beams in the second pose's favour are never set aside
     assert trimmed_gap(theirs, mine, x, y, 2, 0.8) == pytest.approx(-7.0 - 4.0)
     assert trimmed_gap(np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0), 2, 0.8) == 0.0
+    # beams no object could have made are kept: with beams 2 and 3 of the first scan fixed, the
+    # first object is centred on the second scan's beams and sets aside only those two (5 nats)
+    fixed = np.zeros((2, 6), dtype=bool)
+    fixed[0, [2, 3]] = True
+    assert trimmed_gap(mine, theirs, x, y, 1, 0.8, fixed) == pytest.approx(2.0)
+    assert trimmed_gap(mine, theirs, x, y, 2, 0.8, fixed) == pytest.approx(1.0)
+    assert trimmed_gap(mine, theirs, x, y, 2, 0.8, np.ones((2, 6), dtype=bool)) == pytest.approx(7.0)
+
+
+def test_beams_that_would_cross_a_wall_are_no_clutter() -> None:
+    """``GridFilter._walled``: with the base at (1.5, 1.0) in the room (its top wall's face at
+    y = 2.45), a beam ending at y = 2.0 stopped short in free space (an object may have stopped it),
+    one ending at y = 2.8 would have crossed the wall (no object carries a beam through a wall), one
+    ending 0.1 m past the wall's face is within the tolerance (a hit on the face); only beams in
+    the first pose's favour are looked at; a negative tolerance exempts none."""
+    occupancy = _room()
+    grid = GridFilter(occupancy, FilterConfig(), reach=8.5)
+    x = np.array([1.5, 1.5, 1.5, 1.5])
+    y = np.array([2.0, 2.8, 2.55, 2.8])
+    ox, oy = np.full(4, 1.5), np.full(4, 1.0)
+    mine = np.array([0.0, 0.0, 0.0, -2.0])
+    theirs = np.full(4, -1.0)
+    walled = grid._walled(mine, theirs, ox, oy, x, y)
+    assert walled is not None
+    assert walled.tolist() == [False, True, False, False]
+    off = GridFilter(occupancy, FilterConfig(wall_tolerance=-1.0), reach=8.5)
+    assert off._walled(mine, theirs, ox, oy, x, y) is None
 
 
 def test_config_is_checked() -> None:

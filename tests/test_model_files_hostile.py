@@ -139,6 +139,19 @@ def test_crafted_index_arrays_are_refused_not_a_crash(tmp_path: Path, kitchen_ar
     _refused(_run(command[0], str(path), *command[1:]), "crafted.npz", "action0_data", "sum to 0.97, not 1")
 
 
+def _empty_row(row: int) -> Callable[[dict[str, Any], Arrays], None]:
+    """Transition row ``row`` of action 0 emptied (its entries dropped): its sum is 0."""
+
+    def change(header: dict[str, Any], arrays: Arrays) -> None:
+        indptr, indices, data = (arrays[f"action0_{k}"] for k in ("indptr", "indices", "data"))
+        start, stop = int(indptr[row]), int(indptr[row + 1])
+        arrays["action0_indices"] = np.delete(indices, np.s_[start:stop])
+        arrays["action0_data"] = np.delete(data, np.s_[start:stop])
+        arrays["action0_indptr"] = np.r_[indptr[: row + 1], indptr[row + 1 :] - (stop - start)].astype(indptr.dtype)
+
+    return change
+
+
 def _set(key: str, value: Any) -> Callable[[dict[str, Any], Arrays], None]:
     def change(header: dict[str, Any], arrays: Arrays) -> None:
         arrays[key] = value(arrays[key]) if callable(value) else value
@@ -217,6 +230,8 @@ CORRUPTIONS: dict[str, tuple[Callable[[dict[str, Any], Arrays], None], str]] = {
     "probability NaN": (_set("action0_data", _with_nan), "action0_data (forward): entry 0 is nan, not a probability"),
     "probability 1.5": (_set("action0_data", _above_one), "entry 0 is 1.5, not a probability"),
     "rows summing to 0.97": (_rows_summing_to_097, "sum to 0.97, not 1"),
+    "an empty last row": (_empty_row(35), "from state 2,2,3 sum to 0, not 1"),
+    "an empty row in the middle": (_empty_row(7), "sum to 0, not 1"),
     "data as integers": (_set("action0_data", lambda a: a.astype(np.int64)), "holds int64, not floating-point"),
     "truth past the confusion rows": (_set("part0_truth", _truth_past_confusion), "outside the 2 rows"),
     "confusion row not summing to 1": (_set("part4_confusion", lambda a: a * 0.5), "part4_confusion: row 0 sums to"),

