@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from beliefloc import compile_model, load_map
 from beliefloc.belief import uniform
 from beliefloc.continuous.motion import OdometryNoise, sample_odometry
-from beliefloc.continuous.pose_lattice import REACH_CELLS, REACH_SECTORS, lattice_resolution
+from beliefloc.continuous.pose_lattice import REACH_CELLS, REACH_SECTORS, UNMAPPED_STOP, lattice_resolution
 from beliefloc.errors import ImpossibleObservationError
 from beliefloc.robots.belief_filter import LatticeFilter
 from beliefloc.robots.odometry import MotionReport
@@ -99,10 +99,31 @@ def test_a_move_into_a_wall_is_stopped_and_the_blocked_flag_weighs_the_poses(tb3
     before = tb3.core.fine.copy()
     tb3.predict(forward, MotionReport(blocked=True))  # no odometry: the robot says it was stopped
     after = tb3.core.fine
-    moves = lattice.blocked(tb3.core.motions["forward"])
-    # stopped poses stay where they were, holding nearly all the mass
+    moves = lattice.blocked(tb3.core.motions["forward"], maybe=True)
+    # poses the map may stop stay where they were, holding nearly all the mass
     assert after[moves].sum() > 0.95
     assert after[moves] == pytest.approx(before[moves] / before[moves].sum() * after[moves].sum(), rel=1e-9)
+
+
+def test_near_a_wall_the_lattice_says_a_path_may_be_stopped_and_the_flag_does_not_judge_it(tb3: LatticeFilter) -> None:
+    """A path the map surely blocks may be stopped; between them, the paths that pass a wall closer
+    than the robot's radius plus half a spacing (where within its square the robot stands decides).
+    A robot that says it was stopped, with its odometry, keeps those poses at full weight; only the
+    poses whose path is surely open lose (UNMAPPED_STOP)."""
+    lattice = tb3.lattice
+    deltas = tb3.core.motions["forward"]
+    surely, maybe = lattice.blocked(deltas), lattice.blocked(deltas, maybe=True)
+    assert np.all(maybe[surely])
+    between = maybe & ~surely
+    assert between.any() and (~maybe).any()
+    tb3.start(uniform(tb3.model.n_states))
+    before = tb3.core.fine.copy()
+    tb3.core.predict("forward", (0.0, 0.0, 0.0), True)  # stopped where it stood
+    after = tb3.core.fine
+    ratio = after[before > 0] / before[before > 0]  # the odometry (no motion) only blurs a little
+    open_ratio = (after[~maybe].sum() / before[~maybe].sum()) / (after[between].sum() / before[between].sum())
+    assert open_ratio == pytest.approx(UNMAPPED_STOP, rel=0.2)
+    assert np.all(np.isfinite(ratio))
 
 
 @settings(max_examples=15, deadline=None)

@@ -121,7 +121,11 @@ class PoseLattice:
     """Each valid pose's model state."""
     stand: np.ndarray = field(init=False)
     """``(rows, cols)``: the lattice positions that are valid."""
-    _blocked: dict[tuple[tuple[float, float], ...], np.ndarray] = field(init=False, default_factory=dict)
+    roomy: np.ndarray = field(init=False)
+    """``(rows, cols)``: the valid positions where the robot's disc fits wherever in the position's
+    square it stands (clearance above the radius plus half a spacing): a path through them only is
+    surely open, where a path through :attr:`stand` only may still stop a robot near a wall."""
+    _blocked: dict[tuple[bool, tuple[tuple[float, float], ...]], np.ndarray] = field(init=False, default_factory=dict)
 
     def __post_init__(self) -> None:
         if self.k < 1 or self.m < 1 or self.m % 2 == 0:
@@ -145,6 +149,8 @@ class PoseLattice:
         # some of that square is (a robot stopped at a wall is half a spacing nearer it than the
         # nearest position that holds the whole disc)
         can_stand[inside] = clearance[i[inside], j[inside]] > self.robot_radius - fine / 2
+        roomy = np.zeros((rows, cols), dtype=bool)
+        roomy[inside] = clearance[i[inside], j[inside]] > self.robot_radius + fine / 2
         # where the robot can stand outside every state's cell (the robot_radius rule removed the
         # cell, yet the robot fits off its centre): the nearest state cell within one cell holds it
         distance, (near_r, near_c) = ndimage.distance_transform_edt(~in_state, return_indices=True)
@@ -158,6 +164,7 @@ class PoseLattice:
         owner_r = np.where(empty, np.arange(rows)[:, None] // k, owner_r)
         owner_c = np.where(empty, np.arange(cols)[None, :] // k, owner_c)
         self.stand = stand
+        self.roomy = roomy & stand
         # valid poses ordered by lattice yaw, then row, then column
         g = np.arange(G)
         heading = self.yaw_headings()
@@ -261,12 +268,16 @@ class PoseLattice:
         moved *= self.stand[None, :, :]
         return self.gather(moved)
 
-    def blocked(self, deltas: Sequence[tuple[float, float, float]]) -> np.ndarray:
+    def blocked(self, deltas: Sequence[tuple[float, float, float]], *, maybe: bool = False) -> np.ndarray:
         """Per valid pose: whether the straight path of its robot-frame translation (``deltas[g]`` for
         lattice yaw ``g``; one for all when ``len(deltas) == 1``) meets a lattice position that is
-        not valid or leaves the lattice -- the move is stopped there. Checked at steps of half the
+        not valid or leaves the lattice -- the move is surely stopped there. ``maybe``: whether it
+        meets one that is not :attr:`roomy` -- the move may be stopped (the robot stands anywhere in
+        its position's square; near a wall the lattice cannot say). Checked at steps of half the
         spacing. Cached per motion."""
-        key = tuple((round(d[0], 9), round(d[1], 9)) for d in deltas)
+        motion = tuple((round(d[0], 9), round(d[1], 9)) for d in deltas)
+        key = (maybe, motion)
+        free = self.roomy if maybe else self.stand
         cached = self._blocked.get(key)
         if cached is not None:
             return cached
@@ -274,7 +285,7 @@ class PoseLattice:
         yaws = self.yaws()
         out = np.zeros(self.shape, dtype=bool)
         for g in range(G):
-            dx, dy = key[0] if len(key) == 1 else key[g]
+            dx, dy = motion[0] if len(motion) == 1 else motion[g]
             c, s = math.cos(yaws[g]), math.sin(yaws[g])
             gx, gy = c * dx - s * dy, s * dx + c * dy
             steps = max(1, math.ceil(math.hypot(gx, gy) / (self.spacing / 2)))
@@ -284,12 +295,12 @@ class PoseLattice:
                 if abs(dr) > rows or abs(dc) > cols:
                     hit[:] = True
                     break
-                # stand[r + dr, c + dc] for every (r, c), off the lattice counting as blocked
+                # free[r + dr, c + dc] for every (r, c), off the lattice counting as blocked
                 shifted = np.zeros((rows, cols), dtype=bool)
                 r_lo, r_hi = max(0, -dr), min(rows, rows - dr)
                 c_lo, c_hi = max(0, -dc), min(cols, cols - dc)
                 if r_lo < r_hi and c_lo < c_hi:
-                    shifted[r_lo:r_hi, c_lo:c_hi] = self.stand[r_lo + dr : r_hi + dr, c_lo + dc : c_hi + dc]
+                    shifted[r_lo:r_hi, c_lo:c_hi] = free[r_lo + dr : r_hi + dr, c_lo + dc : c_hi + dc]
                 hit |= ~shifted
             out[g] = hit
         result = self.gather(out).astype(bool)
@@ -336,9 +347,14 @@ class LatticeFilter:
             deltas = self.motions.get(action)
             if blocked is not None and deltas is not None:
                 # the flag says whether the commanded path met something: the map's walls, or
-                # something not on it (UNMAPPED_STOP); a pose that the map would stop is rarely not stopped
-                stuck = self.lattice.blocked(deltas)
-                fine = fine * (np.where(stuck, 1.0, UNMAPPED_STOP) if blocked else np.where(stuck, FREE_PAST_WALL, 1.0))
+                # something not on it (UNMAPPED_STOP); a pose that the map would stop is rarely not
+                # stopped. Only a path the map surely leaves open or surely blocks weighs against a
+                # pose: near a wall the robot's place within the lattice position decides (measured:
+                # a robot stopped 2 cm from a pillar lost its true poses to a turned look-alike)
+                if blocked:
+                    fine = fine * np.where(self.lattice.blocked(deltas, maybe=True), 1.0, UNMAPPED_STOP)
+                else:
+                    fine = fine * np.where(self.lattice.blocked(deltas), FREE_PAST_WALL, 1.0)
             moved = self.lattice.predict(fine, [odometry], self.noise)
         else:
             deltas = self.motions.get(action)
@@ -348,9 +364,9 @@ class LatticeFilter:
             if blocked is None:
                 goes = fine * (~stuck) * (1.0 - STAY)
                 stays = fine * (stuck + STAY * ~stuck)
-            elif blocked:
+            elif blocked:  # stopped: a pose the map may stop stays (see above)
                 goes = np.zeros_like(fine)
-                stays = fine * np.where(stuck, 1.0, FLAG_FLOOR)
+                stays = fine * np.where(self.lattice.blocked(deltas, maybe=True), 1.0, FLAG_FLOOR)
             else:
                 goes = fine * np.where(stuck, FLAG_FLOOR, 1.0)
                 stays = np.zeros_like(fine)
