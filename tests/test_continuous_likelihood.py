@@ -167,3 +167,18 @@ def test_one_scan_from_plain_values_scores_poses() -> None:
     values = [None if math.isinf(r) else float(r) for r in ranges]
     scores = score_scan(field, np.array([truth, (2.4, -1.0, 0.7)]), -math.pi, 2 * math.pi / 90, values, 0.1, 4.0)
     assert scores.shape == (2,) and scores[0] > scores[1]
+
+
+def test_the_nearest_pixel_reading_is_the_bilinear_one_at_pixel_centres() -> None:
+    """``nearest_log_likelihood`` reads the pixel holding each point: at pixel centres (and off the
+    image, the cap) it equals ``point_log_likelihood``; a point within a pixel reads its centre."""
+    image = _room()
+    field = LikelihoodField(image, _window(image, 0.1), LaserModel(), reach=2.0, headings=8, sub_poses=False)
+    rng = np.random.default_rng(1)
+    u = rng.integers(-3, image.width + 3, 200) + 0.5
+    v = rng.integers(-3, image.height + 3, 200) + 0.5
+    x, y = image.to_map(u, v)
+    exact = field.point_log_likelihood(x, y, 0.1, 12.0)
+    assert np.allclose(field.nearest_log_likelihood(x, y, 0.1, 12.0), exact, atol=1e-5)
+    nudged_x, nudged_y = image.to_map(u + rng.uniform(-0.45, 0.45, 200), v + rng.uniform(-0.45, 0.45, 200))
+    assert np.allclose(field.nearest_log_likelihood(nudged_x, nudged_y, 0.1, 12.0), exact, atol=1e-5)

@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from beliefloc.continuous.fit import FitConfig, FitTracker, inlier_fraction, surprise
-from beliefloc.continuous.grid_filter import FilterConfig, GridFilter, trimmed_gap
+from beliefloc.continuous.grid_filter import FilterConfig, GridFilter, clutter_share, trimmed_gap
 from beliefloc.continuous.likelihood_field import LaserModel, Scan, select_beams
+from beliefloc.continuous.motion import compose, relative
 from beliefloc.continuous.raycast import cast_rays
 from beliefloc.model import MapFrame
 from beliefloc.semantic_map.occupancy_map import Occupancy, OccupancyMap
@@ -174,6 +175,66 @@ def test_trimmed_gap_sets_aside_what_a_few_objects_could_have_made() -> None:
     assert trimmed_gap(mine, theirs, x, y, 2, 0.8, np.ones((2, 6), dtype=bool)) == pytest.approx(7.0)
 
 
+def test_clutter_share_is_what_objects_at_the_other_pose_could_have_made() -> None:
+    """The verdict's gap trims both ways: ``clutter_share(d, ...)`` of the beams in the first pose's
+    favour, and ``clutter_share(-d, ...)`` (end points at the first pose) of those in the second's.
+    Same twelve beams as above: one object takes the four beams by x ~3 (10 nats), a second beam 9
+    (1 nat); the other way, beam 5 of each scan (end points at x = 1, together: one object, 4 nats)."""
+    d = np.zeros((2, 6))
+    d[:, [2, 3]] = 2.5
+    d[:, 5] = -2.0
+    d[0, 4] = 1.0
+    x = np.array([[0.0, 5.0, 3.0, 3.2, 9.0, 1.0], [0.0, 7.0, 3.1, 3.3, 9.0, 1.0]])
+    y = np.zeros((2, 6))
+    assert clutter_share(d, x, y, 1, 0.8) == pytest.approx(10.0)
+    assert clutter_share(d, x, y, 2, 0.8) == pytest.approx(11.0)
+    assert clutter_share(-d, x, y, 2, 0.8) == pytest.approx(4.0)
+    assert clutter_share(d, x, y, 0, 0.8) == 0.0
+    trimmed = trimmed_gap(d, np.zeros_like(d), x, y, 2, 0.8)
+    assert float(d.sum()) - clutter_share(d, x, y, 2, 0.8) == pytest.approx(trimmed)
+
+
+def _drifted(steps: list[tuple[float, float, float]], scale: float, yaw_per_metre: float) -> list[np.ndarray]:
+    """Odometry poses from true steps ``(dx, dy, dyaw)`` (robot frame): each step reported
+    ``scale`` times as long, its turn off by ``yaw_per_metre`` per metre driven."""
+    odom = [np.zeros(3)]
+    for dx, dy, dyaw in steps:
+        reported = (dx * scale, dy * scale, dyaw + yaw_per_metre * math.hypot(dx, dy))
+        odom.append(compose(odom[-1][None, :], reported)[0])
+    return odom
+
+
+def test_remembered_scans_are_compared_with_the_odometry_drift_fitted() -> None:
+    """A robot drives 2.75 m round the room's box while its odometry reports 5 % more distance
+    and 0.06 rad per metre of turn that did not happen. Carried back along the odometry as
+    measured, the true pose now lands 0.26 m and 9° off the truth at the oldest remembered scan;
+    with the fitted drift within 2 cm and 1° at every one, and those scans fit it as well as
+    the true poses."""
+    occupancy = _room()
+    grid = GridFilter(occupancy, FilterConfig(), reach=8.5)
+    truth = [np.array([0.2, 1.2, -0.3])]
+    steps = [(0.25, 0.0, 0.05 if n < 6 else 0.12) for n in range(11)]
+    for step in steps:
+        truth.append(compose(truth[-1][None, :], step)[0])
+    odometry = _drifted(steps, 1.05, 0.06)
+    for n, (pose, odom) in enumerate(zip(truth, odometry, strict=True)):
+        grid.update(n, odom, _beams(occupancy, tuple(pose), grid.config.laser))
+    assert len(grid._history) == len(truth)
+    now = tuple(float(v) for v in truth[-1])
+    measured = grid._carried_back(now, np.zeros((1, 6)))[0]
+    fitted = grid._carried_back(now, grid._history_fit(now)[None, :])[0]
+    off = relative(np.array(truth), measured)
+    assert math.hypot(*off[0, :2]) > 0.2 and abs(off[0, 2]) > math.radians(8)
+    error = relative(np.array(truth), fitted)
+    assert np.hypot(error[:, 0], error[:, 1]).max() < 0.02
+    assert np.abs(error[:, 2]).max() < math.radians(1.0)
+    at_truth = grid._remembered_scores(np.array(truth)[None])[0].sum()
+    assert grid._history_beams(now)[0].sum() >= at_truth - 5.0
+    # the odometry as measured: the carry-back is the plain chain of relative poses
+    chain = compose(np.repeat([now], len(odometry), axis=0), relative(odometry[-1], np.array(odometry)))
+    assert np.allclose(measured, chain, atol=1e-9)
+
+
 def test_beams_that_would_cross_a_wall_are_no_clutter() -> None:
     """``GridFilter._walled``: with the base at (1.5, 1.0) in the room (its top wall's face at
     y = 2.45), a beam ending at y = 2.0 stopped short in free space (an object may have stopped it),
@@ -201,3 +262,7 @@ def test_config_is_checked() -> None:
         FilterConfig(cell_size=0.0)
     with pytest.raises(ValueError, match="clutter_objects"):
         FilterConfig(clutter_objects=-1)
+    with pytest.raises(ValueError, match="odometry_drift"):
+        FilterConfig(odometry_drift=(0.1, -0.1, 0.1))
+    with pytest.raises(ValueError, match="remembered_sigma"):
+        FilterConfig(remembered_sigma=0.0)
