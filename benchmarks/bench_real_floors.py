@@ -15,7 +15,9 @@ its estimate when the budget runs out (``PlanResult.partial``, ``PlannerSettings
 and planning again after it. ``anytime-grow``: the same, but after a call out of budget the next
 call gets twice the seconds, up to ``--max-budget`` (0.8; ``PlannerSettings.max_time_limit``).
 
-**Maps.** ``maps/tb3-sandbox.yaml`` (2,088 states), ``maps/depot.yaml`` (49,592 states, six objects)
+**Maps.** A name with ``+region`` (e.g. ``tb3-sandbox+region``) is the map with region models on
+every look and scan sensor (:data:`REGION_FIELDS`, the values docs/map-format.md gives for a real
+robot). ``maps/tb3-sandbox.yaml`` (2,088 states), ``maps/depot.yaml`` (49,592 states, six objects)
 and ``maps/depot-corridor.yaml`` (24,796 states, a three-beam scan and one object: the
 information-poor floor). Episode ``e`` of a map starts both planners at the same true state with the
 same noise (``episode_rngs(--seed, e)``, paired trials), from the uniform belief, threshold 0.95,
@@ -74,7 +76,13 @@ def child(
     from beliefloc.simulation.episode import run_episode, start_state
     from beliefloc.simulation.strategies import PlannerSettings, SharedWork
 
-    model = compile_model(load_map(ROOT / "maps" / f"{map_name}.yaml"))
+    base_name, _, variant = map_name.partition("+")
+    semantic = load_map(ROOT / "maps" / f"{base_name}.yaml")
+    if variant == "region":
+        semantic = with_region_models(semantic)
+    elif variant:
+        raise SystemExit(f"unknown map variant {variant!r} (known: region)")
+    model = compile_model(semantic)
     shared = SharedWork.for_model(model)
     if planner == "today":
         settings = PlannerSettings(anytime=False)
@@ -110,6 +118,22 @@ def child(
             f"{time.perf_counter() - started:.1f} s"
         )
     print(json.dumps({"states": model.n_states, "records": records, "peak_mib": peak_rss_mib()}))
+
+
+REGION_FIELDS = {
+    "scan": {"sub_samples": 3, "yaw_samples": 3, "sigma": 0.03, "random": 0.05, "short": 0.1},
+    "look": {"sub_samples": 3, "yaw_samples": 3, "fov_edge": 3.0, "range_edge": 0.2},
+}
+"""The values docs/map-format.md gives "for a real robot" (its region models table)."""
+
+
+def with_region_models(semantic: Any) -> Any:
+    """The map with every look and scan sensor's region fields set to :data:`REGION_FIELDS`: each
+    state's readings averaged over its cell and heading sector with continuous noise (issue 26)."""
+    sensors = {
+        name: sensor.model_copy(update=REGION_FIELDS.get(sensor.type, {})) for name, sensor in semantic.sensors.items()
+    }
+    return semantic.model_copy(update={"sensors": sensors})
 
 
 def run_children(jobs: list[tuple[str, list[str]]], parallel: int) -> dict[str, dict[str, Any]]:
