@@ -168,6 +168,7 @@ def test_a_search_that_recycles_beliefs_finds_the_same_plan(states, tmp_path, mo
     results = []
     for spare in (0, successors._SPARE_BELIEFS):
         monkeypatch.setattr(successors, "_SPARE_BELIEFS", spare)
+        monkeypatch.setattr(best_first, "_RECYCLE_BYTES", 0 if spare else 2**62)  # these beliefs are small
         results.append(best_first.plan(model, start.copy(), max_expansions=400, time_limit=60.0))
     plain, recycled = results
     assert plain.expanded > 4

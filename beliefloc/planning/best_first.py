@@ -71,6 +71,11 @@ states (80 MB a belief) four were too few, and a pop recomputed a chain of 2.5 B
 average (131 for 53 pops, each a 50-100 ms prediction); sixteen are 1.3 GB there."""
 
 
+_RECYCLE_BYTES = 2**20
+"""Beliefs of at least this size (131,072 states) that the search lets go are handed back to the
+evaluator to be written over (:meth:`SuccessorEvaluator.recycle`); smaller ones are left to malloc."""
+
+
 SearchProgress = Callable[[int, int, float], None]
 """``progress(expanded, generated, seconds)`` during a search."""
 _PROGRESS_EVERY = 256
@@ -269,7 +274,9 @@ def _search(
         if not any(old is kept for kept in fresh.values()):
             evaluator.recycle(old)
 
-    cache = BeliefCache(max(_CACHE_MIN_BELIEFS, _CACHE_BYTES // max(1, belief.nbytes)), evicted)
+    # small beliefs come from malloc's free lists without page faults: not worth the bookkeeping
+    recycling = belief.nbytes >= _RECYCLE_BYTES
+    cache = BeliefCache(max(_CACHE_MIN_BELIEFS, _CACHE_BYTES // max(1, belief.nbytes)), evicted if recycling else None)
     cache.put(0, belief)
 
     def known(node: int) -> np.ndarray | None:
@@ -323,7 +330,7 @@ def _search(
         if successors is None:
             successors = evaluator.evaluate(current, whole)
             memory.remember(key, successors)
-        for old in fresh.values():
+        for old in fresh.values() if recycling else ():
             if not cache.holds(old):
                 evaluator.recycle(old)
         fresh = {}
@@ -397,10 +404,12 @@ class BeliefCache:
         self.capacity = capacity
         self._items: OrderedDict[int, np.ndarray] = OrderedDict()
         self._on_evict = on_evict
+        self._held: dict[int, int] = {}
+        """How many cached entries are each array (by ``id``)."""
 
     def holds(self, belief: np.ndarray) -> bool:
         """Whether this very array is one of the cached beliefs."""
-        return any(belief is item for item in self._items.values())
+        return id(belief) in self._held
 
     def get(self, node: int) -> np.ndarray | None:
         item = self._items.get(node)
@@ -409,8 +418,12 @@ class BeliefCache:
         return item
 
     def put(self, node: int, belief: np.ndarray) -> None:
+        previous = self._items.get(node)
+        if previous is not None:
+            self._release(previous)
         self._items[node] = belief
         self._items.move_to_end(node)
+        self._held[id(belief)] = self._held.get(id(belief), 0) + 1
         if len(self._items) > self.capacity:
             # never evict the root: every chain of recomputation ends there
             oldest = next(iter(self._items))
@@ -418,5 +431,13 @@ class BeliefCache:
                 self._items.move_to_end(0)
                 oldest = next(iter(self._items))
             gone = self._items.pop(oldest)
-            if self._on_evict is not None:
+            self._release(gone)
+            if self._on_evict is not None and id(gone) not in self._held:
                 self._on_evict(gone)
+
+    def _release(self, belief: np.ndarray) -> None:
+        count = self._held[id(belief)] - 1
+        if count:
+            self._held[id(belief)] = count
+        else:
+            del self._held[id(belief)]
