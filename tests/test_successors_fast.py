@@ -179,3 +179,12 @@ def test_a_search_that_recycles_beliefs_finds_the_same_plan(states, tmp_path, mo
     ]
     if plain.belief is not None:
         assert recycled.belief is not None and recycled.belief.tobytes() == plain.belief.tobytes()
+
+
+def test_belief_key_with_the_peak_is_the_same_key():
+    """Given the belief's maximum, the key is rounded straight into 32 bits when it fits: the same key,
+    for beliefs and for a vector above 1 (which falls back to the float key)."""
+    rng = np.random.default_rng(8)
+    work = best_first.KeyWork((40,))
+    for b in (*_beliefs(40, rng), np.r_[3.0, np.zeros(39)], np.r_[-0.0, np.full(39, 1 / 39)]):
+        assert belief_key(b, work, float(b.max())) == belief_key(b)
