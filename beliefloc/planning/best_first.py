@@ -68,7 +68,8 @@ _CACHE_BYTES = 256 * 2**20
 _CACHE_MIN_BELIEFS = 16
 """The belief cache holds :data:`_CACHE_BYTES` of beliefs, and never fewer than this many: at 10^7
 states (80 MB a belief) four were too few, and a pop recomputed a chain of 2.5 Bayes updates on
-average (131 for 53 pops, each a 50-100 ms prediction); sixteen are 1.3 GB there."""
+average (131 for 53 pops, each a 50-100 ms prediction); sixteen are 1.3 GB there. Beliefs of
+:data:`_RECYCLE_BYTES` and more: exactly this many."""
 
 
 _RECYCLE_BYTES = 2**20
@@ -282,7 +283,11 @@ def _search(
 
     # small beliefs come from malloc's free lists without page faults: not worth the bookkeeping
     recycling = belief.nbytes >= _RECYCLE_BYTES
-    cache = BeliefCache(max(_CACHE_MIN_BELIEFS, _CACHE_BYTES // max(1, belief.nbytes)), evicted if recycling else None)
+    # large beliefs: the minimum, whose evictions are written over; more were fresh memory to fault in
+    # (10^6 states: 32 beliefs, 21,000 page faults and 516 MB; 16: 15,000 and 425 MB, the same 22
+    # Bayes updates)
+    capacity = _CACHE_MIN_BELIEFS if recycling else max(_CACHE_MIN_BELIEFS, _CACHE_BYTES // max(1, belief.nbytes))
+    cache = BeliefCache(capacity, evicted if recycling else None)
     cache.put(0, belief)
 
     def known(node: int) -> np.ndarray | None:
