@@ -135,6 +135,7 @@ def test_predictions_into_recycled_vectors_bit_for_bit(name):
     predict() uses has been built."""
     model = compile_model(load_map(MAPS / name))
     evaluator = SuccessorEvaluator(model)
+    evaluator._large = True  # the path of 10^5 states and more (smaller ones call predict())
     rng = np.random.default_rng(5)
     for belief in _beliefs(model.n_states, rng):
         for _ in range(2):
@@ -169,6 +170,7 @@ def test_a_search_that_recycles_beliefs_finds_the_same_plan(states, tmp_path, mo
     for spare in (0, successors._SPARE_BELIEFS):
         monkeypatch.setattr(successors, "_SPARE_BELIEFS", spare)
         monkeypatch.setattr(best_first, "_RECYCLE_BYTES", 0 if spare else 2**62)  # these beliefs are small
+        monkeypatch.setattr(successors, "_LARGE_BYTES", 0 if spare else 2**62)
         results.append(best_first.plan(model, start.copy(), max_expansions=400, time_limit=60.0))
     plain, recycled = results
     assert plain.expanded > 4

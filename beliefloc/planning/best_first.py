@@ -110,17 +110,19 @@ def belief_key(belief: np.ndarray, work: KeyWork | None = None, peak: float | No
     belief's shape, holds the rounded entries instead of two new arrays; with ``peak``, the belief's
     maximum, they are rounded straight into 32-bit integers when the largest fits (rounding and
     scaling keep the order of the entries, so the largest rounded entry is the rounded peak)."""
-    fits = work is not None and work.scaled.shape == belief.shape
-    if fits and work is not None and peak is not None and float(np.rint(peak * KEY_RESOLUTION)) <= KEY_RESOLUTION:
-        np.multiply(belief, KEY_RESOLUTION, out=work.scaled)
-        np.rint(work.scaled, out=work.whole, casting="unsafe")  # whole numbers up to 2^30: exact in 32 bits
-        return hashlib.sha256(work.whole.data).digest()[:16]
-    scaled = np.multiply(belief, KEY_RESOLUTION, out=work.scaled if fits and work is not None else None)
+    if work is not None and work.scaled.shape == belief.shape:
+        if peak is not None and float(np.rint(peak * KEY_RESOLUTION)) <= KEY_RESOLUTION:
+            np.multiply(belief, KEY_RESOLUTION, out=work.scaled)
+            np.rint(work.scaled, out=work.whole, casting="unsafe")  # whole numbers up to 2^30: exact in 32 bits
+            return hashlib.sha256(work.whole.data).digest()[:16]
+        scaled = np.multiply(belief, KEY_RESOLUTION, out=work.scaled)
+    else:
+        scaled = belief * KEY_RESOLUTION
     np.rint(scaled, out=scaled)
     if scaled.size and not float(scaled.max()) <= KEY_RESOLUTION:
         scaled += 0.0  # -0.0 + 0.0 is 0.0: an entry rounded to zero has one byte pattern
         return b"f" + hashlib.sha256(scaled.data).digest()[:16]
-    if fits and work is not None:
+    if work is not None and scaled is work.scaled:
         np.copyto(work.whole, scaled, casting="unsafe")  # what astype(np.int32) does, into the buffer
         return hashlib.sha256(work.whole.data).digest()[:16]
     return hashlib.sha256(scaled.astype(np.int32).data).digest()[:16]
@@ -310,7 +312,7 @@ def _search(
     root_h = heuristic(entropy(belief), float(belief.max()), 1.0)
     open_heap: list[tuple[float, float, int, int]] = [(root_h, root_h, 0, 0)]
     closed: set[bytes] = set()
-    key_work = KeyWork(belief.shape)
+    key_work = KeyWork(belief.shape) if recycling else None  # small beliefs: new arrays cost less than ufunc calls
     expanded = 0
     status = PlanStatus.NO_PLAN
     goal = -1
@@ -320,15 +322,16 @@ def _search(
         # a Bayes update to recompute) must not overrun a waiting robot's budget
         out_of_time = time.perf_counter() - start > time_limit
         current = belief_of(node)
-        peak = float(current.max())
-        key = belief_key(current, key_work, peak)
+        # the maximum before the key only where the key uses it: most pops of a long search are duplicates
+        peak = float(current.max()) if key_work is not None else None
+        key = belief_key(current, key_work, peak) if key_work is not None else belief_key(current)
         if key in closed:
             if out_of_time:
                 status, goal = PlanStatus.BUDGET_EXCEEDED, node  # a cheapest path, to a belief seen before
                 break
             continue
         closed.add(key)
-        if peak >= threshold:
+        if (current.max() if peak is None else peak) >= threshold:
             status, goal = PlanStatus.FOUND, node
             break
         if expanded >= max_expansions or out_of_time:
@@ -420,7 +423,7 @@ class BeliefCache:
         """How many cached entries are each array (by ``id``)."""
 
     def holds(self, belief: np.ndarray) -> bool:
-        """Whether this very array is one of the cached beliefs."""
+        """Whether this very array is one of the cached beliefs (known with ``on_evict`` only)."""
         return id(belief) in self._held
 
     def get(self, node: int) -> np.ndarray | None:
@@ -430,12 +433,13 @@ class BeliefCache:
         return item
 
     def put(self, node: int, belief: np.ndarray) -> None:
-        previous = self._items.get(node)
-        if previous is not None:
+        tracking = self._on_evict is not None  # what is held, by id: only to hand back what leaves
+        if tracking and (previous := self._items.get(node)) is not None:
             self._release(previous)
         self._items[node] = belief
         self._items.move_to_end(node)
-        self._held[id(belief)] = self._held.get(id(belief), 0) + 1
+        if tracking:
+            self._held[id(belief)] = self._held.get(id(belief), 0) + 1
         if len(self._items) > self.capacity:
             # never evict the root: every chain of recomputation ends there
             oldest = next(iter(self._items))
@@ -443,9 +447,10 @@ class BeliefCache:
                 self._items.move_to_end(0)
                 oldest = next(iter(self._items))
             gone = self._items.pop(oldest)
-            self._release(gone)
-            if self._on_evict is not None and id(gone) not in self._held:
-                self._on_evict(gone)
+            if self._on_evict is not None:
+                self._release(gone)
+                if id(gone) not in self._held:
+                    self._on_evict(gone)
 
     def _release(self, belief: np.ndarray) -> None:
         count = self._held[id(belief)] - 1

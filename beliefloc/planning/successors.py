@@ -41,6 +41,8 @@ try:  # the kernels behind ``sparse @ vector``, called with an output of our own
 except ImportError:  # pragma: no cover - a SciPy that moved them: the public product instead
     _csr_matvec = _csc_matvec = None
 
+_LARGE_BYTES = 2**20
+"""Beliefs of at least this many bytes are predicted into reused vectors (:meth:`SuccessorEvaluator._predict`)."""
 _SPARE_BELIEFS = 4
 """Vectors of |S| floats :class:`SuccessorEvaluator` keeps for reuse (handed back by the search)."""
 
@@ -144,6 +146,7 @@ class SuccessorEvaluator:
         self._groups = [_groups(action, model.n_states) for action in model.actions]
         self._work: tuple[np.ndarray, np.ndarray] | None = None
         self._spare: list[np.ndarray] = []
+        self._large = model.n_states * 8 >= _LARGE_BYTES
 
     def recycle(self, vector: np.ndarray) -> None:
         """Take back a belief this evaluator made that nobody refers to any more; a later prediction
@@ -168,6 +171,8 @@ class SuccessorEvaluator:
         moves of a 10^7-state world; a product costs about 10 % more). A transpose already built (by
         :func:`~beliefloc.belief.update`, say) is used as it is."""
         transition = action.transition
+        if not self._large:
+            return predict(action, belief)  # fewer checks and calls: a small belief's page faults cost nothing
         if transition is None:
             out = self._vector()
             np.copyto(out, belief)
@@ -270,7 +275,10 @@ class SuccessorEvaluator:
             return self._predict(act, belief)
         # a perception's prediction is the belief itself: the product below is the new array
         predicted = belief if act.transition is None else self._predict(act, belief)
-        weighted: np.ndarray = np.multiply(predicted, self._likelihood(action, observation), out=self._vector())
+        likelihood = self._likelihood(action, observation)
+        weighted: np.ndarray = (
+            np.multiply(predicted, likelihood, out=self._vector()) if self._large else predicted * likelihood
+        )
         if predicted is not belief:
             self.recycle(predicted)
         weighted /= weighted.sum()
@@ -281,6 +289,9 @@ class SuccessorEvaluator:
         groups = self._groups[action]
         if groups is None or groups.label is None:
             return self.model.actions[action].observation.likelihood(observation)
+        if not self._large:
+            small: np.ndarray = groups.likelihood[:, observation][groups.label]
+            return small
         # the column gathered into the first scratch vector (free between evaluations)
         column: np.ndarray = np.take(
             groups.likelihood[:, observation], groups.label, out=self._buffers()[0], mode="clip"
