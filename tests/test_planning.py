@@ -131,7 +131,7 @@ def test_a_search_out_of_time_stops_at_the_next_pop_even_on_a_duplicate(monkeypa
 
     original_key = best_first.belief_key
     monkeypatch.setattr(best_first, "time", types.SimpleNamespace(perf_counter=clock))
-    monkeypatch.setattr(best_first, "belief_key", lambda b: keys.append(reads["n"]) or original_key(b))
+    monkeypatch.setattr(best_first, "belief_key", lambda b, *work: keys.append(reads["n"]) or original_key(b, *work))
     result = plan(model, uniform(model.n_states), time_limit=1.0)
     assert result.status is PlanStatus.BUDGET_EXCEEDED and result.partial
     assert model.actions[result.steps[0].action_index].name == result.steps[0].action

@@ -7,9 +7,10 @@ import pytest
 
 from beliefloc import compile_model, load_map
 from beliefloc.belief import entropy, predict
-from beliefloc.planning import successors
+from beliefloc.planning import best_first, successors
 from beliefloc.planning.best_first import belief_key
 from beliefloc.planning.successors import SuccessorEvaluator
+from beliefloc.simulation.gridworld import generate_gridworld, gridworld_yaml
 
 from .conftest import MAPS
 
@@ -115,3 +116,77 @@ def test_belief_key_is_exact_on_the_rounded_entries():
     big = np.array([3.0, 0.0])  # 3 * 2^30 would wrap around in 32 bits to -2^30, the rounding of -1
     assert belief_key(big) == belief_key(big.copy())
     assert belief_key(big) != belief_key(np.array([-1.0, 0.0]))
+
+
+def test_belief_key_with_scratch_vectors_is_the_same_key():
+    """The search's keys, written through reused scratch vectors, are the keys without them (a belief
+    and a vector above 1 alike, and after the scratch held another belief)."""
+    rng = np.random.default_rng(7)
+    work = best_first.KeyWork((50,))
+    for b in (*_beliefs(50, rng), np.r_[3.0, np.zeros(49)]):
+        assert belief_key(b, work) == belief_key(b)
+    assert belief_key(np.ones(3) / 3, work) == belief_key(np.ones(3) / 3)  # another shape: no scratch
+
+
+@pytest.mark.parametrize("name", FAST_MAPS)
+def test_predictions_into_recycled_vectors_bit_for_bit(name):
+    """A prediction or successor written into a recycled vector (still holding an old belief's
+    numbers) is predict()'s and the Bayes update's, bit for bit, whether or not the transpose that
+    predict() uses has been built."""
+    model = compile_model(load_map(MAPS / name))
+    evaluator = SuccessorEvaluator(model)
+    evaluator._large = True  # the path of 10^5 states and more (smaller ones call predict())
+    rng = np.random.default_rng(5)
+    for belief in _beliefs(model.n_states, rng):
+        for _ in range(2):
+            evaluator.recycle(rng.random(model.n_states))
+        for index, action in enumerate(model.actions):
+            # without the transpose (the CSC product over T's own arrays), then with it once predict() built it
+            action.__dict__.pop("transition_transposed", None)
+            without = evaluator._predict(action, belief).tobytes()
+            assert "transition_transposed" not in action.__dict__
+            assert without == predict(action, belief).tobytes()
+            assert evaluator._predict(action, belief).tobytes() == without
+            for o in range(action.observation.n_observations if action.observation.parts else 0):
+                expected = predict(action, belief) * action.observation.likelihood(o)
+                if expected.sum() > 0.0:
+                    expected /= expected.sum()
+                    evaluator.recycle(rng.random(model.n_states))
+                    assert evaluator.successor(belief, index, o).tobytes() == expected.tobytes()
+
+
+@pytest.mark.parametrize("states", (400, 4000))
+def test_a_search_that_recycles_beliefs_finds_the_same_plan(states, tmp_path, monkeypatch):
+    """On a generated world of the paper's kind, with a cache of two beliefs (evictions at every pop,
+    so recycled vectors everywhere), the search finds the plan it finds when nothing is recycled: the
+    same steps, the same numbers bit for bit, the same effort and the same final belief."""
+    world = tmp_path / "world.yaml"
+    world.write_text(gridworld_yaml(generate_gridworld(states, np.random.default_rng(1)), seed=1), encoding="utf-8")
+    model = compile_model(load_map(world))
+    start = np.full(model.n_states, 1.0 / model.n_states)
+    monkeypatch.setattr(best_first, "_CACHE_BYTES", 0)
+    monkeypatch.setattr(best_first, "_CACHE_MIN_BELIEFS", 2)
+    results = []
+    for spare in (0, successors._SPARE_BELIEFS):
+        monkeypatch.setattr(successors, "_SPARE_BELIEFS", spare)
+        monkeypatch.setattr(best_first, "_RECYCLE_BYTES", 0 if spare else 2**62)  # these beliefs are small
+        monkeypatch.setattr(successors, "_LARGE_BYTES", 0 if spare else 2**62)
+        results.append(best_first.plan(model, start.copy(), max_expansions=400, time_limit=60.0))
+    plain, recycled = results
+    assert plain.expanded > 4
+    assert recycled.status is plain.status
+    assert (recycled.expanded, recycled.generated) == (plain.expanded, plain.generated)
+    assert [(s.action, s.observation, s.probability.hex(), s.max_belief.hex(), s.cost) for s in recycled.steps] == [
+        (s.action, s.observation, s.probability.hex(), s.max_belief.hex(), s.cost) for s in plain.steps
+    ]
+    if plain.belief is not None:
+        assert recycled.belief is not None and recycled.belief.tobytes() == plain.belief.tobytes()
+
+
+def test_belief_key_with_the_peak_is_the_same_key():
+    """Given the belief's maximum, the key is rounded straight into 32 bits when it fits: the same key,
+    for beliefs and for a vector above 1 (which falls back to the float key)."""
+    rng = np.random.default_rng(8)
+    work = best_first.KeyWork((40,))
+    for b in (*_beliefs(40, rng), np.r_[3.0, np.zeros(39)], np.r_[-0.0, np.full(39, 1 / 39)]):
+        assert belief_key(b, work, float(b.max())) == belief_key(b)

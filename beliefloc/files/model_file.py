@@ -411,9 +411,10 @@ class _ModelReader:
         _check_probabilities(self, f"action{i}_data ({name})", data)
         # each row's sum without an nnz-long row index or a copy of the data: reduceat sums each row's
         # slice, over the rows that start before the end (those after are empty; the last row before
-        # them ends at the end), and every empty row's sum is then set to 0
+        # them ends at the end), and every empty row's sum is then set to 0. The end is searched for as
+        # a value of the index type: a Python int converted the whole index array first (0.1 s at 10^7)
         sums = np.zeros(n)
-        starting = int(np.searchsorted(indptr[:-1], nnz))
+        starting = int(np.searchsorted(indptr[:-1], indptr.dtype.type(nnz)))
         if starting:
             sums[:starting] = np.add.reduceat(data, indptr[:starting])
         sums[steps == 0] = 0.0

@@ -68,7 +68,13 @@ _CACHE_BYTES = 256 * 2**20
 _CACHE_MIN_BELIEFS = 16
 """The belief cache holds :data:`_CACHE_BYTES` of beliefs, and never fewer than this many: at 10^7
 states (80 MB a belief) four were too few, and a pop recomputed a chain of 2.5 Bayes updates on
-average (131 for 53 pops, each a 50-100 ms prediction); sixteen are 1.3 GB there."""
+average (131 for 53 pops, each a 50-100 ms prediction); sixteen are 1.3 GB there. Beliefs of
+:data:`_RECYCLE_BYTES` and more: exactly this many."""
+
+
+_RECYCLE_BYTES = 2**20
+"""Beliefs of at least this size (131,072 states) that the search lets go are handed back to the
+evaluator to be written over (:meth:`SuccessorEvaluator.recycle`); smaller ones are left to malloc."""
 
 
 SearchProgress = Callable[[int, int, float], None]
@@ -84,7 +90,15 @@ class PlanStatus(enum.Enum):
     """The expansion or time budget ran out first; a plan may or may not exist."""
 
 
-def belief_key(belief: np.ndarray) -> bytes:
+class KeyWork:
+    """Scratch vectors for :func:`belief_key`, reused across the keys of one search."""
+
+    def __init__(self, shape: tuple[int, ...]) -> None:
+        self.scaled = np.empty(shape)
+        self.whole = np.empty(shape, dtype=np.int32)
+
+
+def belief_key(belief: np.ndarray, work: KeyWork | None = None, peak: float | None = None) -> bytes:
     """The one duplicate-detection key: entries rounded to multiples of 2^-30, hashed in state order.
 
     Two beliefs get one key exactly when every rounded entry is equal (up to a 128-bit hash
@@ -92,12 +106,25 @@ def belief_key(belief: np.ndarray) -> bytes:
     exact (and -0.0 becomes 0): half the bytes of the floats, hashed by SHA-256, which this
     machine's CPUs run in hardware (a key of 10^6 states: 2.6 ms, against 6.5 ms for BLAKE2b over
     the floats). No gather of the support. A vector with an entry above 1 (no belief) is hashed as
-    floats. Keys live in one process only (the closed list, :class:`ClosedList`)."""
-    scaled = belief * KEY_RESOLUTION
+    floats. Keys live in one process only (the closed list, :class:`ClosedList`). ``work``, of the
+    belief's shape, holds the rounded entries instead of two new arrays; with ``peak``, the belief's
+    maximum, they are rounded straight into 32-bit integers when the largest fits (rounding and
+    scaling keep the order of the entries, so the largest rounded entry is the rounded peak)."""
+    if work is not None and work.scaled.shape == belief.shape:
+        if peak is not None and float(np.rint(peak * KEY_RESOLUTION)) <= KEY_RESOLUTION:
+            np.multiply(belief, KEY_RESOLUTION, out=work.scaled)
+            np.rint(work.scaled, out=work.whole, casting="unsafe")  # whole numbers up to 2^30: exact in 32 bits
+            return hashlib.sha256(work.whole.data).digest()[:16]
+        scaled = np.multiply(belief, KEY_RESOLUTION, out=work.scaled)
+    else:
+        scaled = belief * KEY_RESOLUTION
     np.rint(scaled, out=scaled)
     if scaled.size and not float(scaled.max()) <= KEY_RESOLUTION:
         scaled += 0.0  # -0.0 + 0.0 is 0.0: an entry rounded to zero has one byte pattern
         return b"f" + hashlib.sha256(scaled.data).digest()[:16]
+    if work is not None and scaled is work.scaled:
+        np.copyto(work.whole, scaled, casting="unsafe")  # what astype(np.int32) does, into the buffer
+        return hashlib.sha256(work.whole.data).digest()[:16]
     return hashlib.sha256(scaled.astype(np.int32).data).digest()[:16]
 
 
@@ -246,12 +273,24 @@ def _search(
     observation_of: list[int | None] = [None]
     g_of: list[float] = [0.0]
     stats_of: list[SuccessorStats | None] = [None]
-    cache = BeliefCache(max(_CACHE_MIN_BELIEFS, _CACHE_BYTES // max(1, belief.nbytes)))
-    cache.put(0, belief)
-
     # the beliefs of the last expanded node's children that are its predictions (actions that observe
     # nothing): a greedy search pops one of them next, and computing it again cost a prediction
     fresh: dict[int, np.ndarray] = {}
+
+    def evicted(old: np.ndarray) -> None:
+        # a belief out of the cache and not a fresh child is referred to by nothing: the evaluator
+        # writes a later belief into it (no new 8-80 MB array, no page faults)
+        if not any(old is kept for kept in fresh.values()):
+            evaluator.recycle(old)
+
+    # small beliefs come from malloc's free lists without page faults: not worth the bookkeeping
+    recycling = belief.nbytes >= _RECYCLE_BYTES
+    # large beliefs: the minimum, whose evictions are written over; more were fresh memory to fault in
+    # (10^6 states: 32 beliefs, 21,000 page faults and 516 MB; 16: 15,000 and 425 MB, the same 22
+    # Bayes updates)
+    capacity = _CACHE_MIN_BELIEFS if recycling else max(_CACHE_MIN_BELIEFS, _CACHE_BYTES // max(1, belief.nbytes))
+    cache = BeliefCache(capacity, evicted if recycling else None)
+    cache.put(0, belief)
 
     def known(node: int) -> np.ndarray | None:
         found = cache.get(node)
@@ -273,6 +312,7 @@ def _search(
     root_h = heuristic(entropy(belief), float(belief.max()), 1.0)
     open_heap: list[tuple[float, float, int, int]] = [(root_h, root_h, 0, 0)]
     closed: set[bytes] = set()
+    key_work = KeyWork(belief.shape) if recycling else None  # small beliefs: new arrays cost less than ufunc calls
     expanded = 0
     status = PlanStatus.NO_PLAN
     goal = -1
@@ -282,14 +322,16 @@ def _search(
         # a Bayes update to recompute) must not overrun a waiting robot's budget
         out_of_time = time.perf_counter() - start > time_limit
         current = belief_of(node)
-        key = belief_key(current)
+        # the maximum before the key only where the key uses it: most pops of a long search are duplicates
+        peak = float(current.max()) if key_work is not None else None
+        key = belief_key(current, key_work, peak) if key_work is not None else belief_key(current)
         if key in closed:
             if out_of_time:
                 status, goal = PlanStatus.BUDGET_EXCEEDED, node  # a cheapest path, to a belief seen before
                 break
             continue
         closed.add(key)
-        if current.max() >= threshold:
+        if (current.max() if peak is None else peak) >= threshold:
             status, goal = PlanStatus.FOUND, node
             break
         if expanded >= max_expansions or out_of_time:
@@ -303,6 +345,9 @@ def _search(
         if successors is None:
             successors = evaluator.evaluate(current, whole)
             memory.remember(key, successors)
+        for old in fresh.values() if recycling else ():
+            if not cache.holds(old):
+                evaluator.recycle(old)
         fresh = {}
         for stats in successors:
             child = len(parent)
@@ -367,11 +412,19 @@ def _search(
 
 
 class BeliefCache:
-    """Least-recently-used beliefs of popped nodes, bounded in count."""
+    """Least-recently-used beliefs of popped nodes, bounded in count; ``on_evict`` is given each
+    belief that leaves."""
 
-    def __init__(self, capacity: int) -> None:
+    def __init__(self, capacity: int, on_evict: Callable[[np.ndarray], None] | None = None) -> None:
         self.capacity = capacity
         self._items: OrderedDict[int, np.ndarray] = OrderedDict()
+        self._on_evict = on_evict
+        self._held: dict[int, int] = {}
+        """How many cached entries are each array (by ``id``)."""
+
+    def holds(self, belief: np.ndarray) -> bool:
+        """Whether this very array is one of the cached beliefs (known with ``on_evict`` only)."""
+        return id(belief) in self._held
 
     def get(self, node: int) -> np.ndarray | None:
         item = self._items.get(node)
@@ -380,12 +433,28 @@ class BeliefCache:
         return item
 
     def put(self, node: int, belief: np.ndarray) -> None:
+        tracking = self._on_evict is not None  # what is held, by id: only to hand back what leaves
+        if tracking and (previous := self._items.get(node)) is not None:
+            self._release(previous)
         self._items[node] = belief
         self._items.move_to_end(node)
+        if tracking:
+            self._held[id(belief)] = self._held.get(id(belief), 0) + 1
         if len(self._items) > self.capacity:
             # never evict the root: every chain of recomputation ends there
             oldest = next(iter(self._items))
             if oldest == 0:
                 self._items.move_to_end(0)
                 oldest = next(iter(self._items))
-            del self._items[oldest]
+            gone = self._items.pop(oldest)
+            if self._on_evict is not None:
+                self._release(gone)
+                if id(gone) not in self._held:
+                    self._on_evict(gone)
+
+    def _release(self, belief: np.ndarray) -> None:
+        count = self._held[id(belief)] - 1
+        if count:
+            self._held[id(belief)] = count
+        else:
+            del self._held[id(belief)]
