@@ -239,8 +239,8 @@ def localize(
         promised, pending = pending, None
         if confirm and (confirming or tracker.peak() >= settings.threshold):
             unread = [a for a in model.perception_actions if a.name not in read_here]
-            if confirming and unread:  # the move was made: its reading
-                forced = unread[int(draw.integers(len(unread)))]
+            if confirming and unread:  # the move was made: its reading, the one expected to tell the most
+                forced = informative_move(tracker, model, places, (), draw, unread)[0]
             elif untried:  # at the threshold: move first (or again, when the move left the robot in place)
                 forced = informative_move(tracker, model, places, untried, draw)[0]
             else:
@@ -248,15 +248,16 @@ def localize(
                 reason = "the belief reached the threshold, but every move was blocked: the state cannot be confirmed"
                 break
         view = tracker.planning_belief()
-        if forced is None and view.max() >= settings.threshold:
-            # one place holds the threshold once its neighbouring cells are gathered, yet no state's
-            # reach does (the two draw the place's edge a little apart): plan from the belief itself
-            view = belief
-            if view.max() >= settings.threshold and untried:  # the planner's goal is met: move, read anew
-                forced = informative_move(tracker, model, places, untried, draw)[0]
         confirming_now = forced is not None
         if forced is None and promised is not None and promised.name not in read_here and moved(report, model.grid):
             forced = promised  # the reading the last move was made for (see informative_move)
+        if forced is None and view.max() >= settings.threshold:
+            # one place holds the threshold once its neighbouring cells are gathered, yet no state's
+            # reach does: the planner's goal is met, and what is left -- where in the place, which
+            # side of a cell or sector border -- is not in its model. The most informative action
+            unread = [a for a in model.perception_actions if a.name not in read_here]
+            if unread or untried:
+                forced, pending = informative_move(tracker, model, places, untried, draw, unread)
         if forced is not None:
             decision, action, planned = forced.name, forced, None
         else:
