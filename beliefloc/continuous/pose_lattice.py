@@ -77,6 +77,12 @@ FREE_PAST_WALL = 0.1
 was not stopped (the lattice position is up to half a spacing from the true pose)."""
 
 
+INFORMATION_POSES = 100_000
+"""A belief over more poses than this has its readings' information (:meth:`LatticeFilter.information`)
+estimated from :data:`INFORMATION_SAMPLE` of them (the depot's lattice: 10^6 poses)."""
+INFORMATION_SAMPLE = 50_000
+
+
 def mutual_information(probabilities: np.ndarray, expected_log_likelihood: float) -> float:
     """The mutual information (nats) between a reading and the robot's pose: the entropy of the
     reading under the belief (``probabilities``: ``p(o | belief)``) less the mean entropy of a
@@ -498,6 +504,15 @@ class LatticeFilter:
         information ``H(O_a) - Σ_pose b(pose) H(O_a | pose)`` under the lattice belief ``fine``
         (None: the filter's)."""
         fine = self.fine if fine is None else fine
+        support = np.flatnonzero(fine > 0)
+        if support.size > INFORMATION_POSES:
+            # a systematic sample of the belief's poses, equally weighed (deterministic): the depot's
+            # million poses read 64 looks each in 3.7 s; the sample in a tenth of that
+            cdf = np.cumsum(fine[support])
+            picks = np.searchsorted(cdf, (np.arange(INFORMATION_SAMPLE) + 0.5) / INFORMATION_SAMPLE * cdf[-1])
+            poses, counts = np.unique(support[np.minimum(picks, support.size - 1)], return_counts=True)
+            fine = np.zeros_like(fine)
+            fine[poses] = counts / INFORMATION_SAMPLE
         return mutual_information(self.probabilities(action, fine), self.expected_log_likelihood(action, fine))
 
     def move_outlook(self, action: str, readings: Sequence[str]) -> tuple[float, list[float]]:
