@@ -185,11 +185,16 @@ def localize(
     the evidence (the hallway: two Looks from one spot declared a pose 150° off). Likewise a move
     the robot reported blocked where it stood (:func:`moved`) is not sent again from there: the
     belief is the same, and a planner that does not know the wall would ask for it forever. When the
-    strategy asks for either, the loop makes another move instead (drawn from ``rng``, seeded: ``0``
-    when None) and starts a fresh strategy from the belief after it.
+    strategy asks for either -- or for a move back to where the reading it plans next was taken --
+    the loop takes the action expected to tell the most per cost instead (:func:`informative_move`:
+    a reading not yet taken here, or a move and then the reading it is made for), and starts a fresh
+    strategy from the belief after it. The same choice is made once the planner's belief (the
+    gathered modes) holds the threshold but no state's reach does: what is left to learn -- which
+    side of a cell or sector border -- is not in the planner's model. (``rng``, seeded ``0`` when
+    None, draws a move only when no action is expected to tell anything.)
 
     **Confirmation** (``confirm``): a belief that reaches the threshold is not declared at once. The
-    robot first makes a move (drawn from ``rng``) and takes a reading from where it lands; the state
+    robot first makes a move (the most informative one) and takes a reading from where it lands; the state
     is declared only if the belief still holds the threshold (and the declaration check passes)
     after it. One reading that only a wrong state explains -- an off-grid pose read as another
     cell's, a landmark where the map has none -- lifts a belief over the threshold; a second one,
