@@ -23,8 +23,10 @@ from beliefloc.cli.app import app
 from beliefloc.errors import EXIT_BAD_INPUT, EXIT_NEGATIVE, ReplyError
 from beliefloc.model import Model
 from beliefloc.pose import nonnegative_covariance, state_pose
+from beliefloc.robots.belief_filter import ModelFilter
 from beliefloc.robots.line_protocol import MAX_LINE_CHARS, LineRobot, action_message
-from beliefloc.robots.localize import Command, SimulatedReadingRobot, localize
+from beliefloc.robots.localize import Command, Places, SimulatedReadingRobot, informative_move, localize
+from beliefloc.robots.odometry import MotionReport
 from beliefloc.robots.readings import RawReading, ReadingBinner
 from beliefloc.semantic_map import SemanticMap
 from beliefloc.simulation.robot import SimulatedRobot
@@ -92,6 +94,41 @@ def test_a_simulated_robot_answering_raw_readings_is_localized(kitchen: Any, see
     data = outcome.as_json(model)
     assert data["state"] == model.states.name(world.state)
     assert data["pose"]["x"] == state_pose(model.grid, world.state).x  # type: ignore[arg-type]
+
+
+def test_a_reading_taken_here_is_replaced_by_the_action_that_tells_the_most(kitchen: Any) -> None:
+    """The planner, planning on states whose readings it counts as independent, asks for a reading
+    already taken where the robot stands: the loop's stand-in is the most informative action per
+    cost (:func:`informative_move`), never a move into a wall or back to where it read."""
+    model, _ = kitchen
+    grid = model.grid
+    assert grid is not None
+    rows, _, headings = grid.cell_heading(np.arange(model.n_states))
+    # the robot faces the north wall from the top row: forward surely stays
+    facing = ((rows == 0) & (headings == 0)).astype(float)
+    tracker = ModelFilter(model)
+    tracker.start(facing / facing.sum())
+    places = Places(grid)
+    places.add("look")
+    places.add("scan")
+    moves = model.actuation_actions
+    action, reading = informative_move(tracker, model, places, moves, np.random.default_rng(0))
+    assert action.is_actuation and action.name != "forward"
+    assert reading is not None and not reading.is_actuation
+    # turned clockwise and read there: turning back would read the same again, so it is not chosen
+    places.after_move(MotionReport(odometry=(0.0, 0.0, -math.pi / 2)))
+    places.add("look")
+    places.add("scan")
+    assert places.after(model.action("rotate_ccw")) == {"look", "scan"}
+    action, _ = informative_move(tracker, model, places, moves, np.random.default_rng(0))
+    assert action.name not in ("forward", "rotate_ccw")
+    # a reading not yet taken here that tells something costs a tenth of a move: it comes first; the
+    # scan, which reads the same wall from all three cells, tells nothing: a move does
+    unread = [model.action("look"), model.action("scan")]
+    action, reading = informative_move(tracker, model, Places(grid), moves, np.random.default_rng(0), unread)
+    assert action.name == "look" and reading is None
+    action, _ = informative_move(tracker, model, Places(grid), moves, np.random.default_rng(0), unread[1:])
+    assert action.is_actuation
 
 
 def test_the_first_command_carries_the_plan_and_its_expectation(kitchen: Any) -> None:

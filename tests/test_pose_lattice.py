@@ -238,6 +238,63 @@ def test_the_declared_probability_is_the_mass_within_reach_of_the_declared_state
     assert probability == pytest.approx(reach(state), rel=1e-9, abs=1e-12)
 
 
+def test_a_quick_shift_moves_the_mass_where_the_noisy_prediction_centres_it(tb3: LatticeFilter) -> None:
+    """``shifted`` (the outlook's noiseless move) against ``predict`` with hardly any noise, for
+    every commanded move of the sandbox, from a few scattered poses."""
+    lattice = tb3.lattice
+    poses = lattice.poses()
+    tiny = OdometryNoise(1e-8, 1e-8, 1e-8, 0.0)
+    rng = np.random.default_rng(5)
+    for name, deltas in tb3.core.motions.items():
+        fine = np.zeros(lattice.n_poses)
+        fine[rng.choice(lattice.n_poses, size=6, replace=False)] = 1.0 / 6
+        noisy, quick = lattice.predict(fine, deltas, tiny), lattice.shifted(fine, deltas)
+        assert quick.sum() == pytest.approx(noisy.sum(), abs=0.02), name  # the same mass stays on the lattice
+        if quick.sum() > 0:
+            centre = (quick @ poses[:, :2]) / quick.sum()
+            assert np.hypot(*(centre - (noisy @ poses[:, :2]) / noisy.sum())) < lattice.spacing, name
+            yaw = math.atan2(float(quick @ np.sin(poses[:, 2])), float(quick @ np.cos(poses[:, 2])))
+            noisy_yaw = math.atan2(float(noisy @ np.sin(poses[:, 2])), float(noisy @ np.cos(poses[:, 2])))
+            assert abs(math.remainder(yaw - noisy_yaw, 2 * math.pi)) < lattice.yaw_step, name
+
+
+def test_a_reading_tells_nothing_where_the_pose_is_known_and_most_where_its_answers_split_the_belief(
+    kitchen: LatticeFilter,
+) -> None:
+    core = kitchen.core
+    model = kitchen.model
+    kitchen.start(uniform(model.n_states))
+    spread = {a: core.information(a) for a in ("look", "scan")}
+    assert all(v > 0.1 for v in spread.values())
+    known = np.zeros(kitchen.lattice.n_poses)
+    known[kitchen.lattice.n_poses // 2] = 1.0
+    assert core.information("look", known) == pytest.approx(0.0, abs=1e-6)
+    # the information is at most the entropy of the reading's answers, and at least 0
+    p = core.probabilities("scan")
+    assert spread["scan"] <= float(-(p[p > 0] * np.log(p[p > 0])).sum()) + 1e-9
+
+
+def test_the_outlook_of_a_move_into_a_wall_is_nothing(kitchen: LatticeFilter) -> None:
+    """From a belief all in cells facing the kitchen's wall, forward surely stays: no chance to move,
+    nothing to learn after it; a turn surely moves, and a reading after it tells something."""
+    model = kitchen.model
+    grid = model.grid
+    assert grid is not None
+    facing_wall = np.array(
+        [
+            1.0 if (r == 0 and h == 0) or (c == 2 and h == 1) else 0.0
+            for r, c, h in zip(*grid.cell_heading(np.arange(model.n_states)), strict=True)
+        ]
+    )
+    kitchen.start(facing_wall / facing_wall.sum())
+    # the poses of those states whose forward path ends past the wall (most of them)
+    p_moves, _ = kitchen.move_outlook(model.action("forward"), [model.action("scan")])
+    assert p_moves < 0.5
+    p_turn, after_turn = kitchen.move_outlook(model.action("rotate_cw"), [model.action("look"), model.action("scan")])
+    assert p_turn == pytest.approx(1.0)
+    assert max(after_turn) > 0.0
+
+
 @pytest.mark.slow
 def test_off_grid_robots_on_the_kitchen_are_localized_and_never_confidently_wrong() -> None:
     """The issue's scenario that used to end wrong or inconsistent: anywhere in free space, any yaw,

@@ -19,15 +19,15 @@ terms.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
-from beliefloc.belief import correct
+from beliefloc.belief import correct, predict
 from beliefloc.continuous.motion import OdometryNoise
 from beliefloc.continuous.pose_lattice import LatticeFilter as LatticeCore
-from beliefloc.continuous.pose_lattice import PoseLattice
+from beliefloc.continuous.pose_lattice import PoseLattice, mutual_information
 from beliefloc.errors import InvalidValueError
 from beliefloc.model import Action, GridLayout, Model
 from beliefloc.pose import gathered_modes
@@ -61,6 +61,10 @@ class BeliefFilter(Protocol):
     def peak(self) -> float: ...
 
     def planning_belief(self) -> np.ndarray: ...
+
+    def information(self, action: Action) -> float: ...
+
+    def move_outlook(self, move: Action, readings: Sequence[Action]) -> tuple[float, list[float]]: ...
 
 
 class ModelFilter:
@@ -106,6 +110,30 @@ class ModelFilter:
     def planning_belief(self) -> np.ndarray:
         """The belief itself: the planner's goal is the threshold's."""
         return self.belief
+
+    def information(self, action: Action) -> float:
+        """The expected information (nats) of one reading of ``action`` about the state
+        (:func:`~beliefloc.continuous.pose_lattice.mutual_information`)."""
+        return mutual_information(
+            action.observation.probabilities(self.belief), expected_log_likelihood(action, self.belief)
+        )
+
+    def move_outlook(self, move: Action, readings: Sequence[Action]) -> tuple[float, list[float]]:
+        """The probability that ``move`` takes the robot elsewhere (``1 - T_a[s, s]`` under the
+        belief), and the expected information (:func:`~beliefloc.continuous.pose_lattice.mutual_information`) of each of
+        ``readings`` taken where it lands, given that it moved."""
+        nothing = (0.0, [0.0] * len(readings))
+        if move.transition is None:
+            return nothing
+        stays = np.asarray(move.transition.diagonal(), dtype=np.float64)
+        goes = self.belief * (1.0 - stays)
+        p_moves = float(goes.sum())
+        if not p_moves > 0:
+            return nothing
+        moved = predict(move, goes / p_moves)
+        return p_moves, [
+            mutual_information(r.observation.probabilities(moved), expected_log_likelihood(r, moved)) for r in readings
+        ]
 
 
 def tracker_noise(grid: GridLayout) -> OdometryNoise:
@@ -251,3 +279,14 @@ class LatticeFilter:
         if self._planning is None:
             self._planning = gathered_modes(self.model, self.belief)
         return self._planning
+
+    def information(self, action: Action) -> float:
+        """The expected information (nats) of one reading of ``action`` about the pose
+        (:meth:`beliefloc.continuous.pose_lattice.LatticeFilter.information`)."""
+        return self.core.information(action.name)
+
+    def move_outlook(self, move: Action, readings: Sequence[Action]) -> tuple[float, list[float]]:
+        """The probability that the commanded ``move`` takes the robot elsewhere (its path open on
+        the map), and the expected information of each of ``readings`` taken where it lands, given
+        that it moved (:meth:`beliefloc.continuous.pose_lattice.LatticeFilter.move_outlook`)."""
+        return self.core.move_outlook(move.name, [r.name for r in readings])

@@ -191,6 +191,13 @@ class PlanningStrategy:
             return None
         return self._current.steps[self._index]
 
+    @property
+    def following_step(self) -> PlanStep | None:
+        """The plan step after :attr:`current_step` (None when there is none)."""
+        if self._current is None or self._index + 1 >= len(self._current.steps):
+            return None
+        return self._current.steps[self._index + 1]
+
     def observed(self, action: str, observation: int | None, belief: np.ndarray) -> None:
         step = self.current_step
         assert step is not None
