@@ -789,27 +789,6 @@ class GridFilter:
                     score = float(totals[k])
                     best = fits[k]
         return best
-        odoms = np.array([odom for odom, _ in self._history])
-        steps = relative(odoms[:-1], odoms[1:])
-        driven, turned = float(np.hypot(steps[:, 0], steps[:, 1]).sum()), float(np.abs(steps[:, 2]).sum())
-        # An axis whose whole range moves the oldest pose by less than 5 mm or 0.1° is left alone.
-        bounds = bounds * (np.array([driven, turned, driven]) * bounds > np.array([0.005, 0.002, 0.002]))
-        score = -math.inf
-        for width, count in ((1.0, 7), (1.0 / 3.0, 5), (1.0 / 9.0, 5)):
-            for axis in (2, 1, 0):  # yaw per metre first: it does the most harm
-                if bounds[axis] == 0:
-                    continue
-                values = best[axis] + np.linspace(-1, 1, count) * width * bounds[axis]
-                values = values[np.abs(values) <= bounds[axis] + 1e-12]
-                values = values[np.argsort(np.abs(values - best[axis]), kind="stable")]  # the current first
-                drifts = np.repeat(best[None, :], values.size, axis=0)
-                drifts[:, axis] = values
-                totals = self._remembered_scores(self._carried_back(pose, drifts), stride=2)[0].sum(axis=1)
-                k = int(np.argmax(totals))
-                if totals[k] > score:
-                    score = float(totals[k])
-                    best = drifts[k]
-        return best
 
     def _walled(
         self, mine: np.ndarray, theirs: np.ndarray, ox: np.ndarray, oy: np.ndarray, x: np.ndarray, y: np.ndarray
