@@ -335,3 +335,15 @@ def test_localize_confirm_on_the_command_line_moves_and_reads_before_declaring(r
     actions = [m for m in sent if m["message"] == "action"]
     assert [a["kind"] for a in actions[2:]] == ["actuation", "perception"]
     assert sent[-1]["message"] == "result" and sent[-1]["steps"] == 4
+
+
+def test_localize_progress_lines_show_the_probability_compared_with_the_threshold(runner) -> None:
+    """Each action's line on stderr ends with ``max p``: the probability the threshold is compared
+    with (here, on a hand-drawn grid, the most likely state's: 1 after the move that localizes)."""
+    replies = [{"look": []}, {}]
+    text = "".join(json.dumps({"seq": k + 1, "readings": r}) + "\n" for k, r in enumerate(replies))
+    result = runner.invoke(app, ["localize", str(MAPS / "window-2x2-perfect.yaml")], input=text)
+    assert result.exit_code == 0
+    lines = [line for line in result.stderr.splitlines() if line[:1].isdigit()]
+    assert len(lines) == 2 and all("max p = " in line for line in lines)
+    assert lines[-1].endswith("max p = 1.000")

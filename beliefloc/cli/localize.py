@@ -283,7 +283,8 @@ def localize(
             seen = f" → {escape(action.observation.name(step.observation))} (p = {step.probability:.3g})"
             if step.surprised and command.expected is not None:
                 seen += f", expected {escape(action.observation.name(command.expected))}"
-        err.print(f"{command.seq}. {escape(action.name)}{seen}; max b = {step.belief.max():.3f}", highlight=False)
+        peak = step.peak if step.peak is not None else float(step.belief.max())
+        err.print(f"{command.seq}. {escape(action.name)}{seen}; max p = {peak:.3f}", highlight=False)
 
     if rosbridge is not None:
         from beliefloc.cli import localize_ros
@@ -323,7 +324,7 @@ def localize(
         EpisodeStatus.STEP_LIMIT: "; raise --max-steps",
     }.get(outcome.status, "")
     reason = f": {outcome.reason}{hint}" if outcome.reason else ""
-    err.print(f"[bold]not localized, {status}[/]{escape(reason)} (max b = {outcome.belief.max():.3f})")
+    err.print(f"[bold]not localized, {status}[/]{escape(reason)} (max p = {outcome.declared[1]:.3f})")
     raise typer.Exit(EXIT_NEGATIVE)
 
 

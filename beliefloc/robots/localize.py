@@ -78,6 +78,9 @@ class LocalizeStep:
     probability: float
     """``p(o | a, b)`` before the update (1 when nothing was observed)."""
     belief: np.ndarray
+    peak: float | None = None
+    """The probability compared with the threshold after it (:meth:`BeliefFilter.peak`); None: the
+    most likely state's."""
 
     @property
     def surprised(self) -> bool:
@@ -338,7 +341,7 @@ def localize(
                         "obstacle, or sensors noisier than it says)"
                     )
                     if on_step is not None:  # the action was done: its step is shown, then the loop ends
-                        on_step(LocalizeStep(command, observation, probability, belief))
+                        on_step(LocalizeStep(command, observation, probability, belief, tracker.peak()))
                     break
                 belief = tracker.respread()
                 check.reset()
@@ -348,17 +351,17 @@ def localize(
                 done_replans += chooser.replans + 1
                 chooser = make()  # a re-spread belief is not the planned one: plan afresh
                 if on_step is not None:
-                    on_step(LocalizeStep(command, observation, probability, belief))
+                    on_step(LocalizeStep(command, observation, probability, belief, tracker.peak()))
                 continue
         if substituted:
             if on_step is not None:
-                on_step(LocalizeStep(command, observation, probability, belief))
+                on_step(LocalizeStep(command, observation, probability, belief, tracker.peak()))
             continue
         chooser.observed(
             decision, observation, tracker.planning_belief()
         )  # an unexpected observation: the plan is dropped
         if on_step is not None:
-            on_step(LocalizeStep(command, observation, probability, belief))
+            on_step(LocalizeStep(command, observation, probability, belief, tracker.peak()))
     declared_state, declared_probability = tracker.declared()
     return Localization(
         status,
