@@ -389,6 +389,8 @@ class GridFilter:
         self._history: deque[tuple[np.ndarray, Beams]] = deque(maxlen=config.history)
         self._remembered_beams: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]] = {}
         """The remembered updates' beams concatenated, per stride (:meth:`_remembered_scores`)."""
+        self._steps: tuple[np.ndarray, np.ndarray] | None = None
+        """The remembered odometry's steps (:meth:`_remembered_steps`)."""
         self._since_global = math.inf
 
     @property
@@ -484,6 +486,7 @@ class GridFilter:
         self._remember_rivals(best, modes[1:])
         self._history.append((odom, beams))
         self._remembered_beams.clear()
+        self._steps = None
         self._since_global += 1
         if best.probability >= c.threshold and self._since_global >= c.global_check_every:
             self._search_rivals(best, beams)
@@ -690,9 +693,7 @@ class GridFilter:
         remembered updates, for each of ``D`` fits ``(s, t, e, dx, dy, dyaw)``: now at ``pose``
         moved by ``(dx, dy, dyaw)`` (map frame), each odometry step ``(x, y, yaw)`` between
         remembered updates taken as ``((1 + s) x, (1 + s) y, (1 + t) yaw + e |(x, y)|)``."""
-        odoms = np.array([odom for odom, _ in self._history])
-        steps = relative(odoms[:-1], odoms[1:])  # (H-1, 3): from each update to the next
-        length = np.hypot(steps[:, 0], steps[:, 1])
+        steps, length = self._remembered_steps()
         f = np.asarray(fits, dtype=np.float64).reshape(-1, 1, 6)
         turns = steps[:, 2] * (1 + f[..., 1]) + f[..., 2] * length  # (D, H-1)
         # The remembered odometry poses rebuilt from the drifted steps, in the oldest one's frame:
@@ -712,6 +713,15 @@ class GridFilter:
         out[..., 1] = py + sp * back[..., 0] + cp * back[..., 1]
         out[..., 2] = wrap_angle(pyaw + back[..., 2])
         return out
+
+    def _remembered_steps(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(steps, length)``: the odometry's step from each remembered update to the next
+        ``(H-1, 3)`` and its distance ``(H-1,)``, kept until the next update."""
+        if self._steps is None:
+            odoms = np.array([odom for odom, _ in self._history])
+            steps = relative(odoms[:-1], odoms[1:])
+            self._steps = steps, np.hypot(steps[:, 0], steps[:, 1])
+        return self._steps
 
     def _remembered_scores(
         self, backs: np.ndarray, stride: int = 1, *, coarse: bool = False
@@ -746,7 +756,7 @@ class GridFilter:
 
     def _history_fit(self, pose: tuple[float, float, float]) -> np.ndarray:
         """``(s, t, e, dx, dy, dyaw)`` (:meth:`_carried_back`): the odometry drift within
-        :attr:`FilterConfig.odometry_drift` and the move of ``pose`` within a cell and 3° under which
+        :attr:`FilterConfig.odometry_drift` and the move of ``pose`` within a cell and 2° under which
         the remembered scans fit best. ``pose`` was refined on the current scan alone, which in a
         corridor barely says where along it; each place compared gets its own best fit. A
         coordinate search on every other beam, each parameter over 7 values across its range (none
@@ -756,9 +766,8 @@ class GridFilter:
         best = np.zeros(6)
         if len(self._history) < 2:
             return best
-        odoms = np.array([odom for odom, _ in self._history])
-        steps = relative(odoms[:-1], odoms[1:])
-        driven, turned = float(np.hypot(steps[:, 0], steps[:, 1]).sum()), float(np.abs(steps[:, 2]).sum())
+        steps, length = self._remembered_steps()
+        driven, turned = float(length.sum()), float(np.abs(steps[:, 2]).sum())
         drift = np.asarray(c.odometry_drift, dtype=np.float64)
         # A drift whose whole range moves the oldest pose by less than 5 mm or 0.1° is left alone.
         drift = drift * (np.array([driven, turned, driven]) * drift > np.array([0.005, 0.002, 0.002]))
