@@ -274,6 +274,22 @@ def test_a_reading_tells_nothing_where_the_pose_is_known_and_most_where_its_answ
     assert spread["scan"] <= float(-(p[p > 0] * np.log(p[p > 0])).sum()) + 1e-9
 
 
+def test_the_readings_distribution_is_the_belief_summed_over_every_pose(tb3: LatticeFilter) -> None:
+    """``p(o | b) = Σ_pose b(pose) Π_part p(o_part | pose)`` in the model's joint order (the first
+    part the most significant digit), against a plain contraction over a random sparse belief: the
+    three-beam Scan of tb3-sandbox (125 joint readings)."""
+    core = tb3.core
+    rng = np.random.default_rng(7)
+    fine = rng.random(tb3.lattice.n_poses) * (rng.random(tb3.lattice.n_poses) < 0.3)
+    fine /= fine.sum()
+    a, b, c = (np.asarray(t, dtype=np.float64) for t in core.tables["scan"])
+    plain = np.einsum("p,pi,pj,pk->ijk", fine, a, b, c).ravel()
+    got = core.probabilities("scan", fine)
+    assert got.shape == plain.shape
+    assert np.allclose(got, plain, rtol=1e-12, atol=1e-15)
+    assert got.sum() == pytest.approx(1.0, abs=1e-6)  # the tables are float32
+
+
 def test_the_outlook_of_a_move_into_a_wall_is_nothing(kitchen: LatticeFilter) -> None:
     """From a belief all in cells facing the kitchen's wall, forward surely stays: no chance to move,
     nothing to learn after it; a turn surely moves, and a reading after it tells something."""
