@@ -261,6 +261,34 @@ class PoseLattice:
         out: np.ndarray = image.reshape(-1)[self.flat]
         return out
 
+    @cached_property
+    def _box(self) -> tuple[slice, slice, np.ndarray]:
+        """``(rows, cols, flat)``: the bounding box of the valid positions and the valid poses'
+        indices into a ``(yaws, box rows, box cols)`` image. Motions are worked out in the box
+        alone: a map's lattice spans its whole image, and a floor is often a small part of it
+        (tb3-sandbox: 5 % of 231 x 231), while mass moved outside the box lands on no valid pose
+        and is dropped either way -- the same numbers for a twentieth of the work."""
+        r, c = np.nonzero(self.stand)
+        rows, cols = slice(int(r.min()), int(r.max()) + 1), slice(int(c.min()), int(c.max()) + 1)
+        _G, full_rows, full_cols = self.shape
+        g, rc = np.divmod(self.flat, full_rows * full_cols)
+        pr, pc = np.divmod(rc, full_cols)
+        height, width = rows.stop - rows.start, cols.stop - cols.start
+        flat = g * (height * width) + (pr - rows.start) * width + (pc - cols.start)
+        return rows, cols, flat
+
+    def _box_image_of(self, fine: np.ndarray) -> np.ndarray:
+        """:meth:`image_of` within :attr:`_box`."""
+        rows, cols, flat = self._box
+        out = np.zeros((self.shape[0], rows.stop - rows.start, cols.stop - cols.start))
+        out.reshape(-1)[flat] = fine
+        return out
+
+    def _box_gather(self, image: np.ndarray) -> np.ndarray:
+        """:meth:`gather` from an image within :attr:`_box`."""
+        out: np.ndarray = image.reshape(-1)[self._box[2]]
+        return out
+
     # --- motion ---------------------------------------------------------------------------------
 
     def predict(
@@ -272,29 +300,34 @@ class PoseLattice:
         """``fine`` moved by a robot-frame delta per lattice yaw (``deltas[g]``; one delta for all
         when ``len(deltas) == 1``) with ``noise``; mass that lands where no valid pose is, is dropped.
         Unnormalised: the mass kept (0 when every pose moved off the valid ones)."""
-        image = self.image_of(fine)
+        image = self._box_image_of(fine)
+        rows, cols, _ = self._box
         G = self.shape[0]
         yaws = self.yaws()
         groups: dict[tuple[float, float, float], list[int]] = {}
         for g in range(G):
             dx, dy, dyaw = deltas[0] if len(deltas) == 1 else deltas[g]
             groups.setdefault((float(dx), float(dy), float(dyaw)), []).append(g)
-        moved = np.zeros(self.shape)
-        for delta, members in groups.items():
-            part = np.zeros(self.shape)
-            part[members] = image[members]
-            moved += predict_grid(part, yaws, self.spacing, delta, noise, normalize=False)
-        moved *= self.stand[None, :, :]
-        return self.gather(moved)
+        if len(groups) == 1:
+            moved = predict_grid(image, yaws, self.spacing, next(iter(groups)), noise, normalize=False)
+        else:
+            moved = np.zeros_like(image)
+            for delta, members in groups.items():
+                part = np.zeros_like(image)
+                part[members] = image[members]
+                moved += predict_grid(part, yaws, self.spacing, delta, noise, normalize=False)
+        moved *= self.stand[None, rows, cols]
+        return self._box_gather(moved)
 
     def shifted(self, fine: np.ndarray, deltas: Sequence[tuple[float, float, float]]) -> np.ndarray:
         """``fine`` moved by a robot-frame delta per lattice yaw (as :meth:`predict`) to the nearest
         lattice pose, without noise: a quick look at where the mass goes (mass that lands where no
         valid pose is, is dropped; unnormalised)."""
-        image = self.image_of(fine)
-        G, rows, cols = self.shape
+        image = self._box_image_of(fine)
+        box_rows, box_cols, _ = self._box
+        G, rows, cols = image.shape
         yaws = self.yaws()
-        moved = np.zeros(self.shape)
+        moved = np.zeros_like(image)
         for g in range(G):
             dx, dy, dyaw = deltas[0] if len(deltas) == 1 else deltas[g]
             c, s = math.cos(yaws[g]), math.sin(yaws[g])
@@ -304,8 +337,8 @@ class PoseLattice:
             c_lo, c_hi = max(0, dc), min(cols, cols + dc)
             if r_lo < r_hi and c_lo < c_hi:
                 moved[turned, r_lo:r_hi, c_lo:c_hi] += image[g, r_lo - dr : r_hi - dr, c_lo - dc : c_hi - dc]
-        moved *= self.stand[None, :, :]
-        return self.gather(moved)
+        moved *= self.stand[None, box_rows, box_cols]
+        return self._box_gather(moved)
 
     def blocked(self, deltas: Sequence[tuple[float, float, float]], *, maybe: bool = False) -> np.ndarray:
         """Per valid pose: whether the straight path of its robot-frame translation (``deltas[g]`` for
