@@ -4,6 +4,7 @@ starts without the numeric stack."""
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -37,6 +38,22 @@ def test_help_loads_no_numeric_stack():
     loaded = set(result.stderr.split())
     assert "beliefloc" in loaded and "Usage" in result.stdout  # the probe itself works
     assert not loaded & {"numpy", "scipy", "clingo", "matplotlib"}, sorted(loaded & {"numpy", "scipy"})
+
+
+def test_the_command_line_runs_numpy_on_one_blas_thread_unless_told_otherwise():
+    """``main`` sets one BLAS thread before any command loads numpy (threads slowed a busy
+    two-core machine's localize episode by 70 %); a user's own setting stands."""
+    code = (
+        "import os, sys; sys.argv = ['beliefloc', '--version']\nfrom beliefloc.cli.app import main\n"
+        "try:\n    main()\nexcept SystemExit:\n    pass\n"
+        "import numpy\nprint(os.environ['OPENBLAS_NUM_THREADS'], os.environ['MKL_NUM_THREADS'], file=sys.stderr)"
+    )
+    env = {k: v for k, v in os.environ.items() if not k.endswith("_NUM_THREADS")}
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT, env=env)
+    assert result.stderr.split() == ["1", "1"]
+    env["OPENBLAS_NUM_THREADS"] = "2"
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT, env=env)
+    assert result.stderr.split() == ["2", "1"]
 
 
 def test_the_package_root_holds_only_its_face():
