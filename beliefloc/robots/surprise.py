@@ -128,7 +128,7 @@ class DeclarationCheck:
     (:func:`expected_log_likelihood`). The **deficit** (expected minus actual, in nats) is 0 on
     average for the true state; each reading the declared state does not explain costs about
     ``ln(1/error)``: ~4.6 nats for a 1 % error. The declaration is refused when the deficit exceeds
-    ``limit`` (default ``ln 1000``: one odd reading is what noisy sensors do, two are not).
+    ``limit`` (default ``ln 100``, 4.6 nats: one odd reading is what noisy sensors do, two are not).
     """
 
     limit: float = math.log(100.0)
