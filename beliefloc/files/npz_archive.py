@@ -62,6 +62,8 @@ class _Prelude(BaseModel):
 
 _READ_CHUNK = 2**20
 """Bytes of an array read (and inflated) at a time."""
+_LOCAL_HEADER = 30
+"""Bytes of a zip member's local header before its name and extra field."""
 
 
 class Archive:
@@ -133,6 +135,10 @@ class Archive:
                 buffer = np.empty(math.prod(found), dtype=dtype)
                 view = buffer.view(np.uint8).data  # a memoryview of its bytes
                 done = 0
+                if info.compress_type == zipfile.ZIP_STORED and info.compress_size == info.file_size:
+                    # stored, not deflated (``beliefloc build --uncompressed``): read straight from the
+                    # file into the array, no zlib and no copy through zipfile's buffers
+                    done = self._read_stored(key, info, offset, view)
                 while done < nbytes:
                     # a MiB at a time: asked for all of it, zipfile inflates the whole member into one new
                     # bytes object first (its page faults, then a copy: 0.4-0.9 s for a 152 MB array, against
@@ -153,6 +159,30 @@ class Archive:
         if array.shape == found:
             return array  # a vector: the array itself, owning its memory (a reshape is a view)
         return array.reshape(found, order="F" if fortran else "C")
+
+    def _read_stored(self, key: str, info: zipfile.ZipInfo, offset: int, view: memoryview) -> int:
+        """Read a stored member's array data (after its ``offset`` bytes of ``.npy`` header) straight
+        from the file into ``view``; its CRC-32 checked as zipfile would (7 GB/s: 0.02 s at 10^6 states).
+        The number of bytes read (``len(view)``)."""
+        handle = self._zip.fp
+        assert handle is not None
+        handle.seek(info.header_offset)
+        local = handle.read(_LOCAL_HEADER)
+        if len(local) != _LOCAL_HEADER or local[:4] != b"PK\x03\x04":
+            raise self.broken(f"array {key}: its zip entry has no local header")
+        name_length, extra_length = struct.unpack("<HH", local[26:30])
+        start = info.header_offset + _LOCAL_HEADER + name_length + extra_length
+        handle.seek(start)
+        crc = zlib.crc32(handle.read(offset))
+        done = 0
+        while done < len(view):
+            count = handle.readinto(view[done:])  # type: ignore[attr-defined]
+            if not count:
+                raise self.broken(f"array {key}: the data ends after {done:,} of {len(view):,} bytes")
+            done += count
+        if zlib.crc32(view, crc) != info.CRC:
+            raise self.broken(f"array {key}: its data does not match its checksum (CRC-32)")
+        return done
 
     def _check_type(
         self, key: str, dtype: np.dtype[Any], kinds: str, found: tuple[int, ...], shape: Sequence[int | None]

