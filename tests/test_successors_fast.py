@@ -224,11 +224,13 @@ def test_group_sums_in_blocks_bit_for_bit(block, monkeypatch, tmp_path):
     checked = 0
     for model in models:
         evaluator = SuccessorEvaluator(model)
-        for groups in evaluator._groups:
+        for index, groups in enumerate(evaluator._groups):
             if groups is None:
                 continue
+            rank = evaluator._rank(index, groups)
+            assert np.array_equal(np.argsort(rank), groups.order)
             for belief in _beliefs(model.n_states, rng):
-                fast = successors._group_sums(belief, groups, *evaluator._buffers())
+                fast = successors._group_sums(belief, groups, rank, *evaluator._buffers())
                 plain = evaluator._group_sums(groups, belief)
                 if fast is None:
                     assert not (belief > 0.0).all()

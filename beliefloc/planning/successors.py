@@ -182,18 +182,25 @@ group: with many small groups the whole-vector passes cost less)."""
 
 
 def _group_sums(
-    predicted: np.ndarray, groups: _Groups, first: np.ndarray, second: np.ndarray
+    predicted: np.ndarray, groups: _Groups, rank: np.ndarray, first: np.ndarray, second: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """:meth:`SuccessorEvaluator._group_sums` bit for bit in one sweep: the states gathered in
-    signature order a block at a time, and each block's ``b ln b``, sums and maximum taken while it
-    is in the cache (a gather, seven passes over 8-80 MB and two vectors written, before). None when
-    an entry is 0 or negative (a NaN sum: the whole-vector code handles it).
+    """:meth:`SuccessorEvaluator._group_sums` bit for bit: the states put in signature order, then
+    one sweep over them, each block's ``b ln b``, sums and maximum taken while it is in the cache
+    (six more passes over 8-80 MB and a vector written, before). None when an entry is 0 or negative
+    (a NaN sum: the whole-vector code handles it).
+
+    The states are *scattered* to their places (``ordered[rank] = b``, ``rank`` the inverse of
+    ``groups.order``), not gathered (``b[order]``): the same vector, but a gather in signature order
+    reads the whole belief once per group (each group's states are spread over all of it), a scatter
+    reads it once and writes one run per group (10^7 states, 16 groups: 14 ms against 80 ms).
 
     ``np.add.reduceat`` sums a group ``g`` of entries ``x[s:e]`` as ``x[s] + pairwise(x[s+1:e])``,
     NumPy's pairwise sum of the rest (see :func:`_entropy_max`); the rest is swept here by the blocks
     of that very tree, and the group's first entry added last. ``first`` and ``second`` are scratch
     vectors of the belief's length."""
     order, starts = groups.order, groups.starts
+    ordered = first
+    ordered[rank] = predicted
     count_groups = len(starts)
     mass = np.empty(count_groups)
     mass_log_mass = np.empty(count_groups)
@@ -201,7 +208,7 @@ def _group_sums(
 
     def sweep(start: int, count: int) -> tuple[float, float, float]:
         if count <= _BLOCK:
-            block = np.take(predicted, order[start : start + count], out=first[:count], mode="clip")
+            block = ordered[start : start + count]
             terms = np.log(block, out=second[:count])
             np.multiply(block, terms, out=terms)
             return float(block.sum()), float(terms.sum()), float(block.max())
@@ -215,7 +222,7 @@ def _group_sums(
     with np.errstate(divide="ignore", invalid="ignore"):
         for g, (start, end) in enumerate(zip(starts.tolist(), ends, strict=True)):
             # the group's first entry as a block of one: the same vectorised logarithm as the others
-            head = np.take(predicted, order[start : start + 1], out=first[:1], mode="clip")
+            head = ordered[start : start + 1]
             head_term = np.multiply(head, np.log(head, out=second[:1]), out=second[:1])
             head_mass, head_xlogx, head_max = float(head[0]), float(head_term[0]), float(head[0])
             if end - start > 1:
@@ -239,6 +246,7 @@ class SuccessorEvaluator:
         self._work: tuple[np.ndarray, np.ndarray] | None = None
         self._spare: list[np.ndarray] = []
         self._large = model.n_states * 8 >= _LARGE_BYTES
+        self._ranks: dict[int, np.ndarray] = {}
 
     def recycle(self, vector: np.ndarray) -> None:
         """Take back a belief this evaluator made that nobody refers to any more; a later prediction
@@ -340,7 +348,7 @@ class SuccessorEvaluator:
     def _observe(self, index: int, groups: _Groups, predicted: np.ndarray) -> list[SuccessorStats]:
         sums = None
         if self._large and len(groups.starts) <= _BLOCKED_GROUPS:
-            sums = _group_sums(predicted, groups, *self._buffers())
+            sums = _group_sums(predicted, groups, self._rank(index, groups), *self._buffers())
         if sums is None:
             sums = self._group_sums(groups, predicted)
         mass, mass_log_mass, peak = sums
@@ -354,6 +362,16 @@ class SuccessorEvaluator:
             entropy = max(0.0, float(np.log(p) - inner[o] / p))
             out.append(SuccessorStats(index, o, p, entropy, min(1.0, float(top[o] / p))))
         return out
+
+    def _rank(self, index: int, groups: _Groups) -> np.ndarray:
+        """Each state's place in signature order (the inverse of ``groups.order``), for action ``index``;
+        made once."""
+        rank = self._ranks.get(index)
+        if rank is None:
+            rank = np.empty(len(groups.order), dtype=np.intp)
+            rank[groups.order] = np.arange(len(groups.order), dtype=np.intp)
+            self._ranks[index] = rank
+        return rank
 
     def _group_sums(self, groups: _Groups, predicted: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Each signature group's ``Σ b``, ``Σ b ln b`` and ``max b`` (see the module docs)."""
