@@ -144,6 +144,16 @@ def _compression(path: Path) -> set[int]:
         return {info.compress_type for info in archive.infolist()}
 
 
+def _in_a_mapped_file(array: np.ndarray) -> bool:
+    """Whether the array's memory is a memory-mapped file's (its chain of bases ends at an mmap)."""
+    import mmap
+
+    base: Any = array
+    while isinstance(base, np.ndarray) and base.base is not None:
+        base = base.base
+    return isinstance(base, memoryview) and isinstance(base.obj, mmap.mmap)
+
+
 def test_uncompressed_model_reads_the_same(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """A model stored uncompressed (``compress=False``) is read straight from the file, not through
     zlib, into the same numbers as the compressed file; the file is larger."""
@@ -157,18 +167,29 @@ def test_uncompressed_model_reads_the_same(tmp_path: Path, monkeypatch: pytest.M
     assert _compression(stored) == {zipfile.ZIP_STORED}
     assert stored.stat().st_size > deflated.stat().st_size
     direct: list[str] = []
-    original = npz_archive.Archive._read_stored
+    original = npz_archive.Archive._stored
 
-    def counted(self: npz_archive.Archive, key: str, *args: Any) -> int:
+    def counted(self: npz_archive.Archive, key: str, *args: Any) -> np.ndarray:
         direct.append(key)
         return original(self, key, *args)
 
-    monkeypatch.setattr(npz_archive.Archive, "_read_stored", counted)
+    monkeypatch.setattr(npz_archive.Archive, "_stored", counted)
     old = load_model(deflated, check_source=False)
     assert direct == []  # a compressed file: inflated as before
     new = load_model(stored, check_source=False)
     assert "action0_data" in direct and "header" in direct
     assert new.fingerprint() == old.fingerprint() == model.fingerprint()
+    # written aligned, so mapped from the file (no copy); the deflated file's arrays are their own
+    pairs = zip(old.actions, new.actions, strict=True)
+    moves = [(a.transition, b.transition) for a, b in pairs if a.transition is not None]
+    assert moves
+    for inflated, mapped in moves:
+        assert mapped is not None and inflated is not None
+        assert _in_a_mapped_file(mapped.data) and _in_a_mapped_file(mapped.indices)
+        assert not _in_a_mapped_file(inflated.data)
+    # any .npz reader reads the stored file
+    with np.load(stored) as npz:
+        assert npz["action0_data"].tobytes() == new.actions[0].transition.data.tobytes()  # type: ignore[union-attr]
     for a, b in zip(old.actions, new.actions, strict=True):
         if a.transition is not None:
             assert b.transition is not None

@@ -36,7 +36,7 @@ import scipy.sparse as sp
 from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt, StrictStr
 
 from beliefloc.errors import ModelError
-from beliefloc.files.npz_archive import Archive, open_versioned
+from beliefloc.files.npz_archive import Archive, open_versioned, write_stored
 from beliefloc.model import (
     Action,
     ActionKind,
@@ -68,8 +68,9 @@ def write_versioned(
     path: str | Path, header: dict[str, Any], arrays: dict[str, np.ndarray], *, compress: bool = True
 ) -> None:
     """Write a JSON ``header`` (with its ``format`` and ``version``) and ``arrays`` as one ``.npz``,
-    deflated (``np.savez_compressed``) or, with ``compress=False``, stored (``np.savez``: a file about
-    eight times larger for a model, read without inflating it)."""
+    deflated (``np.savez_compressed``) or, with ``compress=False``, stored, each array's data aligned in
+    the file (:func:`~beliefloc.files.npz_archive.write_stored`: a file about eight times larger for a
+    model, mapped from the file when read: no inflating and no copy)."""
     text = json.dumps(header, allow_nan=False).encode()
     contents = {**arrays, "header": np.frombuffer(text, dtype=np.uint8)}
 
@@ -77,7 +78,7 @@ def write_versioned(
         if compress:
             np.savez_compressed(handle, allow_pickle=False, **contents)
         else:
-            np.savez(handle, allow_pickle=False, **contents)
+            write_stored(handle, contents)
 
     write_atomically(Path(path), write)
 
