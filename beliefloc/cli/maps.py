@@ -109,7 +109,7 @@ def build(
 
     \b
       beliefloc build maps/kitchen.yaml -o kitchen.npz
-      beliefloc build big.yaml -o big.npz --uncompressed
+      beliefloc build maps/kitchen.yaml -o kitchen-stored.npz --uncompressed
     """
     from beliefloc.files.model_file import save_model
     from beliefloc.model import model_summary
