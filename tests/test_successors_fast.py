@@ -239,3 +239,28 @@ def test_group_sums_in_blocks_bit_for_bit(block, monkeypatch, tmp_path):
                 for mine, numpy_s in zip(fast, plain, strict=True):
                     assert mine.tobytes() == numpy_s.tobytes()
     assert checked >= 2 * len(models)
+
+
+@pytest.mark.parametrize("block", (128, 1000))
+def test_bayes_update_in_blocks_bit_for_bit(block, monkeypatch, tmp_path):
+    """A successor belief (the Bayes update) computed in blocks on the large beliefs' path, likelihoods
+    gathered, multiplied and summed a block at a time, is predict() times the likelihood over its sum,
+    bit for bit."""
+    monkeypatch.setattr(successors, "_BLOCK", block)
+    world = tmp_path / "world.yaml"
+    world.write_text(gridworld_yaml(generate_gridworld(4000, np.random.default_rng(3)), seed=3), encoding="utf-8")
+    rng = np.random.default_rng(13)
+    checked = 0
+    for model in (compile_model(load_map(MAPS / "tb3-sandbox.yaml")), compile_model(load_map(world))):
+        evaluator = SuccessorEvaluator(model)
+        evaluator._large = True
+        for belief in _beliefs(model.n_states, rng)[:2]:
+            for index, action in enumerate(model.actions):
+                for o in range(action.observation.n_observations if action.observation.parts else 0):
+                    expected = predict(action, belief) * action.observation.likelihood(o)
+                    if expected.sum() > 0.0:
+                        expected /= expected.sum()
+                        evaluator.recycle(rng.random(model.n_states))
+                        assert evaluator.successor(belief, index, o).tobytes() == expected.tobytes()
+                        checked += 1
+    assert checked >= 8
