@@ -264,3 +264,18 @@ def test_bayes_update_in_blocks_bit_for_bit(block, monkeypatch, tmp_path):
                         assert evaluator.successor(belief, index, o).tobytes() == expected.tobytes()
                         checked += 1
     assert checked >= 8
+
+
+@pytest.mark.parametrize("block", (7, 100, 2**15))
+def test_key_and_peak_in_blocks_are_the_key_and_the_maximum(block, monkeypatch):
+    """The key and the maximum taken together block by block are belief_key()'s key and belief.max():
+    for beliefs, for a vector above 1 (the float key) and one with a NaN."""
+    monkeypatch.setattr(best_first, "_KEY_BLOCK", block)
+    rng = np.random.default_rng(14)
+    for n in (1, 7, 99, 100, 101, 1000):
+        work = best_first.KeyWork((n,))
+        vectors = [*_beliefs(n, rng), np.r_[3.0, np.zeros(n - 1)], np.r_[np.full(n - 1, 1.0 / n), np.nan]]
+        for b in vectors[:-1] if n == 1 else vectors:
+            key, peak = best_first.key_and_peak(b, work)
+            assert key == belief_key(b)
+            assert peak == float(b.max()) or (np.isnan(peak) and np.isnan(b.max()))
