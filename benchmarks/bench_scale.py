@@ -6,6 +6,7 @@ Run by hand from the repository root (not part of the test suite)::
     python benchmarks/bench_scale.py --quick                # 10^6 only, 1 repeat
     python benchmarks/bench_scale.py --baseline e4ff6b3     # and the same runs on that commit's code
     python benchmarks/bench_scale.py --baseline 6127da6 --time-limit 600   # searches that finish
+    python benchmarks/bench_scale.py --baseline bbc48b0 --uncompressed     # this code from 'build --uncompressed'
 
 The worlds are ``beliefloc generate gridworld --states N --seed 0`` (objects seen model: an open grid,
 4 headings, four object classes, a noisy look; 86,153 landmarks and a 2.7 MB map at 10^6, 1,090,433
@@ -149,6 +150,18 @@ def _timed_process(command: list[str], env: dict[str, str], cwd: Path) -> tuple[
         stdout.seek(0)
         text = stdout.read().decode()
     return wall, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024.0, proc.returncode, text
+
+
+def _stored_model(folder: Path, states: int, yaml_path: Path) -> Path:
+    """The model file of ``yaml_path`` built uncompressed (``build --uncompressed``, this code), once."""
+    stored = folder / f"gridworld-{states}-stored.npz"
+    if not stored.exists():
+        print(f"building {stored} ...", file=sys.stderr, flush=True)
+        subprocess.run(
+            [sys.executable, "-m", "beliefloc", "build", str(yaml_path), "-o", str(stored), "--uncompressed"],
+            check=True, env=_env(ROOT, states > 4_000_000), cwd=ROOT, stdout=subprocess.DEVNULL,
+        )  # fmt: skip
+    return stored
 
 
 def _prepare(folder: Path, states: int) -> tuple[Path, Path]:
@@ -353,6 +366,12 @@ def main() -> None:
         help="the plan call's seconds (default: the planner's, 60 s): on a loaded machine a 10^7 search runs "
         "out of it, and two codes out of budget cannot be compared",
     )
+    parser.add_argument(
+        "--uncompressed",
+        action="store_true",
+        help="the code measured (after) plans from a model file built with 'build --uncompressed' (the "
+        "baseline from the usual compressed file)",
+    )
     parser.add_argument("--output", type=Path, default=RESULTS)
     args = parser.parse_args()
     if args.child:
@@ -367,18 +386,31 @@ def main() -> None:
     if args.baseline:
         codes["before"] = _baseline_tree(args.baseline, args.workdir)
     rows = []
+    sizes: dict[int, dict[str, int]] = {}
     for size in args.sizes:
         states = int(size)
         yaml_path, npz_path = _prepare(args.workdir, states)
+        models = {name: npz_path for name in codes}
+        if args.uncompressed:
+            models["after"] = _stored_model(args.workdir, states, yaml_path)
+        sizes[states] = {name: path.stat().st_size for name, path in models.items()}
         small = states <= args.yaml_max_states
         runs: dict[str, list[dict[str, Any]]] = {name: [] for name in codes}
         for repeat in range(args.repeats if small else args.big_repeats):
             # the codes take turns, so that both see the shared machine's load alike
             for name, code in codes.items():
                 print(f"{states:,} states, {name} ({code}), run {repeat + 1}:", file=sys.stderr, flush=True)
-                runs[name].append(_measure(code, yaml_path, npz_path, states > 4_000_000, 1, small, args.time_limit))
+                runs[name].append(
+                    _measure(code, yaml_path, models[name], states > 4_000_000, 1, small, args.time_limit)
+                )
         rows.append({name: _best(found) for name, found in runs.items()})
     text = _report(rows, args, time.perf_counter() - started)
+    for states, files in sizes.items():
+        text += (
+            f"Model files at {states:,} states: "
+            + ", ".join(f"{name} {size / 1e6:,.0f} MB" for name, size in files.items())
+            + ".\n"
+        )
     args.output.write_text(text, encoding="utf-8")
     (args.workdir / "scale.json").write_text(json.dumps(rows, indent=1), encoding="utf-8")
     print(text)

@@ -208,3 +208,27 @@ def test_counted_ranks_and_pair_counts_equal_the_sorted_ones(values, shift):
     expected = int((counts * (counts - 1) // 2).sum())
     assert count_indistinguishable_pairs(ranked) == expected
     assert count_indistinguishable_pairs(array) == expected
+
+
+def _signature_part_by_part(parts, n_states: int) -> np.ndarray:
+    """ec2.signature as it was: ranked after each part."""
+    from beliefloc.planning.ec2 import _rank
+
+    key = np.zeros(n_states, dtype=np.int64)
+    for part in parts:
+        key = _rank(key * part.confusion.shape[0] + part.truth.astype(np.int64))
+    return key
+
+
+@pytest.mark.parametrize("name", ["kitchen.yaml", "corridors.yaml", "tb3-sandbox.yaml", "window-2x2.yaml"])
+def test_signature_ranked_once_equals_ranked_part_by_part(name: str):
+    """Few values in all: the parts' values combined and ranked once give the ranks that ranking
+    after every part gives, for all the model's parts and for each action's."""
+    from beliefloc.planning.ec2 import full_parts, signature
+
+    model = compile_model(load_map(MAPS / name))
+    part_sets = [full_parts(model)] + [action.observation.parts for action in model.actions]
+    for parts in part_sets:
+        fast = signature(parts, model.n_states)
+        assert fast.dtype == np.int64
+        assert np.array_equal(fast, _signature_part_by_part(parts, model.n_states))

@@ -135,3 +135,118 @@ def test_written_files_are_readable_by_others(tmp_path: Path, window_copy: Path)
     finally:
         os.umask(umask)
     assert (tmp_path / "w.npz").stat().st_mode & 0o777 == 0o644
+
+
+def _compression(path: Path) -> set[int]:
+    import zipfile
+
+    with zipfile.ZipFile(path) as archive:
+        return {info.compress_type for info in archive.infolist()}
+
+
+def _in_a_mapped_file(array: np.ndarray) -> bool:
+    """Whether the array's memory is a memory-mapped file's (its chain of bases ends at an mmap)."""
+    import mmap
+
+    base: Any = array
+    while isinstance(base, np.ndarray) and base.base is not None:
+        base = base.base
+    return isinstance(base, memoryview) and isinstance(base.obj, mmap.mmap)
+
+
+def test_uncompressed_model_reads_the_same(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A model stored uncompressed (``compress=False``) is read straight from the file, not through
+    zlib, into the same numbers as the compressed file; the file is larger."""
+    import zipfile
+
+    model = compile_model(load_map(MAPS / "corridors.yaml"))
+    deflated, stored = tmp_path / "deflated.npz", tmp_path / "stored.npz"
+    save_model(model, deflated)
+    save_model(model, stored, compress=False)
+    assert _compression(deflated) == {zipfile.ZIP_DEFLATED}
+    assert _compression(stored) == {zipfile.ZIP_STORED}
+    assert stored.stat().st_size > deflated.stat().st_size
+    direct: list[str] = []
+    original = npz_archive.Archive._stored
+
+    def counted(self: npz_archive.Archive, key: str, *args: Any) -> np.ndarray:
+        direct.append(key)
+        return original(self, key, *args)
+
+    monkeypatch.setattr(npz_archive.Archive, "_stored", counted)
+    old = load_model(deflated, check_source=False)
+    assert direct == []  # a compressed file: inflated as before
+    new = load_model(stored, check_source=False)
+    assert "action0_data" in direct and "header" in direct
+    assert new.fingerprint() == old.fingerprint() == model.fingerprint()
+    # written aligned, so mapped from the file (no copy); the deflated file's arrays are their own
+    pairs = zip(old.actions, new.actions, strict=True)
+    moves = [(a.transition, b.transition) for a, b in pairs if a.transition is not None]
+    assert moves
+    for inflated, mapped in moves:
+        assert mapped is not None and inflated is not None
+        assert _in_a_mapped_file(mapped.data) and _in_a_mapped_file(mapped.indices)
+        assert not _in_a_mapped_file(inflated.data)
+    # any .npz reader reads the stored file
+    with np.load(stored) as npz:
+        assert npz["action0_data"].tobytes() == new.actions[0].transition.data.tobytes()  # type: ignore[union-attr]
+    for a, b in zip(old.actions, new.actions, strict=True):
+        if a.transition is not None:
+            assert b.transition is not None
+            for name in ("indptr", "indices", "data"):
+                x, y = getattr(a.transition, name), getattr(b.transition, name)
+                assert x.dtype == y.dtype and x.tobytes() == y.tobytes()
+        for p, q in zip(a.observation.parts, b.observation.parts, strict=True):
+            assert p.truth.tobytes() == q.truth.tobytes() and p.confusion.tobytes() == q.confusion.tobytes()
+
+
+def test_uncompressed_model_with_a_changed_bit_is_refused(tmp_path: Path) -> None:
+    """A stored array whose bytes changed (one low bit of a probability: still a probability, and the
+    row still sums to 1 within the tolerance) is caught by the member's CRC-32, as zipfile would (an
+    array of 30 kB: read straight from the file, not by zipfile)."""
+    model = compile_model(load_map(MAPS / "tb3-sandbox.yaml"))
+    path = tmp_path / "stored.npz"
+    save_model(model, path, compress=False)
+    transition = next(a.transition for a in model.actions if a.transition is not None)
+    raw = bytearray(path.read_bytes())
+    at = raw.find(transition.data.tobytes())
+    assert at > 0
+    raw[at] ^= 1  # the lowest bit of the first probability's mantissa (little-endian)
+    path.write_bytes(bytes(raw))
+    with pytest.raises(ModelError, match=r"broken .*array action\d_data: its data does not match its checksum"):
+        load_model(path, check_source=False)
+
+
+def test_build_uncompressed_cli(runner, tmp_path: Path, window_copy: Path) -> None:
+    import zipfile
+
+    out = tmp_path / "w.npz"
+    result = runner.invoke(app, ["build", str(window_copy), "-o", str(out), "--uncompressed", "--json"])
+    assert result.exit_code == 0, result.output
+    assert _compression(out) == {zipfile.ZIP_STORED}
+    plans = []
+    for model_file in (out, tmp_path / "z.npz"):
+        if model_file != out:
+            assert runner.invoke(app, ["build", str(window_copy), "-o", str(model_file)]).exit_code == 0
+        result = runner.invoke(app, ["plan", str(model_file), "--json"])
+        assert result.exit_code in (0, 1), result.output
+        plan = json.loads(result.stdout)
+        plan.pop("seconds")
+        plans.append(plan)
+    assert plans[0] == plans[1]
+
+
+def test_a_model_stored_by_np_savez_reads_the_same(tmp_path: Path) -> None:
+    """A stored archive that another writer made (``np.savez``: no alignment of the data) is read into the
+    same numbers, member by member mapped where its data happens to be aligned and read where not."""
+    import zipfile
+
+    model = compile_model(load_map(MAPS / "tb3-sandbox.yaml"))
+    path = tmp_path / "m.npz"
+    save_model(model, path)
+    with np.load(path) as npz:
+        arrays = {k: npz[k] for k in npz.files}
+    np.savez(path, **arrays)  # type: ignore[arg-type]
+    assert _compression(path) == {zipfile.ZIP_STORED}
+    loaded = load_model(path, check_source=False)
+    assert loaded.fingerprint() == model.fingerprint()

@@ -155,15 +155,19 @@ def test_predictions_into_recycled_vectors_bit_for_bit(name):
                     assert evaluator.successor(belief, index, o).tobytes() == expected.tobytes()
 
 
-@pytest.mark.parametrize("states", (400, 4000))
-def test_a_search_that_recycles_beliefs_finds_the_same_plan(states, tmp_path, monkeypatch):
+@pytest.mark.parametrize(("states", "block"), [(400, None), (4000, None), (4000, 256)])
+def test_a_search_that_recycles_beliefs_finds_the_same_plan(states, block, tmp_path, monkeypatch):
     """On a generated world of the paper's kind, with a cache of two beliefs (evictions at every pop,
     so recycled vectors everywhere), the search finds the plan it finds when nothing is recycled: the
-    same steps, the same numbers bit for bit, the same effort and the same final belief."""
+    same steps, the same numbers bit for bit, the same effort and the same final belief. The large
+    beliefs' path also sweeps entropies and group sums block by block (``block``: blocks of 256
+    entries, so that the pairwise tree of blocks is several levels deep)."""
     world = tmp_path / "world.yaml"
     world.write_text(gridworld_yaml(generate_gridworld(states, np.random.default_rng(1)), seed=1), encoding="utf-8")
     model = compile_model(load_map(world))
     start = np.full(model.n_states, 1.0 / model.n_states)
+    if block is not None:
+        monkeypatch.setattr(successors, "_BLOCK", block)
     monkeypatch.setattr(best_first, "_CACHE_BYTES", 0)
     monkeypatch.setattr(best_first, "_CACHE_MIN_BELIEFS", 2)
     results = []
@@ -190,3 +194,88 @@ def test_belief_key_with_the_peak_is_the_same_key():
     work = best_first.KeyWork((40,))
     for b in (*_beliefs(40, rng), np.r_[3.0, np.zeros(39)], np.r_[-0.0, np.full(39, 1 / 39)]):
         assert belief_key(b, work, float(b.max())) == belief_key(b)
+
+
+@pytest.mark.parametrize("block", (128, 1000, 4096))
+def test_entropy_and_maximum_in_blocks_bit_for_bit(block, monkeypatch):
+    """A prediction's entropy and maximum swept in blocks (the nodes of NumPy's pairwise-sum tree) are
+    the whole-vector ones bit for bit, at lengths around the block and the tree's splits, with zero
+    entries (the NaN fallback) and without."""
+    monkeypatch.setattr(successors, "_BLOCK", block)
+    rng = np.random.default_rng(11)
+    for n in (1, 7, 127, 128, 129, 1000, 4095, 4097, 10_001, 65_537):
+        for belief in _beliefs(n, rng):
+            h, peak = successors._entropy_max(belief, np.empty_like(belief))
+            assert h.hex() == entropy(belief).hex() == successors._entropy(belief).hex()
+            assert peak == float(belief.max())
+
+
+@pytest.mark.parametrize("block", (128, 1000))
+def test_group_sums_in_blocks_bit_for_bit(block, monkeypatch, tmp_path):
+    """Each signature group's mass, mass-log-mass and maximum swept in blocks equal np.add.reduceat's and
+    np.maximum.reduceat's bit for bit: on the shipped maps (small groups, groups of one state) and on a
+    generated world (groups of hundreds of states, several blocks each); None exactly when a belief has
+    a zero entry (the whole-vector path takes it)."""
+    monkeypatch.setattr(successors, "_BLOCK", block)
+    world = tmp_path / "world.yaml"
+    world.write_text(gridworld_yaml(generate_gridworld(4000, np.random.default_rng(2)), seed=2), encoding="utf-8")
+    models = [compile_model(load_map(MAPS / name)) for name in FAST_MAPS] + [compile_model(load_map(world))]
+    rng = np.random.default_rng(12)
+    checked = 0
+    for model in models:
+        evaluator = SuccessorEvaluator(model)
+        for index, groups in enumerate(evaluator._groups):
+            if groups is None:
+                continue
+            rank = evaluator._rank(index, groups)
+            assert np.array_equal(np.argsort(rank), groups.order)
+            for belief in _beliefs(model.n_states, rng):
+                fast = successors._group_sums(belief, groups, rank, *evaluator._buffers())
+                plain = evaluator._group_sums(groups, belief)
+                if fast is None:
+                    assert not (belief > 0.0).all()
+                    continue
+                checked += 1
+                for mine, numpy_s in zip(fast, plain, strict=True):
+                    assert mine.tobytes() == numpy_s.tobytes()
+    assert checked >= 2 * len(models)
+
+
+@pytest.mark.parametrize("block", (128, 1000))
+def test_bayes_update_in_blocks_bit_for_bit(block, monkeypatch, tmp_path):
+    """A successor belief (the Bayes update) computed in blocks on the large beliefs' path, likelihoods
+    gathered, multiplied and summed a block at a time, is predict() times the likelihood over its sum,
+    bit for bit."""
+    monkeypatch.setattr(successors, "_BLOCK", block)
+    world = tmp_path / "world.yaml"
+    world.write_text(gridworld_yaml(generate_gridworld(4000, np.random.default_rng(3)), seed=3), encoding="utf-8")
+    rng = np.random.default_rng(13)
+    checked = 0
+    for model in (compile_model(load_map(MAPS / "tb3-sandbox.yaml")), compile_model(load_map(world))):
+        evaluator = SuccessorEvaluator(model)
+        evaluator._large = True
+        for belief in _beliefs(model.n_states, rng)[:2]:
+            for index, action in enumerate(model.actions):
+                for o in range(action.observation.n_observations if action.observation.parts else 0):
+                    expected = predict(action, belief) * action.observation.likelihood(o)
+                    if expected.sum() > 0.0:
+                        expected /= expected.sum()
+                        evaluator.recycle(rng.random(model.n_states))
+                        assert evaluator.successor(belief, index, o).tobytes() == expected.tobytes()
+                        checked += 1
+    assert checked >= 8
+
+
+@pytest.mark.parametrize("block", (7, 100, 2**15))
+def test_key_and_peak_in_blocks_are_the_key_and_the_maximum(block, monkeypatch):
+    """The key and the maximum taken together block by block are belief_key()'s key and belief.max():
+    for beliefs, for a vector above 1 (the float key) and one with a NaN."""
+    monkeypatch.setattr(best_first, "_KEY_BLOCK", block)
+    rng = np.random.default_rng(14)
+    for n in (1, 7, 99, 100, 101, 1000):
+        work = best_first.KeyWork((n,))
+        vectors = [*_beliefs(n, rng), np.r_[3.0, np.zeros(n - 1)], np.r_[np.full(n - 1, 1.0 / n), np.nan]]
+        for b in vectors[:-1] if n == 1 else vectors:
+            key, peak = best_first.key_and_peak(b, work)
+            assert key == belief_key(b)
+            assert peak == float(b.max()) or (np.isnan(peak) and np.isnan(b.max()))

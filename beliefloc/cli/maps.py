@@ -93,6 +93,14 @@ def build(
     output: Annotated[
         Path, typer.Option("-o", "--output", metavar="FILE.npz", help="Model file to write.", show_default=False)
     ],
+    uncompressed: Annotated[
+        bool,
+        typer.Option(
+            "--uncompressed",
+            help="Store the arrays without compressing them: a file about eight times larger that loads faster "
+            "(no inflating; for worlds of a million states and more).",
+        ),
+    ] = False,
     json_output: JsonOption = False,
 ) -> None:
     """Compile a map into a model file (transition and observation matrices).
@@ -101,6 +109,7 @@ def build(
 
     \b
       beliefloc build maps/kitchen.yaml -o kitchen.npz
+      beliefloc build maps/kitchen.yaml -o kitchen-stored.npz --uncompressed
     """
     from beliefloc.files.model_file import save_model
     from beliefloc.model import model_summary
@@ -114,7 +123,7 @@ def build(
     model = open_model(map_file)
     seconds = time.perf_counter() - start
     try:
-        save_model(model, output)
+        save_model(model, output, compress=not uncompressed)
     except OutputError as exc:
         raise OutputError(f"-o {output}: cannot write the model ({exc.reason})", exc.reason) from None
     summary = model_summary(model)

@@ -36,7 +36,7 @@ import scipy.sparse as sp
 from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt, StrictStr
 
 from beliefloc.errors import ModelError
-from beliefloc.files.npz_archive import Archive, open_versioned
+from beliefloc.files.npz_archive import Archive, open_versioned, write_stored
 from beliefloc.model import (
     Action,
     ActionKind,
@@ -64,13 +64,21 @@ Warn = Callable[[str], None]
 # --- writing ---------------------------------------------------------------------------------------
 
 
-def write_versioned(path: str | Path, header: dict[str, Any], arrays: dict[str, np.ndarray]) -> None:
-    """Write a JSON ``header`` (with its ``format`` and ``version``) and ``arrays`` as one ``.npz``."""
+def write_versioned(
+    path: str | Path, header: dict[str, Any], arrays: dict[str, np.ndarray], *, compress: bool = True
+) -> None:
+    """Write a JSON ``header`` (with its ``format`` and ``version``) and ``arrays`` as one ``.npz``,
+    deflated (``np.savez_compressed``) or, with ``compress=False``, stored, each array's data aligned in
+    the file (:func:`~beliefloc.files.npz_archive.write_stored`: a file about eight times larger for a
+    model, mapped from the file when read: no inflating and no copy)."""
     text = json.dumps(header, allow_nan=False).encode()
     contents = {**arrays, "header": np.frombuffer(text, dtype=np.uint8)}
 
     def write(handle: Any) -> None:
-        np.savez_compressed(handle, allow_pickle=False, **contents)
+        if compress:
+            np.savez_compressed(handle, allow_pickle=False, **contents)
+        else:
+            write_stored(handle, contents)
 
     write_atomically(Path(path), write)
 
@@ -138,9 +146,11 @@ class _ModelHeader(StrictHeader):
 # --- saving and loading models ---------------------------------------------------------------------
 
 
-def save_model(model: Model, path: str | Path) -> None:
+def save_model(model: Model, path: str | Path, *, compress: bool = True) -> None:
     """Write ``model`` to ``path`` (conventionally ``*.npz``). The source map is recorded by its
-    absolute path, so the model can be checked against it from any folder."""
+    absolute path, so the model can be checked against it from any folder. ``compress=False`` stores
+    the arrays uncompressed: about eight times the file (130 MB instead of 16 MB for a generated
+    10^6-state world), read in 0.1 s instead of 0.3 s (no zlib inflating)."""
     arrays: dict[str, np.ndarray] = {}
     part_ids: dict[int, int] = {}  # passive parts are shared by actions: store each once
     parts_meta: list[dict[str, Any]] = []
@@ -185,7 +195,7 @@ def save_model(model: Model, path: str | Path) -> None:
         "parts": parts_meta,
         "fingerprint": model.fingerprint(),
     }
-    write_versioned(path, header, arrays)
+    write_versioned(path, header, arrays, compress=compress)
 
 
 def absolute(path: str | Path) -> str:

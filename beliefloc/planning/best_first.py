@@ -128,6 +128,39 @@ def belief_key(belief: np.ndarray, work: KeyWork | None = None, peak: float | No
     return hashlib.sha256(scaled.astype(np.int32).data).digest()[:16]
 
 
+_KEY_BLOCK = 2**15
+"""Entries :func:`key_and_peak` rounds at a time."""
+
+
+def key_and_peak(belief: np.ndarray, work: KeyWork) -> tuple[bytes, float]:
+    """``(belief_key(belief, work, peak), peak)`` with ``peak = float(belief.max())``, the same key and
+    maximum, in one sweep: block by block, each block scaled into a small buffer (in the cache), rounded
+    into the 32-bit entries and its maximum taken, instead of a pass for the maximum, one writing the
+    scaled vector and one reading it back. When the maximum does not round into 32 bits (no belief), the
+    key is made again by :func:`belief_key`."""
+    n = belief.size
+    if (
+        work.scaled.shape != belief.shape
+        or belief.ndim != 1
+        or not n
+        or belief.dtype != np.float64
+        or not belief.flags.c_contiguous
+    ):
+        peak = float(belief.max())
+        return belief_key(belief, work, peak), peak
+    maxima = np.empty((n + _KEY_BLOCK - 1) // _KEY_BLOCK)
+    with np.errstate(invalid="ignore"):  # a NaN entry (no belief) cast to an integer: the key is made again
+        for index, start in enumerate(range(0, n, _KEY_BLOCK)):
+            block = belief[start : start + _KEY_BLOCK]
+            scaled = np.multiply(block, KEY_RESOLUTION, out=work.scaled[: len(block)])
+            np.rint(scaled, out=work.whole[start : start + len(block)], casting="unsafe")
+            maxima[index] = block.max()
+    peak = float(maxima.max())  # the belief's maximum (a NaN entry makes it NaN, as belief.max() does)
+    if not float(np.rint(peak * KEY_RESOLUTION)) <= KEY_RESOLUTION:
+        return belief_key(belief, work, peak), peak
+    return hashlib.sha256(work.whole.data).digest()[:16], peak
+
+
 @dataclass(frozen=True)
 class PlanStep:
     action: str
@@ -322,9 +355,12 @@ def _search(
         # a Bayes update to recompute) must not overrun a waiting robot's budget
         out_of_time = time.perf_counter() - start > time_limit
         current = belief_of(node)
-        # the maximum before the key only where the key uses it: most pops of a long search are duplicates
-        peak = float(current.max()) if key_work is not None else None
-        key = belief_key(current, key_work, peak) if key_work is not None else belief_key(current)
+        # the maximum with the key only where the key uses it: most pops of a long search are duplicates
+        peak: float | None = None
+        if key_work is not None:
+            key, peak = key_and_peak(current, key_work)
+        else:
+            key = belief_key(current)
         if key in closed:
             if out_of_time:
                 status, goal = PlanStatus.BUDGET_EXCEEDED, node  # a cheapest path, to a belief seen before

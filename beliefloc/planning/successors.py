@@ -138,6 +138,131 @@ def _entropy(belief: np.ndarray, work: np.ndarray | None = None) -> float:
     return entropy(belief)
 
 
+_BLOCK = 2**15
+"""Entries of a belief :func:`_entropy_max` takes at a time (256 kB: a block stays in the cache
+between the passes over it)."""
+
+
+def _entropy_max(belief: np.ndarray, work: np.ndarray) -> tuple[float, float]:
+    """``(_entropy(belief, work), float(belief.max()))`` bit for bit, in one sweep over the belief:
+    block by block, each block's ``b ln b`` written, multiplied, summed and its maximum taken while it
+    is in the cache (four passes over 8-80 MB read from memory once; a prediction's entropy and
+    maximum took 1.9 ms at 10^6 states, 0.3-0.5 ms now).
+
+    The same sum, not a close one: NumPy sums a vector pairwise, halving it at ``n // 2`` rounded
+    down to a multiple of 8 down to blocks of 128; the blocks here are the nodes of that very tree
+    (NumPy sums each one exactly as it would inside the whole), and their sums are added back up
+    the tree. A maximum is the same in any order. A zero or negative entry (a NaN sum) takes
+    :func:`_entropy`'s other path. ``work`` has the belief's shape."""
+
+    def sweep(start: int, count: int) -> tuple[float, float]:
+        if count <= _BLOCK:
+            block = belief[start : start + count]
+            terms = np.log(block, out=work[:count])
+            np.multiply(block, terms, out=terms)
+            return float(terms.sum()), float(block.max())
+        half = count // 2
+        half -= half % 8  # numpy's pairwise_sum
+        low_sum, low_max = sweep(start, half)
+        high_sum, high_max = sweep(start + half, count - half)
+        return low_sum + high_sum, max(low_max, high_max)
+
+    if belief.ndim != 1 or not belief.size or belief.dtype != np.float64 or not belief.flags.c_contiguous:
+        return _entropy(belief, work), float(belief.max())
+    with np.errstate(divide="ignore", invalid="ignore"):
+        total, peak = sweep(0, belief.size)
+    if math.isnan(total) or math.isnan(peak):
+        return entropy(belief), float(belief.max())
+    return -total, peak
+
+
+def _blocked_vector(vector: np.ndarray) -> bool:
+    """Whether the blocked sweeps take ``vector``: contiguous float64, not empty."""
+    return vector.ndim == 1 and vector.size > 0 and vector.dtype == np.float64 and vector.flags.c_contiguous
+
+
+def _weighted_sum(
+    predicted: np.ndarray, column: np.ndarray, label: np.ndarray, out: np.ndarray, work: np.ndarray
+) -> float:
+    """``out = predicted * column[label]`` (the unnormalised Bayes update, ``column`` the likelihood of
+    one observation per signature group) and ``out.sum()``, bit for bit, in one blocked sweep: each
+    block's likelihoods gathered, multiplied and summed while they are in the cache (the tree of
+    :func:`_entropy_max`), instead of a likelihood vector written and three passes over 8-80 MB."""
+    column = np.ascontiguousarray(column)
+
+    def sweep(start: int, count: int) -> float:
+        if count <= _BLOCK:
+            likelihood = np.take(column, label[start : start + count], out=work[:count], mode="clip")
+            block = np.multiply(predicted[start : start + count], likelihood, out=out[start : start + count])
+            return float(block.sum())
+        half = count // 2
+        half -= half % 8  # numpy's pairwise_sum
+        return sweep(start, half) + sweep(start + half, count - half)
+
+    return sweep(0, predicted.size)
+
+
+_BLOCKED_GROUPS = 256
+"""Signature groups up to which :func:`_group_sums` sweeps them block by block (a few Python calls a
+group: with many small groups the whole-vector passes cost less)."""
+
+
+def _group_sums(
+    predicted: np.ndarray, groups: _Groups, rank: np.ndarray, first: np.ndarray, second: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """:meth:`SuccessorEvaluator._group_sums` bit for bit: the states put in signature order, then
+    one sweep over them, each block's ``b ln b``, sums and maximum taken while it is in the cache
+    (six more passes over 8-80 MB and a vector written, before). None when an entry is 0 or negative
+    (a NaN sum: the whole-vector code handles it).
+
+    The states are *scattered* to their places (``ordered[rank] = b``, ``rank`` the inverse of
+    ``groups.order``), not gathered (``b[order]``): the same vector, but a gather in signature order
+    reads the whole belief once per group (each group's states are spread over all of it), a scatter
+    reads it once and writes one run per group (10^7 states, 16 groups: 14 ms against 80 ms).
+
+    ``np.add.reduceat`` sums a group ``g`` of entries ``x[s:e]`` as ``x[s] + pairwise(x[s+1:e])``,
+    NumPy's pairwise sum of the rest (see :func:`_entropy_max`); the rest is swept here by the blocks
+    of that very tree, and the group's first entry added last. ``first`` and ``second`` are scratch
+    vectors of the belief's length."""
+    order, starts = groups.order, groups.starts
+    ordered = first
+    ordered[rank] = predicted
+    count_groups = len(starts)
+    mass = np.empty(count_groups)
+    mass_log_mass = np.empty(count_groups)
+    peak = np.empty(count_groups)
+
+    def sweep(start: int, count: int) -> tuple[float, float, float]:
+        if count <= _BLOCK:
+            block = ordered[start : start + count]
+            terms = np.log(block, out=second[:count])
+            np.multiply(block, terms, out=terms)
+            return float(block.sum()), float(terms.sum()), float(block.max())
+        half = count // 2
+        half -= half % 8  # numpy's pairwise_sum
+        low = sweep(start, half)
+        high = sweep(start + half, count - half)
+        return low[0] + high[0], low[1] + high[1], max(low[2], high[2])
+
+    ends = [*starts[1:].tolist(), len(order)]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        for g, (start, end) in enumerate(zip(starts.tolist(), ends, strict=True)):
+            # the group's first entry as a block of one: the same vectorised logarithm as the others
+            head = ordered[start : start + 1]
+            head_term = np.multiply(head, np.log(head, out=second[:1]), out=second[:1])
+            head_mass, head_xlogx, head_max = float(head[0]), float(head_term[0]), float(head[0])
+            if end - start > 1:
+                rest_mass, rest_xlogx, rest_max = sweep(start + 1, end - start - 1)
+                mass[g] = head_mass + rest_mass
+                mass_log_mass[g] = head_xlogx + rest_xlogx
+                peak[g] = max(head_max, rest_max)
+            else:
+                mass[g], mass_log_mass[g], peak[g] = head_mass, head_xlogx, head_max
+    if np.isnan(mass_log_mass).any() or np.isnan(peak).any():
+        return None
+    return mass, mass_log_mass, peak
+
+
 class SuccessorEvaluator:
     """Successor statistics and beliefs for one model; precomputes signature groups once."""
 
@@ -147,6 +272,7 @@ class SuccessorEvaluator:
         self._work: tuple[np.ndarray, np.ndarray] | None = None
         self._spare: list[np.ndarray] = []
         self._large = model.n_states * 8 >= _LARGE_BYTES
+        self._ranks: dict[int, np.ndarray] = {}
 
     def recycle(self, vector: np.ndarray) -> None:
         """Take back a belief this evaluator made that nobody refers to any more; a later prediction
@@ -216,7 +342,11 @@ class SuccessorEvaluator:
             predicted = belief if action.transition is None else self._predict(action, belief)
             groups = self._groups[index]
             if groups is None:
-                out.append(SuccessorStats(index, None, 1.0, _entropy(predicted, work), float(predicted.max())))
+                if self._large:
+                    h, peak = _entropy_max(predicted, work)
+                else:
+                    h, peak = _entropy(predicted, work), float(predicted.max())
+                out.append(SuccessorStats(index, None, 1.0, h, peak))
                 if beliefs is not None:
                     beliefs[index] = predicted if predicted is not belief else belief.copy()
                 elif predicted is not belief:
@@ -242,6 +372,35 @@ class SuccessorEvaluator:
                 yield stats, weighted
 
     def _observe(self, index: int, groups: _Groups, predicted: np.ndarray) -> list[SuccessorStats]:
+        sums = None
+        if self._large and len(groups.starts) <= _BLOCKED_GROUPS:
+            sums = _group_sums(predicted, groups, self._rank(index, groups), *self._buffers())
+        if sums is None:
+            sums = self._group_sums(groups, predicted)
+        mass, mass_log_mass, peak = sums
+        table = groups.likelihood
+        probability = mass @ table
+        inner = table.T @ mass_log_mass + (table * groups.log_likelihood).T @ mass
+        top = (peak[:, None] * table).max(axis=0)
+        out = []
+        for o in np.flatnonzero(probability > 0.0).tolist():
+            p = float(probability[o])
+            entropy = max(0.0, float(np.log(p) - inner[o] / p))
+            out.append(SuccessorStats(index, o, p, entropy, min(1.0, float(top[o] / p))))
+        return out
+
+    def _rank(self, index: int, groups: _Groups) -> np.ndarray:
+        """Each state's place in signature order (the inverse of ``groups.order``), for action ``index``;
+        made once."""
+        rank = self._ranks.get(index)
+        if rank is None:
+            rank = np.empty(len(groups.order), dtype=np.intp)
+            rank[groups.order] = np.arange(len(groups.order), dtype=np.intp)
+            self._ranks[index] = rank
+        return rank
+
+    def _group_sums(self, groups: _Groups, predicted: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Each signature group's ``Σ b``, ``Σ b ln b`` and ``max b`` (see the module docs)."""
         first, second = self._buffers()
         # order is a permutation: "clip" never clips (and "raise" would copy through a buffer)
         ordered = np.take(predicted, groups.order, out=first, mode="clip")
@@ -257,16 +416,7 @@ class SuccessorEvaluator:
             mass_log_mass = np.add.reduceat(xlogx, groups.starts)
         mass = np.add.reduceat(ordered, groups.starts)
         peak = np.maximum.reduceat(ordered, groups.starts)
-        table = groups.likelihood
-        probability = mass @ table
-        inner = table.T @ mass_log_mass + (table * groups.log_likelihood).T @ mass
-        top = (peak[:, None] * table).max(axis=0)
-        out = []
-        for o in np.flatnonzero(probability > 0.0).tolist():
-            p = float(probability[o])
-            entropy = max(0.0, float(np.log(p) - inner[o] / p))
-            out.append(SuccessorStats(index, o, p, entropy, min(1.0, float(top[o] / p))))
-        return out
+        return mass, mass_log_mass, peak
 
     def successor(self, belief: np.ndarray, action: int, observation: int | None) -> np.ndarray:
         """The successor belief itself (a new array)."""
@@ -275,13 +425,18 @@ class SuccessorEvaluator:
             return self._predict(act, belief)
         # a perception's prediction is the belief itself: the product below is the new array
         predicted = belief if act.transition is None else self._predict(act, belief)
-        likelihood = self._likelihood(action, observation)
-        weighted: np.ndarray = (
-            np.multiply(predicted, likelihood, out=self._vector()) if self._large else predicted * likelihood
-        )
+        groups = self._groups[action]
+        if self._large and groups is not None and groups.label is not None and _blocked_vector(predicted):
+            weighted = self._vector()
+            column = groups.likelihood[:, observation]
+            total = _weighted_sum(predicted, column, groups.label, weighted, self._buffers()[0])
+        else:
+            likelihood = self._likelihood(action, observation)
+            weighted = np.multiply(predicted, likelihood, out=self._vector()) if self._large else predicted * likelihood
+            total = weighted.sum()
         if predicted is not belief:
             self.recycle(predicted)
-        weighted /= weighted.sum()
+        weighted /= total
         return weighted
 
     def _likelihood(self, action: int, observation: int) -> np.ndarray:
