@@ -16,7 +16,7 @@ from beliefloc.model import Model
 from beliefloc.robots.localize import Command, SimulatedReadingRobot, localize
 from beliefloc.robots.odometry import FLAG_FLOOR, MotionReport, motion, predict_reported
 from beliefloc.robots.readings import RawReading, ReadingBinner
-from beliefloc.robots.surprise import SurpriseCheck, respread
+from beliefloc.robots.surprise import DeclarationCheck, SurpriseCheck, respread
 from beliefloc.semantic_map import SemanticMap, geometry
 from beliefloc.simulation.robot import SimulatedRobot
 from beliefloc.simulation.strategies import EpisodeStatus, PlannerSettings
@@ -62,6 +62,25 @@ def test_respread_keeps_half_the_belief_and_spreads_the_rest() -> None:
     b = np.zeros(4)
     b[1] = 1.0
     assert respread(b) == pytest.approx([0.125, 0.625, 0.125, 0.125])
+
+
+def test_what_a_noisy_move_spreads_is_not_charged_to_the_readings() -> None:
+    """Twenty moves that each spread 10 % of the most likely state's mass to its neighbours, each
+    followed by a reading that state explains exactly as expected (likelihood 0.8 where the belief
+    gave it 0.72, so that the mass comes back to 0.5): no deficit (before, the moves cost 2.1 of the
+    4.6 nats allowed). A move that gathers mass gives no credit; a reading the state explains at
+    0.5 % is charged in full."""
+    check = DeclarationCheck()
+    check.start(0.5)
+    for _ in range(20):
+        check.moved(0.5, 0.45)
+        check.observe(0.72, math.log(0.8))
+    assert check.deficit(0.5) == pytest.approx(0.0, abs=1e-9)
+    check.moved(0.5, 1.0)  # gathered
+    assert check.deficit(0.5) == pytest.approx(0.0, abs=1e-9)
+    check.observe(0.005, math.log(0.8))  # the state's mass stays: it gave the reading 0.5 % too
+    assert check.deficit(0.5) == pytest.approx(math.log(0.8) - math.log(0.005), abs=1e-9)
+    assert not check.explains(0.5)
 
 
 def test_a_well_modelled_robot_is_never_flagged() -> None:

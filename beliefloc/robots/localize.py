@@ -297,6 +297,7 @@ def localize(
         except InvalidValueError as exc:
             raise ReplyError(f"the reply to action {command.seq} ({action.name}): {exc}") from None
         report = robot.motion_report() if isinstance(robot, ReportingRobot) else None
+        before = tracker.peak() if action.is_actuation else 0.0
         try:
             tracker.predict(action, report)
         except InvalidValueError as exc:
@@ -304,6 +305,8 @@ def localize(
         except ImpossibleObservationError as exc:
             status, reason = EpisodeStatus.IMPOSSIBLE_OBSERVATION, f"action {command.seq}: {exc}"
             break
+        if action.is_actuation:
+            declaration.moved(before, tracker.peak())
         expected = tracker.probabilities(action) if observation is not None else None
         try:
             belief, probability = tracker.correct(action, observation, readings)

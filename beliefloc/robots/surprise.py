@@ -135,12 +135,25 @@ class DeclarationCheck:
     log_evidence: float = 0.0
     expected: float = 0.0
     log_prior_max: float = 0.0
+    diluted: float = 0.0
+    """Nats of the most likely state's mass that moves spread away (see :meth:`moved`)."""
 
     def start(self, peak: float) -> None:
         """Start (again) from a belief whose most likely state holds ``peak``: the readings before
         it are forgotten."""
-        self.log_evidence, self.expected = 0.0, 0.0
+        self.log_evidence, self.expected, self.diluted = 0.0, 0.0, 0.0
         self.log_prior_max = math.log(peak)
+
+    def moved(self, before: float, after: float) -> None:
+        """A move took the most likely state's mass from ``before`` to ``after``. A noisy move
+        spreads it over the places the robot may have reached, and the identity above, written
+        for moves that land on one state, would charge that spread to the readings (off-grid
+        hallway episodes refused at p >= 0.97 though declared 0.1-0.7 m from the truth). A move
+        tells nothing, so what it spread is given back; what it gathered (two hypotheses driven
+        into one wall) is not taken. Measured on 300 hallway episodes: refused 20 -> 14, with
+        10 % clutter 47 -> 41; confidently wrong 0 -> 0."""
+        if before > 0 and after > 0:
+            self.diluted += max(0.0, math.log(before) - math.log(after))
 
     def observe(self, probability: float, expected: float) -> None:
         """Record a reading of probability ``probability`` under the belief before it, and the mean
@@ -151,7 +164,7 @@ class DeclarationCheck:
     def deficit(self, peak: float) -> float:
         """Expected minus actual log-likelihood of the readings on the path of the most likely state,
         which now holds ``peak``."""
-        actual = self.log_evidence + math.log(peak) - self.log_prior_max
+        actual = self.log_evidence + math.log(peak) - self.log_prior_max + self.diluted
         return self.expected - actual
 
     def explains(self, peak: float) -> bool:
