@@ -258,8 +258,9 @@ class LatticeFilter:
         return self.belief
 
     def declared(self) -> tuple[int, float]:
-        """The state whose reach holds the most mass, and that mass: the probability that the robot is
-        within one cell and ¾ of a sector of it
+        """The state to declare and the probability that the robot is within its reach: one cell and
+        ¾ of a sector of the most likely state, or of the belief's mean pose around it, never
+        beyond the state's promise (1.5 cells, one sector)
         (:meth:`beliefloc.continuous.pose_lattice.LatticeFilter.declared`)."""
         if self._declared is None:
             self._declared = self.core.declared()

@@ -47,9 +47,9 @@ from beliefloc.simulation.strategies import EpisodeStatus, PlannerSettings, Shar
 WRONG_CELLS = 1.5
 """An episode declared localized is wrong when the true pose is more than this many cells from the
 reported state's centre (or more than one heading sector from its heading): issue 26's measure. The
-lattice filter declares a state with the probability of a narrower reach
-(:data:`beliefloc.continuous.pose_lattice.REACH_CELLS`), so its declared probability bounds the
-chance of a wrong declaration from below."""
+lattice filter declares a state with the probability of a reach inside this promise
+(:data:`beliefloc.continuous.pose_lattice.PROMISE_CELLS`, the same 1.5), so its declared probability
+bounds the chance of a right declaration from below."""
 MOVES_STREAM = 26
 """The third key of the generator of the moves ``localize`` makes instead of a repeated reading."""
 
