@@ -263,6 +263,15 @@ def _mean_reach(core: LatticeCore, mode: int) -> tuple[int, float]:
     return state, float(core.fine[reach].sum())
 
 
+def _with_mean_reach(core: LatticeCore) -> tuple[int, float]:
+    """``core.declared()`` with the mean pose's reach weighed too (the fixture's filter is left as it was)."""
+    core.mean_reach_too = True
+    try:
+        return core.declared()
+    finally:
+        core.mean_reach_too = False
+
+
 def _bunched(lattice: PoseLattice, rng: np.random.Generator, spread: float) -> np.ndarray:
     """A belief bunched around a random pose, as one after a few readings is."""
     poses = lattice.pose_array
@@ -279,20 +288,21 @@ def _bunched(lattice: PoseLattice, rng: np.random.Generator, spread: float) -> n
 def test_the_declared_probability_is_the_better_reach_and_never_more_than_the_promise(
     tb3: LatticeFilter, seed: int, spread: float
 ) -> None:
-    """A bunched belief: the declared probability is the better of the most likely state's own reach
-    (the poses within REACH_CELLS cells and REACH_SECTORS sectors of its centre and heading) and the
-    mean pose's reach, both summed pose by pose here -- and never more than the mass of the poses
-    whose whole square and yaw step lie within the declared state's promise (1.5 cells, one sector:
-    where ``simulate --continuous`` judges it right)."""
+    """A bunched belief: the declared probability is the most likely state's own reach (the poses
+    within REACH_CELLS cells and REACH_SECTORS sectors of its centre and heading), and with the
+    mean pose's reach switched on the better of the two, both summed pose by pose here -- and never
+    more than the mass of the poses whose whole square and yaw step lie within the declared state's
+    promise (1.5 cells, one sector: where ``simulate --continuous`` judges it right)."""
     rng = np.random.default_rng(seed)
     core = tb3.core
     lattice = core.lattice
     grid = lattice.layout
     poses = lattice.pose_array
     core.fine = _bunched(lattice, rng, spread)
-    state, probability = core.declared()
-
     best = int(np.argmax(core.belief))
+    assert core.declared() == (best, pytest.approx(core.state_reach(best)))  # the default: the own reach
+    state, probability = _with_mean_reach(core)
+
     # the own reach's yaws: whole lattice yaw steps within REACH_SECTORS sectors
     turns = math.floor(REACH_SECTORS * lattice.m + 1e-9) / lattice.m
     own = float(core.fine[_within(poses, _centre(lattice, best), REACH_CELLS, turns, grid)].sum())
@@ -342,7 +352,8 @@ def test_a_pose_known_across_a_sector_edge_is_declared_where_the_state_reach_cou
     best = int(np.argmax(core.belief))
     assert core.state_reach(best) == pytest.approx(0.8)
     assert max(core.state_reach(s) for s in range(grid.n_states) if core.belief[s] > 0) == pytest.approx(0.8)
-    state, probability = core.declared()
+    assert core.declared()[1] == pytest.approx(0.8)  # the state's own reach only (the default)
+    state, probability = _with_mean_reach(core)
     assert probability == pytest.approx(1.0)
     assert state in (grid.state_of(row, col, heading), grid.state_of(row, col, heading + 1))
     assert np.all(_promised(lattice, state)[fine > 0])
@@ -370,7 +381,7 @@ def test_a_mean_pose_between_two_places_is_not_declared_for_what_lies_beyond_the
     poses = lattice.pose_array[fine > 0]
     mean = (fine[fine > 0] @ poses[:, :2]).tolist()
     assert all(math.hypot(x - mean[0], y - mean[1]) <= REACH_CELLS * grid.cell_size for x, y in poses[:, :2].tolist())
-    state, probability = core.declared()
+    state, probability = _with_mean_reach(core)
     assert state == grid.state_of(*north_east, heading)
     assert probability == pytest.approx(0.55)
     assert not _promised(lattice, state)[np.flatnonzero(fine)].all()

@@ -80,6 +80,9 @@ class ContinuousSetup:
     """``localize`` keeps its belief over a pose lattice finer than the states
     (:class:`~beliefloc.robots.belief_filter.LatticeFilter`: the filter for a real robot); False:
     over the model's states (``T_a``, ``O_a``)."""
+    mean_reach: bool = False
+    """The lattice filter declares by the reach around the belief's mean pose too
+    (:attr:`beliefloc.continuous.pose_lattice.LatticeFilter.mean_reach_too`)."""
     _cache: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -133,7 +136,7 @@ class ContinuousSetup:
             return None
         built = self._cache.get("lattice")
         if built is None or built.model is not model:
-            built = LatticeFilter(self.binner(model))
+            built = LatticeFilter(self.binner(model), mean_reach=self.mean_reach)
             self._cache["lattice"] = built
         return built
 
