@@ -81,6 +81,7 @@ def run_map(
             report_odometry=not args.protocol_1,
             lattice=args.filter == "lattice",
             full_scans=args.full_scans,
+            mean_reach=args.mean_reach,
         )
         for strategy in strategies:
             try:  # ec2-macros builds its macro table first: a region model on an occupancy map has none
@@ -165,6 +166,9 @@ def main(argv: list[str] | None = None) -> int:
         "--filter", choices=["lattice", "states"], default="lattice", help="localize's belief: pose lattice or states"
     )
     parser.add_argument("--full-scans", type=int, default=0, help="scans answered whole, with this many beams")
+    parser.add_argument(
+        "--mean-reach", action="store_true", help="the lattice filter declares by the mean pose's reach too"
+    )
     parser.add_argument("--protocol-1", action="store_true", help="replies carry readings only")
     parser.add_argument("--max-steps", type=int, default=60)
     parser.add_argument("--time-limit", type=float, default=2.0, help="seconds per plan call")

@@ -14,12 +14,22 @@ from hypothesis import strategies as st
 from beliefloc import compile_model, load_map
 from beliefloc.belief import uniform
 from beliefloc.continuous.motion import OdometryNoise, sample_odometry
-from beliefloc.continuous.pose_lattice import REACH_CELLS, REACH_SECTORS, UNMAPPED_STOP, lattice_resolution
+from beliefloc.continuous.pose_lattice import (
+    PROMISE_CELLS,
+    PROMISE_SECTORS,
+    REACH_CELLS,
+    REACH_SECTORS,
+    UNMAPPED_STOP,
+    PoseLattice,
+    lattice_resolution,
+)
+from beliefloc.continuous.pose_lattice import LatticeFilter as LatticeCore
 from beliefloc.errors import ImpossibleObservationError
+from beliefloc.model import GridLayout
 from beliefloc.robots.belief_filter import LatticeFilter
 from beliefloc.robots.odometry import MotionReport
 from beliefloc.robots.readings import ReadingBinner
-from beliefloc.simulation.continuous_episode import ContinuousSetup
+from beliefloc.simulation.continuous_episode import WRONG_CELLS, ContinuousSetup
 from beliefloc.simulation.strategies import PlannerSettings, SharedWork
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -199,43 +209,182 @@ def test_the_declared_probability_counts_a_pose_known_on_the_border_of_two_cells
     assert kitchen.core.declared()[0] in (state_a, state_b)
 
 
+def _sector(grid: GridLayout) -> float:
+    return 2 * math.pi / grid.headings
+
+
+def _centre(lattice: PoseLattice, s: int) -> tuple[float, float, float]:
+    """Grid-frame centre and heading yaw of state ``s``."""
+    grid = lattice.layout
+    row, col, heading = (int(v) for v in grid.cell_heading(s))
+    return (
+        (col + 0.5) * grid.cell_size,
+        (grid.rows - row - 0.5) * grid.cell_size,
+        float(lattice.yaws()[heading * lattice.m]),
+    )
+
+
+def _within(
+    poses: np.ndarray, centre: tuple[float, float, float], cells: float, sectors: float, grid: GridLayout
+) -> np.ndarray:
+    """Pose by pose: within ``cells`` cells and ``sectors`` sectors of ``centre`` (a plain loop)."""
+    return np.array(
+        [
+            math.hypot(x - centre[0], y - centre[1]) <= cells * grid.cell_size + 1e-9
+            and abs(math.remainder(t - centre[2], 2 * math.pi)) <= sectors * _sector(grid) + 1e-9
+            for x, y, t in poses.tolist()
+        ]
+    )
+
+
+def _promised(lattice: PoseLattice, state: int) -> np.ndarray:
+    """The lattice poses whose whole square and yaw step lie within ``state``'s promise: every true
+    pose they stand for is one ``simulate --continuous`` judges the state right at."""
+    grid = lattice.layout
+    cells = PROMISE_CELLS - lattice.spacing / math.sqrt(2) / grid.cell_size
+    sectors = PROMISE_SECTORS - lattice.yaw_step / 2 / _sector(grid)
+    return _within(lattice.pose_array, _centre(lattice, state), cells, sectors, grid)
+
+
+def _mean_reach(core: LatticeCore, mode: int) -> tuple[int, float]:
+    """The mean pose's reach, pose by pose (see :meth:`LatticeFilter.mean_reach`)."""
+    lattice = core.lattice
+    grid = lattice.layout
+    poses = lattice.pose_array
+    around = _within(poses, _centre(lattice, mode), PROMISE_CELLS, PROMISE_SECTORS, grid)
+    w = core.fine * around
+    x, y = float((w * poses[:, 0]).sum() / w.sum()), float((w * poses[:, 1]).sum() / w.sum())
+    yaw = math.atan2(float((w * np.sin(poses[:, 2])).sum()), float((w * np.cos(poses[:, 2])).sum()))
+    heading = round((math.pi / 2 - yaw) / _sector(grid)) % grid.headings
+    state = grid.state_of(grid.rows - 1 - math.floor(y / grid.cell_size), math.floor(x / grid.cell_size), heading)
+    if state < 0:
+        return mode, 0.0
+    reach = _within(poses, (x, y, yaw), REACH_CELLS, REACH_SECTORS, grid) & _promised(lattice, state)
+    return state, float(core.fine[reach].sum())
+
+
+def _with_mean_reach(core: LatticeCore) -> tuple[int, float]:
+    """``core.declared()`` with the mean pose's reach weighed too (the fixture's filter is left as it was)."""
+    core.mean_reach_too = True
+    try:
+        return core.declared()
+    finally:
+        core.mean_reach_too = False
+
+
+def _bunched(lattice: PoseLattice, rng: np.random.Generator, spread: float) -> np.ndarray:
+    """A belief bunched around a random pose, as one after a few readings is."""
+    poses = lattice.pose_array
+    centre = poses[rng.integers(lattice.n_poses)]
+    d = np.hypot(poses[:, 0] - centre[0], poses[:, 1] - centre[1]) / lattice.layout.cell_size
+    turn = np.abs(np.remainder(poses[:, 2] - centre[2] + math.pi, 2 * math.pi) - math.pi)
+    weight = np.exp(-(d**2 + (turn / 0.5) ** 2) / spread) * rng.uniform(0.5, 1.0, lattice.n_poses)
+    out: np.ndarray = weight / weight.sum()
+    return out
+
+
 @settings(max_examples=15, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), spread=st.floats(0.05, 5.0))
-def test_the_declared_probability_is_the_mass_within_reach_of_the_declared_state(
+def test_the_declared_probability_is_the_better_reach_and_never_more_than_the_promise(
     tb3: LatticeFilter, seed: int, spread: float
 ) -> None:
-    """A belief bunched around a random pose, as one after a few readings is: the declared state is
-    the most likely one, and its probability the mass of the poses within REACH_CELLS cells and
-    REACH_SECTORS sectors of its centre and heading (summed pose by pose here)."""
+    """A bunched belief: the declared probability is the most likely state's own reach (the poses
+    within REACH_CELLS cells and REACH_SECTORS sectors of its centre and heading), and with the
+    mean pose's reach switched on the better of the two, both summed pose by pose here -- and never
+    more than the mass of the poses whose whole square and yaw step lie within the declared state's
+    promise (1.5 cells, one sector: where ``simulate --continuous`` judges it right)."""
     rng = np.random.default_rng(seed)
     core = tb3.core
     lattice = core.lattice
-    grid = tb3.model.grid
-    assert grid is not None
+    grid = lattice.layout
     poses = lattice.pose_array
-    centre = poses[rng.integers(lattice.n_poses)]
-    d = np.hypot(poses[:, 0] - centre[0], poses[:, 1] - centre[1]) / grid.cell_size
-    turn = np.abs(np.remainder(poses[:, 2] - centre[2] + math.pi, 2 * math.pi) - math.pi)
-    weight = np.exp(-(d**2 + (turn / 0.5) ** 2) / spread) * rng.uniform(0.5, 1.0, lattice.n_poses)
-    core.fine = weight / weight.sum()
-    state, probability = core.declared()
+    core.fine = _bunched(lattice, rng, spread)
+    best = int(np.argmax(core.belief))
+    assert core.declared() == (best, pytest.approx(core.state_reach(best)))  # the default: the own reach
+    state, probability = _with_mean_reach(core)
 
-    # the reach's yaws: whole lattice yaw steps within REACH_SECTORS sectors
-    turns = math.floor(REACH_SECTORS * lattice.m + 1e-9) * lattice.yaw_step
+    # the own reach's yaws: whole lattice yaw steps within REACH_SECTORS sectors
+    turns = math.floor(REACH_SECTORS * lattice.m + 1e-9) / lattice.m
+    own = float(core.fine[_within(poses, _centre(lattice, best), REACH_CELLS, turns, grid)].sum())
+    mean_state, mean = _mean_reach(core, best)
+    assert core.state_reach(best) == pytest.approx(own, rel=1e-9, abs=1e-12)
+    assert core.mean_reach(best)[1] == pytest.approx(mean, rel=1e-9, abs=1e-12)
+    if mean > own * (1 + 1e-6):
+        assert (state, probability) == (mean_state, pytest.approx(mean, rel=1e-9))
+    elif own > mean * (1 + 1e-6):
+        assert (state, probability) == (best, pytest.approx(own, rel=1e-9))
+    assert probability <= float(core.fine[_promised(lattice, state)].sum()) + 1e-12
 
-    def reach(s: int) -> float:
-        row, col, heading = (int(v) for v in grid.cell_heading(s))
-        cx, cy = (col + 0.5) * grid.cell_size, (grid.rows - row - 0.5) * grid.cell_size
-        yaw = lattice.yaws()[heading * lattice.m]
-        inside = [
-            math.hypot(x - cx, y - cy) <= REACH_CELLS * grid.cell_size
-            and abs(math.remainder(t - yaw, 2 * math.pi)) <= turns + 1e-9
-            for x, y, t in poses.tolist()
-        ]
-        return float(core.fine[np.array(inside)].sum())
 
-    assert state == int(np.argmax(core.belief))
-    assert probability == pytest.approx(reach(state), rel=1e-9, abs=1e-12)
+def test_the_promise_is_what_simulate_continuous_judges_wrong_by() -> None:
+    assert PROMISE_CELLS == WRONG_CELLS and PROMISE_SECTORS == 1.0
+
+
+def _two_by_two(lattice: PoseLattice) -> tuple[int, int]:
+    """``(row, col)`` of a 2 x 2 block of state cells in which every lattice position is valid."""
+    grid = lattice.layout
+    k = lattice.k
+    full = lattice.stand.reshape(grid.rows, k, grid.cols, k).all(axis=(1, 3)) & grid.free
+    block = full[:-1, :-1] & full[1:, :-1] & full[:-1, 1:] & full[1:, 1:]
+    rows, cols = np.nonzero(block)
+    return int(rows[len(rows) // 2]), int(cols[len(cols) // 2])
+
+
+def test_a_pose_known_across_a_sector_edge_is_declared_where_the_state_reach_could_not(tb3: LatticeFilter) -> None:
+    """The depot's and the sandbox's 45° sectors, a robot known to ±20° around a yaw 22.5° off a
+    heading (on the edge of two sectors): each state's own reach (±27° around its sector's centre)
+    holds 0.8 of the mass; the mean pose's reach holds it all, and all of it is within one sector
+    of the state it names."""
+    core = tb3.core
+    lattice = core.lattice
+    grid = lattice.layout
+    m = lattice.m
+    row, col = _two_by_two(lattice)
+    heading = 2
+    fine = np.zeros(lattice.n_poses)
+    G, rows, cols = lattice.shape
+    r, c = row * lattice.k + lattice.k // 2, col * lattice.k + lattice.k // 2  # the cell's centre
+    for offset, weight in zip((1, 2, 3, 4), (0.2, 0.3, 0.3, 0.2), strict=True):
+        g = (heading * m + offset) % G  # lattice yaws go clockwise, as headings do
+        fine[np.flatnonzero(lattice.flat == (g * rows + r) * cols + c)] = weight
+    assert fine.sum() == pytest.approx(1.0)
+    core.fine = fine
+    best = int(np.argmax(core.belief))
+    assert core.state_reach(best) == pytest.approx(0.8)
+    assert max(core.state_reach(s) for s in range(grid.n_states) if core.belief[s] > 0) == pytest.approx(0.8)
+    assert core.declared()[1] == pytest.approx(0.8)  # the state's own reach only (the default)
+    state, probability = _with_mean_reach(core)
+    assert probability == pytest.approx(1.0)
+    assert state in (grid.state_of(row, col, heading), grid.state_of(row, col, heading + 1))
+    assert np.all(_promised(lattice, state)[fine > 0])
+
+
+def test_a_mean_pose_between_two_places_is_not_declared_for_what_lies_beyond_the_promise(tb3: LatticeFilter) -> None:
+    """0.55 of the mass at one cell's centre, 0.45 at the centre of the cell diagonally south-west of
+    it: their mean lies just inside the first cell, within a cell of both centres (a reach of one
+    cell around it would hold all the mass). The second centre is 1.41 cells from the first's, and
+    its lattice square reaches 1.65 cells -- a robot there would be judged wrong: the declared
+    probability stays at the 0.55 that is surely right, below any threshold."""
+    core = tb3.core
+    lattice = core.lattice
+    grid = lattice.layout
+    row, col = _two_by_two(lattice)
+    _G, rows, cols = lattice.shape
+    k, heading = lattice.k, 4
+    fine = np.zeros(lattice.n_poses)
+    north_east, south_west = (row, col + 1), (row + 1, col)
+    for (cell_row, cell_col), weight in ((north_east, 0.55), (south_west, 0.45)):
+        r, c = cell_row * k + k // 2, cell_col * k + k // 2
+        fine[np.flatnonzero(lattice.flat == ((heading * lattice.m) * rows + r) * cols + c)] = weight
+    assert fine.sum() == pytest.approx(1.0)
+    core.fine = fine
+    poses = lattice.pose_array[fine > 0]
+    mean = (fine[fine > 0] @ poses[:, :2]).tolist()
+    assert all(math.hypot(x - mean[0], y - mean[1]) <= REACH_CELLS * grid.cell_size for x, y in poses[:, :2].tolist())
+    state, probability = _with_mean_reach(core)
+    assert state == grid.state_of(*north_east, heading)
+    assert probability == pytest.approx(0.55)
+    assert not _promised(lattice, state)[np.flatnonzero(fine)].all()
 
 
 def test_a_quick_shift_moves_the_mass_where_the_noisy_prediction_centres_it(tb3: LatticeFilter) -> None:

@@ -171,8 +171,15 @@ class LatticeFilter:
     """The pose-lattice filter behind the :class:`BeliefFilter` interface (see the module)."""
 
     def __init__(
-        self, binner: ReadingBinner, *, max_poses: int | None = None, noise: OdometryNoise | None = None
+        self,
+        binner: ReadingBinner,
+        *,
+        max_poses: int | None = None,
+        noise: OdometryNoise | None = None,
+        mean_reach: bool = False,
     ) -> None:
+        """``mean_reach``: declare by the reach around the belief's mean pose too
+        (:attr:`beliefloc.continuous.pose_lattice.LatticeFilter.mean_reach_too`)."""
         from beliefloc.semantic_map.lattice_sensors import make_lattice, sensor_tables
 
         model = binner.model
@@ -190,7 +197,7 @@ class LatticeFilter:
             deltas = commanded_deltas(grid, action, lattice)
             if deltas is not None:
                 motions[action.name] = deltas
-        self.core = LatticeCore(lattice, tables, motions, noise or tracker_noise(grid))
+        self.core = LatticeCore(lattice, tables, motions, noise or tracker_noise(grid), mean_reach_too=mean_reach)
         self.belief = self.core.start(np.ones(model.n_states) / model.n_states)
         self._declared: tuple[int, float] | None = None
         self._planning: np.ndarray | None = None
@@ -258,8 +265,9 @@ class LatticeFilter:
         return self.belief
 
     def declared(self) -> tuple[int, float]:
-        """The state whose reach holds the most mass, and that mass: the probability that the robot is
-        within one cell and ¾ of a sector of it
+        """The state to declare and the probability that the robot is within its reach: one cell and
+        ¾ of a sector of the most likely state (or, with ``mean_reach``, of the belief's mean pose
+        around it when that holds more), never beyond the state's promise (1.5 cells, one sector)
         (:meth:`beliefloc.continuous.pose_lattice.LatticeFilter.declared`)."""
         if self._declared is None:
             self._declared = self.core.declared()

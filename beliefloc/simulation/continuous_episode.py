@@ -47,9 +47,9 @@ from beliefloc.simulation.strategies import EpisodeStatus, PlannerSettings, Shar
 WRONG_CELLS = 1.5
 """An episode declared localized is wrong when the true pose is more than this many cells from the
 reported state's centre (or more than one heading sector from its heading): issue 26's measure. The
-lattice filter declares a state with the probability of a narrower reach
-(:data:`beliefloc.continuous.pose_lattice.REACH_CELLS`), so its declared probability bounds the
-chance of a wrong declaration from below."""
+lattice filter declares a state with the probability of a reach inside this promise
+(:data:`beliefloc.continuous.pose_lattice.PROMISE_CELLS`, the same 1.5), so its declared probability
+bounds the chance of a right declaration from below."""
 MOVES_STREAM = 26
 """The third key of the generator of the moves ``localize`` makes instead of a repeated reading."""
 
@@ -80,6 +80,9 @@ class ContinuousSetup:
     """``localize`` keeps its belief over a pose lattice finer than the states
     (:class:`~beliefloc.robots.belief_filter.LatticeFilter`: the filter for a real robot); False:
     over the model's states (``T_a``, ``O_a``)."""
+    mean_reach: bool = False
+    """The lattice filter declares by the reach around the belief's mean pose too
+    (:attr:`beliefloc.continuous.pose_lattice.LatticeFilter.mean_reach_too`)."""
     _cache: dict[str, Any] = field(default_factory=dict, compare=False, repr=False)
 
     def __post_init__(self) -> None:
@@ -133,7 +136,7 @@ class ContinuousSetup:
             return None
         built = self._cache.get("lattice")
         if built is None or built.model is not model:
-            built = LatticeFilter(self.binner(model))
+            built = LatticeFilter(self.binner(model), mean_reach=self.mean_reach)
             self._cache["lattice"] = built
         return built
 
