@@ -83,6 +83,52 @@ def test_what_a_noisy_move_spreads_is_not_charged_to_the_readings() -> None:
     assert not check.explains(0.5)
 
 
+def test_the_deficit_allowed_grows_with_its_own_spread_and_no_faster() -> None:
+    """A 99 %-right binary reading's log-likelihood has variance 0.99 (0.01)² + 0.01 (4.6)² - H²
+    = 0.209 nats². After 4 such readings the deficit's sd (0.91) is below the fixed limit: 4.6
+    nats allowed; after 400 (sd 9.1) twice the sd, 18.3 nats -- while a wrong place that misses
+    one reading in ten runs up 0.1 x 400 x 4.6 = 184."""
+    p = np.array([0.99, 0.01])
+    h = float(-(p * np.log(p)).sum())
+    variance = float((p * np.log(p) ** 2).sum()) - h * h
+    assert variance == pytest.approx(0.209, abs=1e-3)
+    check = DeclarationCheck()
+    check.start(1.0)
+    for _ in range(4):
+        check.observe(1.0, -h, variance)
+    allowed = check.limit
+    assert check.expected == pytest.approx(-4 * h)
+    check.log_evidence = check.expected - allowed * 0.99  # a deficit just within the fixed limit
+    assert check.explains(1.0)
+    check.log_evidence = check.expected - allowed * 1.01
+    assert not check.explains(1.0)
+    for _ in range(396):
+        check.observe(1.0, -h, variance)
+    sd = math.sqrt(400 * variance)
+    check.log_evidence = check.expected - 2 * sd * 0.99
+    assert check.explains(1.0)
+    check.log_evidence = check.expected - 0.1 * 400 * math.log(100)
+    assert not check.explains(1.0)
+
+
+def test_the_lattice_readings_variance_is_the_beliefs_mean_of_each_poses() -> None:
+    """``log_likelihood_variance``: Σ_pose b(pose) Σ_part Var[log p(o_part | pose)], the parts
+    independent -- against a plain computation on the kitchen's Look, for a random belief."""
+    from beliefloc.robots.belief_filter import LatticeFilter
+
+    smap = load_map(MAPS / "kitchen.yaml")
+    core = LatticeFilter(ReadingBinner(smap, compile_model(smap))).core
+    rng = np.random.default_rng(2)
+    fine = rng.random(core.lattice.n_poses)
+    core.fine = fine / fine.sum()
+    plain = np.zeros(core.lattice.n_poses)
+    for table in core.tables["look"]:
+        t = np.clip(np.asarray(table, dtype=np.float64), 1e-300, None)
+        plain += (t * np.log(t) ** 2).sum(axis=1) - ((t * np.log(t)).sum(axis=1)) ** 2
+    assert core.log_likelihood_variance("look") == pytest.approx(float(core.fine @ plain), rel=1e-9)
+    assert core.log_likelihood_variance("look") > 0
+
+
 def test_a_well_modelled_robot_is_never_flagged() -> None:
     """A robot that is the model: the check stays quiet, and a localized answer is wrong no more
     often than the threshold allows (p >= 0.95: about 1 in 20; 1 of these 12 seeded runs is). Its

@@ -407,7 +407,7 @@ class LatticeFilter:
     depot in 5 of 10 episodes instead of 0, but declared the mirror twin of tb3-sandbox's pillars
     once in 20 episodes (p = 0.954, where the state's own reach stayed below 0.95)."""
     fine: np.ndarray = field(init=False)
-    _entropy: dict[str, np.ndarray] = field(init=False, default_factory=dict)
+    _entropy: dict[str, tuple[np.ndarray, np.ndarray]] = field(init=False, default_factory=dict)
 
     def start(self, belief: np.ndarray) -> np.ndarray:
         """Start from the model's ``belief``; returns the model's belief (the lattice's, summed)."""
@@ -541,15 +541,30 @@ class LatticeFilter:
 
     def _reading_entropy(self, action: str) -> np.ndarray:
         """``H(O_a | pose)`` at every valid pose (nats), computed once per action."""
-        entropy = self._entropy.get(action)
-        if entropy is None:
+        return self._reading_moments(action)[0]
+
+    def _reading_moments(self, action: str) -> tuple[np.ndarray, np.ndarray]:
+        """``(H(O_a | pose), Var[log p(O_a | pose)])`` at every valid pose, the parts independent
+        (their entropies and variances add); computed once per action."""
+        moments = self._entropy.get(action)
+        if moments is None:
             entropy = np.zeros(self.lattice.n_poses)
+            variance = np.zeros(self.lattice.n_poses)
             for table in self.tables[action]:
                 t = np.asarray(table, dtype=np.float64)
                 with np.errstate(divide="ignore", invalid="ignore"):
-                    entropy -= np.where(t > 0, t * np.log(np.where(t > 0, t, 1.0)), 0.0).sum(axis=1)
-            self._entropy[action] = entropy
-        return entropy
+                    log = np.where(t > 0, np.log(np.where(t > 0, t, 1.0)), 0.0)
+                h = -(t * log).sum(axis=1)
+                entropy += h
+                variance += np.maximum((t * log * log).sum(axis=1) - h * h, 0.0)
+            moments = (entropy, variance)
+            self._entropy[action] = moments
+        return moments
+
+    def log_likelihood_variance(self, action: str) -> float:
+        """``Σ_pose b(pose) Var[log p(O_a | pose)]``: how much one reading's log-likelihood varies
+        were the robot where the belief says."""
+        return float(np.dot(self.fine, self._reading_moments(action)[1]))
 
     def information(self, action: str, fine: np.ndarray | None = None) -> float:
         """The expected information of one reading of ``action`` about the pose, in nats: the mutual

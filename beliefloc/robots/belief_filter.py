@@ -33,7 +33,7 @@ from beliefloc.model import Action, GridLayout, Model
 from beliefloc.pose import gathered_modes
 from beliefloc.robots.odometry import MotionReport, motion, predict_reported
 from beliefloc.robots.readings import RawReading, ReadingBinner
-from beliefloc.robots.surprise import expected_log_likelihood, respread
+from beliefloc.robots.surprise import expected_log_likelihood, reading_moments, respread
 
 if TYPE_CHECKING:
     from beliefloc.continuous.lattice_scan import LatticeScanModel
@@ -53,6 +53,8 @@ class BeliefFilter(Protocol):
     ) -> tuple[np.ndarray, float]: ...
 
     def expected_log_likelihood(self, action: Action) -> float: ...
+
+    def log_likelihood_variance(self, action: Action) -> float: ...
 
     def respread(self) -> np.ndarray: ...
 
@@ -94,6 +96,9 @@ class ModelFilter:
 
     def expected_log_likelihood(self, action: Action) -> float:
         return expected_log_likelihood(action, self.belief)
+
+    def log_likelihood_variance(self, action: Action) -> float:
+        return reading_moments(action, self.belief)[1]
 
     def respread(self) -> np.ndarray:
         self.belief = respread(self.belief)
@@ -257,6 +262,9 @@ class LatticeFilter:
 
     def expected_log_likelihood(self, action: Action) -> float:
         return self.core.expected_log_likelihood(action.name)
+
+    def log_likelihood_variance(self, action: Action) -> float:
+        return self.core.log_likelihood_variance(action.name)
 
     def respread(self) -> np.ndarray:
         self.belief = self.core.respread()

@@ -332,7 +332,9 @@ def localize(
             chooser = make()  # its plan expected the reading, not this move: plan afresh
         if expected is not None and observation is not None:
             check.observe(expected, observation)
-            declaration.observe(probability, tracker.expected_log_likelihood(action))
+            declaration.observe(
+                probability, tracker.expected_log_likelihood(action), tracker.log_likelihood_variance(action)
+            )
             if not check.fits or (tracker.peak() >= settings.threshold and not declaration.explains(tracker.peak())):
                 if recovered >= recoveries:
                     status = EpisodeStatus.INCONSISTENT
