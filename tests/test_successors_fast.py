@@ -17,6 +17,14 @@ from .conftest import MAPS
 FAST_MAPS = ("kitchen.yaml", "corridors.yaml", "tb3-sandbox.yaml", "window-2x2.yaml")
 
 
+def _successors(action, belief):
+    """``(o, b')`` for every reading ``o`` of ``action`` possible from ``belief``: Bayes' rule the plain way."""
+    for o in range(action.observation.n_observations if action.observation.parts else 0):
+        expected = predict(action, belief) * action.observation.likelihood(o)
+        if expected.sum() > 0.0:
+            yield o, expected / expected.sum()
+
+
 def _beliefs(n: int, rng: np.random.Generator) -> list[np.ndarray]:
     full = rng.random(n)
     holes = full.copy()
@@ -147,12 +155,9 @@ def test_predictions_into_recycled_vectors_bit_for_bit(name):
             assert "transition_transposed" not in action.__dict__
             assert without == predict(action, belief).tobytes()
             assert evaluator._predict(action, belief).tobytes() == without
-            for o in range(action.observation.n_observations if action.observation.parts else 0):
-                expected = predict(action, belief) * action.observation.likelihood(o)
-                if expected.sum() > 0.0:
-                    expected /= expected.sum()
-                    evaluator.recycle(rng.random(model.n_states))
-                    assert evaluator.successor(belief, index, o).tobytes() == expected.tobytes()
+            for o, expected in _successors(action, belief):
+                evaluator.recycle(rng.random(model.n_states))
+                assert evaluator.successor(belief, index, o).tobytes() == expected.tobytes()
 
 
 @pytest.mark.parametrize(("states", "block"), [(400, None), (4000, None), (4000, 256)])
@@ -256,13 +261,10 @@ def test_bayes_update_in_blocks_bit_for_bit(block, monkeypatch, tmp_path):
         evaluator._large = True
         for belief in _beliefs(model.n_states, rng)[:2]:
             for index, action in enumerate(model.actions):
-                for o in range(action.observation.n_observations if action.observation.parts else 0):
-                    expected = predict(action, belief) * action.observation.likelihood(o)
-                    if expected.sum() > 0.0:
-                        expected /= expected.sum()
-                        evaluator.recycle(rng.random(model.n_states))
-                        assert evaluator.successor(belief, index, o).tobytes() == expected.tobytes()
-                        checked += 1
+                for o, expected in _successors(action, belief):
+                    evaluator.recycle(rng.random(model.n_states))
+                    assert evaluator.successor(belief, index, o).tobytes() == expected.tobytes()
+                    checked += 1
     assert checked >= 8
 
 

@@ -91,6 +91,18 @@ estimated from :data:`INFORMATION_SAMPLE` of them (the depot's lattice: 10^6 pos
 INFORMATION_SAMPLE = 50_000
 
 
+def row_moments(table: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(H, V)`` per row of a reading table ``table[x, o] = p(o | x)``: the entropy of the row and
+    the variance of ``log p(o | x)`` under it (nats, nats²), rows of zero-probability readings
+    included."""
+    t = np.asarray(table, dtype=np.float64)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        log = np.where(t > 0, np.log(np.where(t > 0, t, 1.0)), 0.0)
+    entropy: np.ndarray = -(t * log).sum(axis=1)
+    variance: np.ndarray = np.maximum((t * log * log).sum(axis=1) - entropy * entropy, 0.0)
+    return entropy, variance
+
+
 def mutual_information(probabilities: np.ndarray, expected_log_likelihood: float) -> float:
     """The mutual information (nats) between a reading and the robot's pose: the entropy of the
     reading under the belief (``probabilities``: ``p(o | belief)``) less the mean entropy of a
@@ -553,12 +565,9 @@ class LatticeFilter:
             entropy = np.zeros(self.lattice.n_poses)
             variance = np.zeros(self.lattice.n_poses)
             for table in self.tables[action]:
-                t = np.asarray(table, dtype=np.float64)
-                with np.errstate(divide="ignore", invalid="ignore"):
-                    log = np.where(t > 0, np.log(np.where(t > 0, t, 1.0)), 0.0)
-                h = -(t * log).sum(axis=1)
+                h, v = row_moments(table)
                 entropy += h
-                variance += np.maximum((t * log * log).sum(axis=1) - h * h, 0.0)
+                variance += v
             moments = (entropy, variance)
             self._entropy[action] = moments
         return moments

@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from beliefloc.continuous.pose_lattice import row_moments
 from beliefloc.errors import InvalidValueError
 from beliefloc.model import Action
 
@@ -109,11 +110,7 @@ def reading_moments(action: Action, belief: np.ndarray) -> tuple[float, float]:
     """``(Σ_j b(j) H(O_a | s_j), Σ_j b(j) Var[log p(O_a | s_j)])``, the parts independent."""
     entropy_total = variance_total = 0.0
     for part in action.observation.parts:
-        rows = np.asarray(part.confusion, dtype=np.float64)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            log = np.where(rows > 0, np.log(np.where(rows > 0, rows, 1.0)), 0.0)
-        entropy = -(rows * log).sum(axis=1)
-        variance = np.maximum((rows * log * log).sum(axis=1) - entropy * entropy, 0.0)
+        entropy, variance = row_moments(part.confusion)
         entropy_total += float(np.dot(belief, entropy[part.truth]))
         variance_total += float(np.dot(belief, variance[part.truth]))
     return entropy_total, variance_total
