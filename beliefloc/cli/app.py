@@ -116,13 +116,14 @@ def main() -> None:
     """Run the command line; what escapes a command's :func:`~beliefloc.cli.common.boundary` (help
     or usage text written to a full stdout, a command that reports its own errors) meets the same
     rules here."""
-    from beliefloc.cli.common import fail_outside
+    from beliefloc.cli.common import fail_outside, lean_scipy_import
 
     # One BLAS thread unless the user says otherwise (read when numpy loads, which no command has
     # yet): beliefloc's vectors are at most 10^7 long, and on a busy two-core machine threads made a
     # dot product of 10^5 a hundred times slower (a tb3-sandbox localize episode 11 -> 19 s).
     for variable in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "VECLIB_MAXIMUM_THREADS"):
         os.environ.setdefault(variable, "1")
+    lean_scipy_import()
     try:
         try:
             app()
