@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import os
 import sys
 from typing import Any
@@ -129,6 +130,11 @@ def main() -> None:
             app()
         finally:
             sys.stdout.flush()  # a full stdout is found here, not at exit where Python hides it
+            # The interpreter's exit runs the cyclic collector over every object still alive (typer's,
+            # pydantic's and rich's, the model's): 60-85 ms of a 1 s `plan --json` on a 10^6-state
+            # model. Frozen, they are out of its reach; they are freed at exit as before (what holds
+            # a file or a process is closed by its context manager or by atexit, not by the collector).
+            gc.freeze()
     except Exception as exc:
         try:
             fail_outside(exc)
