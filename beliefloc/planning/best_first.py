@@ -49,7 +49,6 @@ from typing import Any
 import numpy as np
 import xxhash
 
-from beliefloc.belief import entropy
 from beliefloc.model import Model
 from beliefloc.planning.settings import (
     DEFAULT_MAX_EXPANSIONS,
@@ -170,7 +169,7 @@ def key_and_peak(belief: np.ndarray, work: KeyWork) -> tuple[bytes, float]:
             block = belief[start : start + _KEY_BLOCK]
             scaled = np.multiply(block, KEY_RESOLUTION, out=work.scaled[: len(block)])
             np.rint(scaled, out=work.whole[start : start + len(block)], casting="unsafe")
-            maxima[index] = block.max()
+            maxima[index] = np.maximum.reduce(block)  # block.max() without its Python wrapper
     peak = float(maxima.max())  # the belief's maximum (a NaN entry makes it NaN, as belief.max() does)
     if not float(np.rint(peak * KEY_RESOLUTION)) <= KEY_RESOLUTION:
         return belief_key(belief, work, peak), peak
@@ -358,7 +357,7 @@ def _search(
             cache.put(child, current)
         return current
 
-    root_h = heuristic(entropy(belief), float(belief.max()), 1.0)
+    root_h = heuristic(*evaluator.entropy_max(belief), 1.0)
     open_heap: list[tuple[float, float, int, int]] = [(root_h, root_h, 0, 0)]
     closed: set[bytes] = set()
     key_work = KeyWork(belief.shape) if recycling else None  # small beliefs: new arrays cost less than ufunc calls
