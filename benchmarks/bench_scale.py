@@ -7,6 +7,7 @@ Run by hand from the repository root (not part of the test suite)::
     python benchmarks/bench_scale.py --baseline e4ff6b3     # and the same runs on that commit's code
     python benchmarks/bench_scale.py --baseline 6127da6 --time-limit 600   # searches that finish
     python benchmarks/bench_scale.py --baseline bbc48b0 --uncompressed     # this code from 'build --uncompressed'
+    python benchmarks/bench_scale.py --baseline fc74cc9 --uncompressed --baseline-uncompressed   # both from it
 
 The worlds are ``beliefloc generate gridworld --states N --seed 0`` (objects seen model: an open grid,
 4 headings, four object classes, a noisy look; 86,153 landmarks and a 2.7 MB map at 10^6, 1,090,433
@@ -372,6 +373,12 @@ def main() -> None:
         help="the code measured (after) plans from a model file built with 'build --uncompressed' (the "
         "baseline from the usual compressed file)",
     )
+    parser.add_argument(
+        "--baseline-uncompressed",
+        action="store_true",
+        help="with --uncompressed: the baseline plans from the 'build --uncompressed' file too (a baseline "
+        "that reads it: the same file for both codes)",
+    )
     parser.add_argument("--output", type=Path, default=RESULTS)
     args = parser.parse_args()
     if args.child:
@@ -393,6 +400,8 @@ def main() -> None:
         models = {name: npz_path for name in codes}
         if args.uncompressed:
             models["after"] = _stored_model(args.workdir, states, yaml_path)
+            if args.baseline_uncompressed and "before" in models:
+                models["before"] = models["after"]
         sizes[states] = {name: path.stat().st_size for name, path in models.items()}
         small = states <= args.yaml_max_states
         runs: dict[str, list[dict[str, Any]]] = {name: [] for name in codes}

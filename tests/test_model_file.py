@@ -250,3 +250,39 @@ def test_a_model_stored_by_np_savez_reads_the_same(tmp_path: Path) -> None:
     assert _compression(path) == {zipfile.ZIP_STORED}
     loaded = load_model(path, check_source=False)
     assert loaded.fingerprint() == model.fingerprint()
+
+
+@pytest.mark.parametrize("index_type", [np.int32, np.int64])
+def test_transition_row_sums_by_scipys_kernel_are_reduceats(index_type, monkeypatch):
+    """The row sums a model file's transitions are checked by (SciPy's row-by-row kernel against ones)
+    are those of the reduceat code it replaced, empty rows (0) and a last empty run included: the same
+    bits for rows of up to two entries, within an ulp for longer ones (reduceat adds a row's first
+    entry last); the check allows 1e-6."""
+    from beliefloc.files import model_file
+
+    rng = np.random.default_rng(7)
+    n = 200
+    counts = rng.integers(0, 5, n)
+    counts[[0, 57, 58, n - 3, n - 2, n - 1]] = 0
+    indptr = np.r_[0, np.cumsum(counts)].astype(index_type)
+    nnz = int(indptr[-1])
+    indices = rng.integers(0, n, nnz).astype(index_type)
+    data = rng.random(nnz)
+    steps = np.diff(indptr)
+
+    def sums() -> np.ndarray:
+        reader = model_file._ModelReader.__new__(model_file._ModelReader)
+        reader.n, reader._ones, reader._sums = n, None, None
+        first = reader._row_sums(indptr, indices, data, steps).copy()
+        again = reader._row_sums(indptr, indices, data * 0.5, steps)  # the vectors reused: zeroed again
+        np.testing.assert_allclose(again, first * 0.5, rtol=1e-15)
+        return first
+
+    assert model_file._csr_matvec is not None
+    by_kernel = sums()
+    monkeypatch.setattr(model_file, "_csr_matvec", None)
+    by_reduceat = sums()
+    np.testing.assert_allclose(by_kernel, by_reduceat, rtol=4e-16, atol=0.0)
+    short = steps <= 2
+    np.testing.assert_array_equal(by_kernel[short], by_reduceat[short])
+    assert by_kernel[[0, 57, 58, n - 1]].tolist() == [0.0] * 4

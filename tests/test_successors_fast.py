@@ -281,3 +281,17 @@ def test_key_and_peak_in_blocks_are_the_key_and_the_maximum(block, monkeypatch):
             key, peak = best_first.key_and_peak(b, work)
             assert key == belief_key(b)
             assert peak == float(b.max()) or (np.isnan(peak) and np.isnan(b.max()))
+
+
+def test_the_start_beliefs_entropy_and_maximum_bit_for_bit(monkeypatch):
+    """The search's start estimate from :meth:`SuccessorEvaluator.entropy_max` (one blocked sweep for a
+    large belief) is ``entropy(b)`` and ``b.max()`` bit for bit, zero entries included."""
+    monkeypatch.setattr(successors, "_BLOCK", 128)
+    model = compile_model(load_map(MAPS / "tb3-sandbox.yaml"))
+    rng = np.random.default_rng(12)
+    for large in (False, True):
+        evaluator = SuccessorEvaluator(model)
+        evaluator._large = large
+        for belief in _beliefs(model.n_states, rng):
+            h, peak = evaluator.entropy_max(belief)
+            assert (h.hex(), peak) == (entropy(belief).hex(), float(belief.max()))

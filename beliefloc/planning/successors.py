@@ -138,6 +138,11 @@ def _entropy(belief: np.ndarray, work: np.ndarray | None = None) -> float:
     return entropy(belief)
 
 
+_sum = np.add.reduce
+_max = np.maximum.reduce
+"""What ``x.sum()`` and ``x.max()`` call for a 1-d float vector, without their Python wrappers (a blocked sweep
+makes ~1,200 of these calls per 10^7-state vector: 0.1-0.2 s of a 10^7-state search)."""
+
 _BLOCK = 2**15
 """Entries of a belief :func:`_entropy_max` takes at a time (256 kB: a block stays in the cache
 between the passes over it)."""
@@ -160,7 +165,7 @@ def _entropy_max(belief: np.ndarray, work: np.ndarray) -> tuple[float, float]:
             block = belief[start : start + count]
             terms = np.log(block, out=work[:count])
             np.multiply(block, terms, out=terms)
-            return float(terms.sum()), float(block.max())
+            return float(_sum(terms)), float(_max(block))
         half = count // 2
         half -= half % 8  # numpy's pairwise_sum
         low_sum, low_max = sweep(start, half)
@@ -194,7 +199,7 @@ def _weighted_sum(
         if count <= _BLOCK:
             likelihood = np.take(column, label[start : start + count], out=work[:count], mode="clip")
             block = np.multiply(predicted[start : start + count], likelihood, out=out[start : start + count])
-            return float(block.sum())
+            return float(_sum(block))
         half = count // 2
         half -= half % 8  # numpy's pairwise_sum
         return sweep(start, half) + sweep(start + half, count - half)
@@ -237,7 +242,7 @@ def _group_sums(
             block = ordered[start : start + count]
             terms = np.log(block, out=second[:count])
             np.multiply(block, terms, out=terms)
-            return float(block.sum()), float(terms.sum()), float(block.max())
+            return float(_sum(block)), float(_sum(terms)), float(_max(block))
         half = count // 2
         half -= half % 8  # numpy's pairwise_sum
         low = sweep(start, half)
@@ -328,6 +333,14 @@ class SuccessorEvaluator:
         if self._work is None:
             self._work = (np.empty(self.model.n_states), np.empty(self.model.n_states))
         return self._work
+
+    def entropy_max(self, belief: np.ndarray) -> tuple[float, float]:
+        """``(entropy(belief), float(belief.max()))`` bit for bit; for a large belief in one blocked sweep
+        (:func:`_entropy_max`) instead of a copy of its support and three passes (the start belief's
+        estimate: 0.2 s at 10^7 states)."""
+        if self._large and _blocked_vector(belief) and belief.shape == (self.model.n_states,):
+            return _entropy_max(belief, self._buffers()[0])
+        return entropy(belief), float(belief.max())
 
     def evaluate(self, belief: np.ndarray, beliefs: dict[int, np.ndarray] | None = None) -> list[SuccessorStats]:
         """Every successor of ``belief`` with non-zero probability, in action then observation order.
