@@ -202,8 +202,8 @@ def test_one_whole_scan_puts_the_truth_among_the_most_likely_poses(path: Path) -
         before = tracker.core.fine[near].sum()
         parts = len(tracker.core.tables["scan"])
         tracker.core.correct("scan", [0] * parts, log, range(parts))
-        # a scan counts as EFFECTIVE_BEAMS (10) beams at the filter's weight (TEMPER, 0.4): still a
-        # strong lift (4.97x at the least of these five on tb3-sandbox)
+        # a scan counts as EFFECTIVE_BEAMS (7) beams at the filter's weight (TEMPER, 0.7): still a
+        # strong lift
         assert tracker.core.fine[near].sum() > 4 * before
 
 
