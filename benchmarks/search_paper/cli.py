@@ -89,9 +89,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _scene_sections(
-    domain: Domain, space: SearchSpace, trials: int, seed: int, pool: Backend
-) -> str:
+def _scene_sections(domain: Domain, space: SearchSpace, trials: int, seed: int, pool: Backend) -> str:
     """The sections of issue 31 as markdown: H1 in a correlated world, the searches with the scene model."""
     say(f"scene models: {trials} trials")
     typical = typical_rooms(domain)
