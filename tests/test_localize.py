@@ -96,6 +96,39 @@ def test_a_simulated_robot_answering_raw_readings_is_localized(kitchen: Any, see
     assert data["pose"]["x"] == state_pose(model.grid, world.state).x  # type: ignore[arg-type]
 
 
+class _RivalFilter(ModelFilter):
+    """The model's filter with a look-alike place that holds ``rival`` of the belief beyond the
+    declared state's promise, whatever the readings."""
+
+    def __init__(self, model: Model, rival: float) -> None:
+        super().__init__(model)
+        self.rival = rival
+
+    def elsewhere(self) -> float:
+        return self.rival
+
+
+@pytest.mark.parametrize("rival", [0.02, 0.03])
+def test_a_belief_is_not_declared_while_a_look_alike_holds_more_than_half_the_rest(kitchen: Any, rival: float) -> None:
+    """At a threshold of 0.95 a look-alike beyond the promise may hold at most 0.025 (RIVAL_SHARE of
+    the 0.05 the threshold leaves): the same robot is localized with 0.02 there, not with 0.03."""
+    model, binner = kitchen
+    start = model.states.index("1,1,1")
+    world = SimulatedRobot(model, start, np.random.default_rng(0))
+    outcome = localize(
+        model,
+        uniform(model.n_states),
+        SimulatedReadingRobot(world, binner),
+        binner,
+        settings=PlannerSettings(threshold=0.95),
+        belief_filter=_RivalFilter(model, rival),
+        max_steps=60,
+    )
+    assert outcome.localized is (rival <= 0.025)
+    if not outcome.localized:
+        assert outcome.status is EpisodeStatus.STEP_LIMIT and outcome.belief.max() >= 0.95
+
+
 def test_a_reading_taken_here_is_replaced_by_the_action_that_tells_the_most(kitchen: Any) -> None:
     """The planner, planning on states whose readings it counts as independent, asks for a reading
     already taken where the robot stands: the loop's stand-in is the most informative action per

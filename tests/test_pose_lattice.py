@@ -29,7 +29,7 @@ from beliefloc.model import GridLayout
 from beliefloc.robots.belief_filter import LatticeFilter
 from beliefloc.robots.odometry import MotionReport
 from beliefloc.robots.readings import ReadingBinner
-from beliefloc.simulation.continuous_episode import WRONG_CELLS, ContinuousSetup
+from beliefloc.simulation.continuous_episode import WRONG_CELLS, ContinuousSetup, is_wrong, pose_errors
 from beliefloc.simulation.strategies import PlannerSettings, SharedWork
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -318,6 +318,38 @@ def test_the_declared_probability_is_the_better_reach_and_never_more_than_the_pr
 
 def test_the_promise_is_what_simulate_continuous_judges_wrong_by() -> None:
     assert PROMISE_CELLS == WRONG_CELLS and PROMISE_SECTORS == 1.0
+
+
+def test_the_mass_elsewhere_is_the_belief_in_the_poses_simulate_would_call_wrong(tb3: LatticeFilter) -> None:
+    """``elsewhere(state)`` with all the mass on one lattice pose is 1 exactly when ``simulate
+    --continuous`` would call declaring ``state`` there confidently wrong, and a mixture's is the
+    mass of its wrong poses."""
+    core, grid = tb3.core, tb3.lattice.layout
+    poses = tb3.lattice.pose_array
+    rng = np.random.default_rng(11)
+    sector = 2 * math.pi / grid.headings
+    checked = 0
+    for _ in range(400):
+        state = int(rng.integers(grid.n_states))
+        # a pose near the state (within three cells) most of the time, anywhere now and then
+        row, col, _ = grid.cell_heading(state)
+        cx, cy = (col + 0.5) * grid.cell_size, (grid.rows - row - 0.5) * grid.cell_size
+        near = np.flatnonzero(np.hypot(poses[:, 0] - cx, poses[:, 1] - cy) < 3 * grid.cell_size)
+        pose = int(rng.choice(near)) if rng.uniform() < 0.8 else int(rng.integers(len(poses)))
+        x, y = grid.frame.to_map(poses[pose, 0], poses[pose, 1])
+        position, yaw = pose_errors(grid, state, np.array([float(x), float(y), poses[pose, 2] + grid.frame.yaw]))
+        if abs(position - WRONG_CELLS * grid.cell_size) < 1e-6 or abs(yaw - sector) < 1e-6:
+            continue  # on the promise's edge: within for both, up to rounding
+        core.fine = np.zeros(len(poses))
+        core.fine[pose] = 1.0
+        assert core.elsewhere(state) == pytest.approx(float(is_wrong(grid, position, yaw)), abs=1e-12)
+        checked += 1
+    assert checked > 300
+    core.fine = np.zeros(len(poses))
+    core.fine[0], core.fine[-1] = 0.7, 0.3
+    state = int(tb3.lattice.state[0])
+    assert core.elsewhere(state) == pytest.approx(0.3)
+    tb3.start(uniform(grid.n_states))
 
 
 def _two_by_two(lattice: PoseLattice) -> tuple[int, int]:

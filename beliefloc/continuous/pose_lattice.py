@@ -677,6 +677,30 @@ class LatticeFilter:
         box = lattice.image_of(self.fine)[np.ix_(g, r[r_in], c[c_in])]
         return min(1.0, float((box * disc[np.ix_(r_in, c_in)]).sum()))
 
+    def elsewhere(self, state: int) -> float:
+        """The mass of the lattice poses beyond ``state``'s promise: farther than
+        :data:`PROMISE_CELLS` cells from its cell's centre or :data:`PROMISE_SECTORS` sectors from
+        its heading (a pose's own position and yaw; one on the edge counts as within). Were the
+        robot there, declaring ``state`` would be the confidently wrong answer ``simulate
+        --continuous`` counts: this is the belief's own probability of that."""
+        lattice = self.lattice
+        layout = lattice.layout
+        row, col, heading = (int(v) for v in layout.cell_heading(state))
+        k, m = lattice.k, lattice.m
+        G, rows, cols = lattice.shape
+        half = (k - 1) / 2
+        radius = PROMISE_CELLS * k  # in lattice steps, around the cell's centre
+        lo, hi = math.ceil(half - radius - 1e-9), math.floor(half + radius + 1e-9)
+        offsets = np.arange(lo, hi + 1)
+        disc = np.hypot(*np.meshgrid(offsets - half, offsets - half, indexing="ij")) <= radius + 1e-9
+        turns = math.floor(PROMISE_SECTORS * m + 1e-9) if layout.headings > 1 else G
+        g = np.unique((heading * m + np.arange(-min(turns, G // 2), min(turns, (G - 1) // 2) + 1)) % G)
+        r, c = row * k + offsets, col * k + offsets
+        r_in, c_in = (r >= 0) & (r < rows), (c >= 0) & (c < cols)
+        box = lattice.image_of(self.fine)[np.ix_(g, r[r_in], c[c_in])]
+        within = float((box * disc[np.ix_(r_in, c_in)]).sum())
+        return max(0.0, 1.0 - within)
+
     def mean_reach(self, mode: int) -> tuple[int, float]:
         """The state holding the mean pose of the mass within ``mode``'s promise, and the mass within
         :data:`REACH_CELLS` cells and :data:`REACH_SECTORS` sectors of that mean pose whose lattice

@@ -62,6 +62,8 @@ class BeliefFilter(Protocol):
 
     def peak(self) -> float: ...
 
+    def elsewhere(self) -> float: ...
+
     def planning_belief(self) -> np.ndarray: ...
 
     def information(self, action: Action) -> float: ...
@@ -111,6 +113,11 @@ class ModelFilter:
 
     def peak(self) -> float:
         return self.declared()[1]
+
+    def elsewhere(self) -> float:
+        """0: a state is one exact pose, and the papers' rule -- one state holds the threshold -- is
+        the whole of what is declared."""
+        return 0.0
 
     def planning_belief(self) -> np.ndarray:
         """The belief itself: the planner's goal is the threshold's."""
@@ -205,6 +212,7 @@ class LatticeFilter:
         self.core = LatticeCore(lattice, tables, motions, noise or tracker_noise(grid), mean_reach_too=mean_reach)
         self.belief = self.core.start(np.ones(model.n_states) / model.n_states)
         self._declared: tuple[int, float] | None = None
+        self._elsewhere: float | None = None
         self._planning: np.ndarray | None = None
 
     @property
@@ -214,6 +222,7 @@ class LatticeFilter:
     def start(self, belief: np.ndarray) -> np.ndarray:
         self.belief = self.core.start(belief)
         self._declared = None
+        self._elsewhere = None
         self._planning = None
         return self.belief
 
@@ -225,6 +234,7 @@ class LatticeFilter:
         self.core.predict(action.name, odometry, blocked)
         self.belief = self.core.belief
         self._declared = None
+        self._elsewhere = None
         self._planning = None
 
     def probabilities(self, action: Action) -> np.ndarray:
@@ -257,6 +267,7 @@ class LatticeFilter:
         else:
             self.belief, probability = self.core.correct(action.name, digits)
         self._declared = None
+        self._elsewhere = None
         self._planning = None
         return self.belief, probability
 
@@ -269,6 +280,7 @@ class LatticeFilter:
     def respread(self) -> np.ndarray:
         self.belief = self.core.respread()
         self._declared = None
+        self._elsewhere = None
         self._planning = None
         return self.belief
 
@@ -283,6 +295,14 @@ class LatticeFilter:
 
     def peak(self) -> float:
         return self.declared()[1]
+
+    def elsewhere(self) -> float:
+        """The probability that the robot is beyond the declared state's promise (1.5 cells, one
+        sector): that declaring it now would be confidently wrong, by the belief's own account
+        (:meth:`beliefloc.continuous.pose_lattice.LatticeFilter.elsewhere`)."""
+        if self._elsewhere is None:
+            self._elsewhere = self.core.elsewhere(self.declared()[0])
+        return self._elsewhere
 
     def planning_belief(self) -> np.ndarray:
         """The belief the planner plans from: each of its modes (:func:`beliefloc.pose.belief_modes`,

@@ -154,6 +154,14 @@ _GIVE_UP_REASONS = {
 DEFAULT_RECOVERIES = 1
 """How many times ``localize`` re-spreads a belief whose readings stopped fitting before it ends
 ``inconsistent``."""
+RIVAL_SHARE = 0.5
+"""A belief is declared when its reach holds the threshold and at most this share of the rest lies
+beyond the declared state's promise (:meth:`BeliefFilter.elsewhere`; 0.025 at a threshold of 0.95).
+What the reach leaves out is mostly the place's own spread -- a cell or a sector farther than the
+reach, still inside the promise -- and harmless; what lies beyond the promise is a look-alike place,
+and declaring while it holds much is how a wrong answer comes out sure. Measured on tb3-sandbox with
+10 % spurious beams: one episode in 300 was declared at p = 0.959 on a place 0.92 m and 108° from the
+truth while 0.034 of the belief stayed on the truth's place."""
 
 
 def localize(
@@ -237,7 +245,14 @@ def localize(
     confirming = False  # a confirmation move was made; its reading comes next
     pending: Action | None = None  # the reading an informative move was made for
     report: MotionReport | None = None
-    while not (tracker.peak() >= settings.threshold and declaration.explains(tracker.peak()) and confirmed):
+    # beyond the reach's threshold, what a declaration risks: the belief's own probability that the
+    # robot is beyond the declared state's promise (a look-alike place) -- at most half the rest
+    risk = RIVAL_SHARE * (1.0 - settings.threshold)
+
+    def at_threshold() -> bool:
+        return tracker.peak() >= settings.threshold and tracker.elsewhere() <= risk
+
+    while not (at_threshold() and declaration.explains(tracker.peak()) and confirmed):
         if steps >= max_steps:
             status, reason = EpisodeStatus.STEP_LIMIT, f"{steps} actions done, the most allowed"
             break
@@ -245,7 +260,7 @@ def localize(
         untried = [m for m in moves if m.name not in read_here]
         forced: Action | None = None
         promised, pending = pending, None
-        if confirm and (confirming or tracker.peak() >= settings.threshold):
+        if confirm and (confirming or at_threshold()):
             unread = [a for a in model.perception_actions if a.name not in read_here]
             if confirming and unread:  # the move was made: its reading, the one expected to tell the most
                 forced = informative_move(tracker, model, places, (), draw, unread)[0]
@@ -323,8 +338,8 @@ def localize(
             assert forced is not None
             confirming = forced.is_actuation and moved(report, model.grid)
             # the reading after the move: the belief now stands (still at the threshold) or falls
-            confirmed = not forced.is_actuation and tracker.peak() >= settings.threshold
-        elif tracker.peak() < settings.threshold:
+            confirmed = not forced.is_actuation and at_threshold()
+        elif not at_threshold():
             confirmed = not confirm
         if substituted:
             done_seconds += chooser.plan_seconds
