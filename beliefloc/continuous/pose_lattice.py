@@ -657,25 +657,11 @@ class LatticeFilter:
     def state_reach(self, state: int) -> float:
         """The mass within :data:`REACH_CELLS` cells of ``state``'s cell centre and
         :data:`REACH_SECTORS` sectors of its heading."""
-        lattice = self.lattice
-        layout = lattice.layout
-        row, col, heading = (int(v) for v in layout.cell_heading(state))
-        # the reach is a box of the lattice image: the positions within REACH_CELLS of the cell's
-        # centre (a disc), the yaws within REACH_SECTORS sectors of the heading's
-        k, m = lattice.k, lattice.m
-        G, rows, cols = lattice.shape
-        half = (k - 1) / 2  # the cell centre's offset from its first lattice position
+        k, m = self.lattice.k, self.lattice.m
         # in lattice steps; a lattice pose's whole square and yaw step within the promise
         radius = min(REACH_CELLS * k, PROMISE_CELLS * k - 1 / math.sqrt(2))
-        lo, hi = math.ceil(half - radius - 1e-9), math.floor(half + radius + 1e-9)
-        offsets = np.arange(lo, hi + 1)
-        disc = np.hypot(*np.meshgrid(offsets - half, offsets - half, indexing="ij")) <= radius + 1e-9
-        turns = math.floor(min(REACH_SECTORS * m, PROMISE_SECTORS * m - 0.5) + 1e-9) if layout.headings > 1 else 0
-        g = (heading * m + np.arange(-min(turns, G // 2), min(turns, (G - 1) // 2) + 1)) % G
-        r, c = row * k + offsets, col * k + offsets
-        r_in, c_in = (r >= 0) & (r < rows), (c >= 0) & (c < cols)
-        box = lattice.image_of(self.fine)[np.ix_(g, r[r_in], c[c_in])]
-        return min(1.0, float((box * disc[np.ix_(r_in, c_in)]).sum()))
+        turns = math.floor(min(REACH_SECTORS * m, PROMISE_SECTORS * m - 0.5) + 1e-9)
+        return min(1.0, self._mass_around(state, radius, turns))
 
     def elsewhere(self, state: int) -> float:
         """The mass of the lattice poses beyond ``state``'s promise: farther than
@@ -683,23 +669,29 @@ class LatticeFilter:
         its heading (a pose's own position and yaw; one on the edge counts as within). Were the
         robot there, declaring ``state`` would be the confidently wrong answer ``simulate
         --continuous`` counts: this is the belief's own probability of that."""
+        k, m = self.lattice.k, self.lattice.m
+        return max(0.0, 1.0 - self._mass_around(state, PROMISE_CELLS * k, math.floor(PROMISE_SECTORS * m + 1e-9)))
+
+    def _mass_around(self, state: int, radius: float, turns: int) -> float:
+        """The mass of the lattice poses within ``radius`` lattice steps of ``state``'s cell centre
+        (a disc) and ``turns`` lattice yaws of its heading (every yaw with one heading): a box of
+        the lattice image."""
         lattice = self.lattice
         layout = lattice.layout
         row, col, heading = (int(v) for v in layout.cell_heading(state))
         k, m = lattice.k, lattice.m
         G, rows, cols = lattice.shape
-        half = (k - 1) / 2
-        radius = PROMISE_CELLS * k  # in lattice steps, around the cell's centre
+        half = (k - 1) / 2  # the cell centre's offset from its first lattice position
         lo, hi = math.ceil(half - radius - 1e-9), math.floor(half + radius + 1e-9)
         offsets = np.arange(lo, hi + 1)
         disc = np.hypot(*np.meshgrid(offsets - half, offsets - half, indexing="ij")) <= radius + 1e-9
-        turns = math.floor(PROMISE_SECTORS * m + 1e-9) if layout.headings > 1 else G
-        g = np.unique((heading * m + np.arange(-min(turns, G // 2), min(turns, (G - 1) // 2) + 1)) % G)
+        if layout.headings == 1:
+            turns = 0  # one lattice yaw
+        g = (heading * m + np.arange(-min(turns, G // 2), min(turns, (G - 1) // 2) + 1)) % G
         r, c = row * k + offsets, col * k + offsets
         r_in, c_in = (r >= 0) & (r < rows), (c >= 0) & (c < cols)
         box = lattice.image_of(self.fine)[np.ix_(g, r[r_in], c[c_in])]
-        within = float((box * disc[np.ix_(r_in, c_in)]).sum())
-        return max(0.0, 1.0 - within)
+        return float((box * disc[np.ix_(r_in, c_in)]).sum())
 
     def mean_reach(self, mode: int) -> tuple[int, float]:
         """The state holding the mean pose of the mass within ``mode``'s promise, and the mass within
