@@ -22,6 +22,7 @@ from beliefloc.continuous.pose_lattice import (
     UNMAPPED_STOP,
     PoseLattice,
     lattice_resolution,
+    part_groups,
 )
 from beliefloc.continuous.pose_lattice import LatticeFilter as LatticeCore
 from beliefloc.errors import ImpossibleObservationError
@@ -97,6 +98,25 @@ def test_a_reported_move_carries_the_pose_as_the_odometry_model_moves_it(tb3: La
     yaw = math.atan2(float(moved @ np.sin(poses[:, 2])), float(moved @ np.cos(poses[:, 2])))
     mc_yaw = math.atan2(float(np.sin(samples[:, 2]).mean()), float(np.cos(samples[:, 2]).mean()))
     assert abs(math.remainder(yaw - mc_yaw, 2 * math.pi)) < lattice.yaw_step
+
+
+def test_what_a_move_keeps_of_the_reach_is_the_declared_probability_after_it(tb3: LatticeFilter) -> None:
+    """``peak_after``: the declared probability the commanded move's prediction leaves, the belief
+    itself unchanged; a pose known exactly keeps its reach through a turn (4 degrees of noise in a
+    reach of 3/4 of a sector) and loses some of it on a 0.3 m lattice through a move's spread."""
+    lattice = tb3.lattice
+    start = int(np.argmax(~lattice.blocked([(0.5, 0.0, 0.0)])))
+    fine = np.zeros(lattice.n_poses)
+    fine[start] = 1.0
+    tb3.core.fine = fine
+    tb3.belief = tb3.core.belief
+    forward, turn = tb3.model.action("forward"), tb3.model.action("rotate_cw")
+    kept = {move.name: tb3.peak_after(move) for move in (forward, turn)}
+    assert np.array_equal(tb3.core.fine, fine)  # nothing changed
+    assert kept["rotate_cw"] >= 0.95 and kept["rotate_cw"] >= kept["forward"]
+    tb3.core.predict("forward", None, None)
+    assert tb3.core.declared()[1] == pytest.approx(kept["forward"], abs=1e-12)
+    tb3.start(uniform(tb3.model.n_states))
 
 
 def test_a_move_into_a_wall_is_stopped_and_the_blocked_flag_weighs_the_poses(tb3: LatticeFilter) -> None:
@@ -455,13 +475,15 @@ def test_a_reading_tells_nothing_where_the_pose_is_known_and_most_where_its_answ
     assert spread["scan"] <= float(-(p[p > 0] * np.log(p[p > 0])).sum()) + 1e-9
 
 
-def test_the_readings_distribution_is_the_belief_summed_over_every_pose(tb3: LatticeFilter) -> None:
+@pytest.mark.parametrize("density", [0.05, 0.3, 1.0])
+def test_the_readings_distribution_is_the_belief_summed_over_every_pose(tb3: LatticeFilter, density: float) -> None:
     """``p(o | b) = Σ_pose b(pose) Π_part p(o_part | pose)`` in the model's joint order (the first
-    part the most significant digit), against a plain contraction over a random sparse belief: the
-    three-beam Scan of tb3-sandbox (125 joint readings)."""
+    part the most significant digit), against a plain contraction over a random belief on a share
+    of the poses (below and above the share that sums a group of poses at a time): the three-beam
+    Scan of tb3-sandbox (125 joint readings)."""
     core = tb3.core
     rng = np.random.default_rng(7)
-    fine = rng.random(tb3.lattice.n_poses) * (rng.random(tb3.lattice.n_poses) < 0.3)
+    fine = rng.random(tb3.lattice.n_poses) * (rng.random(tb3.lattice.n_poses) < density)
     fine /= fine.sum()
     a, b, c = (np.asarray(t, dtype=np.float64) for t in core.tables["scan"])
     plain = np.einsum("p,pi,pj,pk->ijk", fine, a, b, c).ravel()
@@ -469,6 +491,29 @@ def test_the_readings_distribution_is_the_belief_summed_over_every_pose(tb3: Lat
     assert got.shape == plain.shape
     assert np.allclose(got, plain, rtol=1e-12, atol=1e-15)
     assert got.sum() == pytest.approx(1.0, abs=1e-6)  # the tables are float32
+
+
+def test_the_look_distribution_summed_a_group_at_a_time_is_the_plain_sum(kitchen: LatticeFilter) -> None:
+    """The kitchen's Look (one part per class): most poses see neither class and share each part's common
+    row. Grouped by the parts off their common row, every pose is in one group, and the readings'
+    distribution over the whole belief is the plain contraction's."""
+    core = kitchen.core
+    tables = core.tables["look"]
+    common, groups = part_groups(tables)
+    seen = np.concatenate([rows for _, rows in groups])
+    assert np.array_equal(np.sort(seen), np.arange(kitchen.lattice.n_poses))
+    assert () in [parts for parts, _ in groups]  # poses that see none of the classes
+    for parts, rows in groups:
+        for k, table in enumerate(tables):
+            at_common = (table[rows] == common[k]).all(axis=1)
+            assert (~at_common).all() if k in parts else at_common.all()
+    fine = np.random.default_rng(3).random(kitchen.lattice.n_poses)
+    fine /= fine.sum()
+    plain = fine[:, None]  # the joint per pose, the first part the most significant digit
+    for table in tables:
+        plain = (plain[:, :, None] * np.asarray(table, dtype=np.float64)[:, None, :]).reshape(len(fine), -1)
+    plain = plain.sum(axis=0)
+    assert np.allclose(core.probabilities("look", fine), plain, rtol=1e-12, atol=1e-15)
 
 
 def test_the_outlook_of_a_move_into_a_wall_is_nothing(kitchen: LatticeFilter) -> None:
