@@ -25,7 +25,14 @@ from beliefloc.model import Model
 from beliefloc.pose import nonnegative_covariance, state_pose
 from beliefloc.robots.belief_filter import ModelFilter
 from beliefloc.robots.line_protocol import MAX_LINE_CHARS, LineRobot, action_message
-from beliefloc.robots.localize import Command, Places, SimulatedReadingRobot, informative_move, localize
+from beliefloc.robots.localize import (
+    Command,
+    Places,
+    SimulatedReadingRobot,
+    informative_move,
+    keeping_moves,
+    localize,
+)
 from beliefloc.robots.odometry import MotionReport
 from beliefloc.robots.readings import RawReading, ReadingBinner
 from beliefloc.semantic_map import SemanticMap
@@ -106,6 +113,42 @@ class _RivalFilter(ModelFilter):
 
     def elsewhere(self) -> float:
         return self.rival
+
+
+class _KeptFilter(ModelFilter):
+    """The model's filter whose moves keep the given declared probabilities."""
+
+    def __init__(self, model: Model, kept: Mapping[str, float]) -> None:
+        super().__init__(model)
+        self.kept = kept
+
+    def peak_after(self, move: Any) -> float:
+        return self.kept[move.name]
+
+
+def test_a_confirmation_moves_only_where_the_belief_keeps_the_threshold(kitchen: Any) -> None:
+    """Among the moves, those that keep the threshold by their own prediction; the one that keeps
+    the most when none does."""
+    model, _ = kitchen
+    moves = list(model.actuation_actions)
+    assert len(moves) >= 2
+    kept = {m.name: 0.9 for m in moves} | {moves[1].name: 0.96}
+    assert keeping_moves(_KeptFilter(model, kept), moves, 0.95) == [moves[1]]
+    kept = {m.name: 0.5 for m in moves} | {moves[0].name: 0.93, moves[1].name: 0.94}
+    assert keeping_moves(_KeptFilter(model, kept), moves, 0.95) == [moves[1]]
+    assert keeping_moves(_KeptFilter(model, {m.name: 0.97 for m in moves}), moves, 0.95) == moves
+
+
+def test_the_model_filter_keeps_what_the_commanded_move_predicts(kitchen: Any) -> None:
+    model, _ = kitchen
+    tracker = ModelFilter(model)
+    belief = np.zeros(model.n_states)
+    belief[model.states.index("1,1,1")] = 1.0
+    tracker.start(belief)
+    for move in model.actuation_actions:
+        expected = float((move.transition.T @ belief).max())
+        assert tracker.peak_after(move) == pytest.approx(expected, abs=1e-12)
+    assert tracker.belief is belief
 
 
 @pytest.mark.parametrize("rival", [0.008, 0.012])

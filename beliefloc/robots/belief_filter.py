@@ -64,6 +64,8 @@ class BeliefFilter(Protocol):
 
     def elsewhere(self) -> float: ...
 
+    def peak_after(self, move: Action) -> float: ...
+
     def planning_belief(self) -> np.ndarray: ...
 
     def information(self, action: Action) -> float: ...
@@ -118,6 +120,10 @@ class ModelFilter:
         """0: a state is one exact pose, and the papers' rule -- one state holds the threshold -- is
         the whole of what is declared."""
         return 0.0
+
+    def peak_after(self, move: Action) -> float:
+        """The most likely state's probability were the commanded ``move`` made now (``T_a``)."""
+        return float(predict_reported(move, self.belief, None, self.model.grid).max())
 
     def planning_belief(self) -> np.ndarray:
         """The belief itself: the planner's goal is the threshold's."""
@@ -303,6 +309,11 @@ class LatticeFilter:
         if self._elsewhere is None:
             self._elsewhere = self.core.elsewhere(self.declared()[0])
         return self._elsewhere
+
+    def peak_after(self, move: Action) -> float:
+        """The declared probability were the commanded ``move`` made now, nothing read
+        (:meth:`beliefloc.continuous.pose_lattice.LatticeFilter.peak_after`)."""
+        return self.core.peak_after(move.name) if move.is_actuation else self.peak()
 
     def planning_belief(self) -> np.ndarray:
         """The belief the planner plans from: each of its modes (:func:`beliefloc.pose.belief_modes`,
