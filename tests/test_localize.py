@@ -32,6 +32,7 @@ from beliefloc.robots.localize import (
     informative_move,
     keeping_moves,
     localize,
+    planning_goal,
 )
 from beliefloc.robots.odometry import MotionReport
 from beliefloc.robots.readings import RawReading, ReadingBinner
@@ -149,6 +150,23 @@ def test_the_model_filter_keeps_what_the_commanded_move_predicts(kitchen: Any) -
         expected = float((move.transition.T @ belief).max())
         assert tracker.peak_after(move) == pytest.approx(expected, abs=1e-12)
     assert tracker.belief is belief
+
+
+def test_a_filter_that_gathers_places_plans_until_look_alikes_hold_what_a_declaration_may_leave(kitchen: Any) -> None:
+    """The model's filter plans to the threshold; one whose planning belief gathers places plans
+    until one place holds all but RIVAL_SHARE of the rest (0.99 at 0.95): the look-alike a
+    declaration may not leave is the planner's to remove, not the loop's one-step choice's."""
+    model, _ = kitchen
+    settings = PlannerSettings(threshold=0.95)
+    assert planning_goal(settings, ModelFilter(model)) is settings
+
+    class Gathering(ModelFilter):
+        gathers_places = True
+
+    goal = planning_goal(settings, Gathering(model))
+    assert goal.threshold == pytest.approx(0.99)
+    assert goal == PlannerSettings(threshold=goal.threshold)  # nothing else changed
+    assert planning_goal(PlannerSettings(threshold=0.999), Gathering(model)).threshold == pytest.approx(0.9998)
 
 
 @pytest.mark.parametrize("rival", [0.008, 0.012])

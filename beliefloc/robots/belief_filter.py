@@ -42,6 +42,10 @@ if TYPE_CHECKING:
 class BeliefFilter(Protocol):
     """What ``localize``'s loop asks of the belief it keeps (see the module)."""
 
+    gathers_places: bool
+    """Whether :meth:`planning_belief` gathers each place's spread into one mode, so that a
+    look-alike place is a mode of its own (:func:`beliefloc.robots.localize.planning_goal`)."""
+
     def start(self, belief: np.ndarray) -> np.ndarray: ...
 
     def predict(self, action: Action, report: MotionReport | None) -> None: ...
@@ -75,6 +79,8 @@ class BeliefFilter(Protocol):
 
 class ModelFilter:
     """The model's own filter (see the module)."""
+
+    gathers_places = False
 
     def __init__(self, model: Model) -> None:
         self.model = model
@@ -187,6 +193,8 @@ def commanded_deltas(grid: GridLayout, action: Action, lattice: PoseLattice) -> 
 
 class LatticeFilter:
     """The pose-lattice filter behind the :class:`BeliefFilter` interface (see the module)."""
+
+    gathers_places = True
 
     def __init__(
         self,
