@@ -281,7 +281,9 @@ def localize(
             if confirming and unread:  # the move was made: its reading, the one expected to tell the most
                 forced = informative_move(tracker, model, places, (), draw, unread)[0]
             elif untried:  # at the threshold: move first (or again, when the move left the robot in place)
-                keeping = keeping_moves(tracker, untried, settings.threshold)
+                # moves to where a reading is still to be taken: the confirmation's reading comes next
+                fresh = [m for m in untried if any(a.name not in places.after(m) for a in model.perception_actions)]
+                keeping = keeping_moves(tracker, fresh or untried, settings.threshold)
                 forced = informative_move(tracker, model, places, keeping, draw)[0]
             else:
                 status = EpisodeStatus.NO_PLAN
@@ -509,7 +511,10 @@ def keeping_moves(tracker: BeliefFilter, moves: Sequence[Action], threshold: flo
     one that keeps the most when none does. A move's noise spreads the belief it confirms: on the
     depot (0.25 m cells, a pose lattice of 0.125 m) the most informative move, a step back, took the
     reach from 0.968 to 0.80 by itself, the reading after it could not restore it, and the robot
-    wandered 400 more actions without declaring; a turn kept 0.963 and the state was declared."""
+    wandered 400 more actions without declaring; a turn kept 0.963 and the state was declared.
+    ``localize`` offers only the moves to where a reading is still to be taken (when there are
+    any): turning on the spot where every heading was read, the confirmation found nothing to read
+    and turned again, 180 times on the kitchen."""
     kept = [(tracker.peak_after(move), move) for move in moves]
     holding = [move for peak, move in kept if peak >= threshold]
     return holding or [max(kept, key=lambda pair: pair[0])[1]]
