@@ -565,6 +565,32 @@ def test_off_grid_robots_on_the_kitchen_are_localized_and_never_confidently_wron
     assert localized >= 7
 
 
+def test_a_confirmation_does_not_turn_on_the_spot_with_nothing_left_to_read() -> None:
+    """Kitchen, seed 0, episode 29: at the threshold where every heading had been read, the
+    confirmation offered only the turns that kept the threshold, found nothing to read after any
+    and turned again -- 180 turns in a row to the step limit. It now moves where a reading is
+    still to be taken, and the episode localizes."""
+    smap = load_map(KITCHEN)
+    model = compile_model(smap)
+    record = ContinuousSetup(smap).run(
+        model,
+        "bestfirst",
+        seed=0,
+        episode=29,
+        start_belief=uniform(model.n_states),
+        settings=PlannerSettings(time_limit=0.5),
+        shared=SharedWork.for_model(model),
+        max_steps=200,
+    )
+    turns, longest = 0, 0
+    for step in record.trace:
+        turns = turns + 1 if step.action.startswith("rotate") else 0
+        longest = max(longest, turns)
+    assert longest < 8
+    assert record.status.value == "localized"
+    assert record.continuous is not None and not record.continuous.confidently_wrong
+
+
 def test_localize_filter_lattice_on_the_command_line() -> None:
     """A protocol-1 robot on the kitchen that always reads a wall ahead at 0.5 m and nothing in view:
     the loop runs with the lattice and ends with a result line, never a traceback."""
