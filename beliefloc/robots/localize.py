@@ -191,7 +191,7 @@ def localize(
     on_step: OnStep | None = None,
     surprise: SurpriseCheck | None = None,
     recoveries: int = DEFAULT_RECOVERIES,
-    strategy: Callable[[], Strategy] | None = None,
+    strategy: Callable[[PlannerSettings], Strategy] | None = None,
     repeat_readings: bool = False,
     rng: np.random.Generator | None = None,
     confirm: bool = False,
@@ -200,7 +200,8 @@ def localize(
     """Plan, act, perceive and replan until one state holds ``settings.threshold`` (see the module).
 
     ``strategy``: makes the strategy that chooses the actions (any of ``simulate``'s,
-    :func:`beliefloc.simulation.strategies.make_strategy`); a fresh one after every re-spread, since a
+    :func:`beliefloc.simulation.strategies.make_strategy`) from the planner's settings the loop gives
+    it (:func:`planning_goal`); a fresh one after every re-spread, since a
     policy planned for the belief before it does not hold for the belief after. None: best-first with
     replanning (:class:`PlanningStrategy`), ``localize``'s own.
 
@@ -240,11 +241,11 @@ def localize(
     tracker: BeliefFilter = belief_filter if belief_filter is not None else ModelFilter(model)
     chosen = planning_goal(settings, tracker)
 
-    def best_first() -> Strategy:
-        return PlanningStrategy(StrategyName.BESTFIRST.value, model, chosen, evaluator or SuccessorEvaluator(model))
+    def best_first(planner: PlannerSettings) -> Strategy:
+        return PlanningStrategy(StrategyName.BESTFIRST.value, model, planner, evaluator or SuccessorEvaluator(model))
 
     make = strategy or best_first
-    chooser = make()
+    chooser = make(chosen)
     done_seconds: list[float] = []
     done_replans = 0
     steps, cost, reason = 0, 0.0, ""
@@ -282,7 +283,7 @@ def localize(
                 forced = informative_move(tracker, model, places, (), draw, unread)[0]
             elif untried:  # at the threshold: move first (or again, when the move left the robot in place)
                 # moves to where a reading is still to be taken: the confirmation's reading comes next
-                fresh = [m for m in untried if any(a.name not in places.after(m) for a in model.perception_actions)]
+                fresh = [m for m in untried if places.unread_after(m, model.perception_actions)]
                 keeping = keeping_moves(tracker, fresh or untried, settings.threshold)
                 forced = informative_move(tracker, model, places, keeping, draw)[0]
             else:
@@ -363,7 +364,7 @@ def localize(
         if substituted:
             done_seconds += chooser.plan_seconds
             done_replans += chooser.replans + 1
-            chooser = make()  # its plan expected the reading, not this move: plan afresh
+            chooser = make(chosen)  # its plan expected the reading, not this move: plan afresh
         if expected is not None and observation is not None:
             check.observe(expected, observation)
             declaration.observe(
@@ -388,7 +389,7 @@ def localize(
                 recovered += 1
                 done_seconds += chooser.plan_seconds
                 done_replans += chooser.replans + 1
-                chooser = make()  # a re-spread belief is not the planned one: plan afresh
+                chooser = make(chosen)  # a re-spread belief is not the planned one: plan afresh
                 if on_step is not None:
                     on_step(LocalizeStep(command, observation, probability, belief, tracker.peak()))
                 continue
@@ -450,6 +451,11 @@ class Places:
         x, y, yaw = self.pose
         return self.here((x + math.cos(yaw) * dx, y + math.sin(yaw) * dx, yaw + dyaw))
 
+    def unread_after(self, move: Action, readings: Sequence[Action]) -> list[Action]:
+        """Those of ``readings`` not yet taken where the commanded ``move`` would take the robot."""
+        done = self.after(move)
+        return [a for a in readings if a.name not in done]
+
     def add(self, name: str) -> None:
         self.done.append((name, *self.pose))
 
@@ -491,8 +497,7 @@ def informative_move(
         if value > best_value * (1 + 1e-9) + 1e-12:
             best, best_value = (reading, None), value
     for move in moves:
-        done = places.after(move)
-        after = [a for a in model.perception_actions if a.name not in done]
+        after = places.unread_after(move, model.perception_actions)
         if not after:
             continue
         p_moves, information = tracker.move_outlook(move, after)

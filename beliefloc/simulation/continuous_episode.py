@@ -35,7 +35,7 @@ from beliefloc.model import GridLayout, Model, wrap_angle
 from beliefloc.pose import belief_pose
 from beliefloc.robots.belief_filter import LatticeFilter
 from beliefloc.robots.continuous_robot import ContinuousReadingRobot
-from beliefloc.robots.localize import LocalizeStep, localize, planning_goal
+from beliefloc.robots.localize import LocalizeStep, localize
 from beliefloc.robots.readings import ReadingBinner
 from beliefloc.semantic_map import regions
 from beliefloc.semantic_map.lattice_sensors import robot_radius
@@ -172,11 +172,8 @@ class ContinuousSetup:
         )
         name = StrategyName(strategy)
 
-        tracker = self.belief_filter(model)
-        goal = settings if tracker is None else planning_goal(settings, tracker)
-
-        def make() -> Strategy:
-            return make_strategy(name, goal, shared, strategy_rng)
+        def make(planner: PlannerSettings) -> Strategy:  # the loop's planning goal (planning_goal)
+            return make_strategy(name, planner, shared, strategy_rng)
 
         record = EpisodeRecord(
             name.value, episode, _state_name(model, start), "", "", False, EpisodeStatus.LOCALIZED, 0.0, 0, 0, [], 0.0
@@ -206,7 +203,7 @@ class ContinuousSetup:
             strategy=make,
             rng=np.random.default_rng([seed, episode, MOVES_STREAM]),
             confirm=self.confirm,
-            belief_filter=tracker,
+            belief_filter=self.belief_filter(model),
         )
         state, probability = outcome.declared
         true_state = state_at(grid, robot.pose)
