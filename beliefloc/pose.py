@@ -228,10 +228,15 @@ def gathered_modes(model: Model, belief: np.ndarray) -> np.ndarray:
     planner given it tells places apart, not the neighbouring cells and headings of one place."""
     _, weights = _grid_and_weights(model, belief)
     out = weights.copy()
-    for mode, members in _modes_with_members(model, belief, MODE_RADIUS_CELLS, MODE_MIN_PROBABILITY, MAX_MODES):
+    for mode, members in belief_places(model, belief):
         out[members] = 0.0
         out[mode.state] = mode.probability
     return out
+
+
+def belief_places(model: Model, belief: np.ndarray) -> list[tuple[Mode, np.ndarray]]:
+    """The belief's modes as :func:`gathered_modes` gathers them, each with its states' indices."""
+    return _modes_with_members(model, belief, MODE_RADIUS_CELLS, MODE_MIN_PROBABILITY, MAX_MODES)
 
 
 def _modes_with_members(

@@ -493,6 +493,35 @@ def test_the_readings_distribution_is_the_belief_summed_over_every_pose(tb3: Lat
     assert got.sum() == pytest.approx(1.0, abs=1e-6)  # the tables are float32
 
 
+@pytest.mark.parametrize("action", ["forward", "backward", "rotate_cw"])
+def test_a_pose_s_successor_is_where_the_quick_shift_takes_it_or_itself_where_the_path_is_blocked(
+    tb3: LatticeFilter, action: str
+) -> None:
+    """What :class:`~beliefloc.robots.localize.LookAlikes` leads places along: each lattice pose's
+    successor under a commanded move, against the noise-free shift of that pose alone (mass that
+    lands on no valid pose is lost there; the successor stays put instead), and the pose itself
+    where the map blocks the path."""
+    core = tb3.core
+    lattice = tb3.lattice
+    deltas = core.motions[action]
+    successors = core.pose_successors(action)
+    assert successors.shape == (lattice.n_poses,)
+    blocked = lattice.blocked(deltas)
+    rng = np.random.default_rng(3)
+    for pose in rng.choice(lattice.n_poses, size=60, replace=False).tolist():
+        if blocked[pose]:
+            assert successors[pose] == pose
+            continue
+        one = np.zeros(lattice.n_poses)
+        one[pose] = 1.0
+        moved = lattice.shifted(one, deltas)
+        if moved.sum() > 0:
+            assert successors[pose] == int(np.argmax(moved))
+        else:
+            assert successors[pose] == pose
+    assert np.array_equal(core.pose_successors("scan"), np.arange(lattice.n_poses))
+
+
 def test_the_look_distribution_summed_a_group_at_a_time_is_the_plain_sum(kitchen: LatticeFilter) -> None:
     """The kitchen's Look (one part per class): most poses see neither class and share each part's common
     row. Grouped by the parts off their common row, every pose is in one group, and the readings'

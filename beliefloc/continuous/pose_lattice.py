@@ -419,6 +419,29 @@ class PoseLattice:
         moved *= self.stand[None, box_rows, box_cols]
         return self._box_gather(moved)
 
+    def successors(self, deltas: Sequence[tuple[float, float, float]]) -> np.ndarray:
+        """Per valid pose: the pose a robot-frame delta per lattice yaw (as :meth:`shifted`) takes it
+        to, without noise; the pose itself where the map blocks the path (:meth:`blocked`) or the
+        pose reached is not valid."""
+        G, rows, cols = self.shape
+        poses = np.arange(self.n_poses)
+        index = np.full(G * rows * cols, -1, dtype=np.int64)
+        index[self.flat] = poses
+        g, rc = np.divmod(self.flat, rows * cols)
+        r, c = np.divmod(rc, cols)
+        yaws = self.yaws()
+        shift = np.zeros((G, 3), dtype=np.int64)  # per lattice yaw: rows, columns, yaw steps
+        for k in range(G):
+            dx, dy, dyaw = deltas[0] if len(deltas) == 1 else deltas[k]
+            cos, sin = math.cos(yaws[k]), math.sin(yaws[k])
+            shift[k] = (round(-(sin * dx + cos * dy) / self.spacing), round((cos * dx - sin * dy) / self.spacing), 0)
+            shift[k, 2] = (k - round(dyaw / self.yaw_step)) % G  # lattice yaws go clockwise
+        to_r, to_c, to_g = r + shift[g, 0], c + shift[g, 1], shift[g, 2]
+        inside = (to_r >= 0) & (to_r < rows) & (to_c >= 0) & (to_c < cols)
+        target = np.where(inside, index[np.where(inside, to_g * rows * cols + to_r * cols + to_c, 0)], -1)
+        out: np.ndarray = np.where(self.blocked(deltas) | (target < 0), poses, target)
+        return out
+
     def blocked(self, deltas: Sequence[tuple[float, float, float]], *, maybe: bool = False) -> np.ndarray:
         """Per valid pose: whether the straight path of its robot-frame translation (``deltas[g]`` for
         lattice yaw ``g``; one for all when ``len(deltas) == 1``) meets a lattice position that is
@@ -484,6 +507,7 @@ class LatticeFilter:
     _groups: dict[str, tuple[list[np.ndarray], list[tuple[tuple[int, ...], np.ndarray]]]] = field(
         init=False, default_factory=dict
     )
+    _successors: dict[str, np.ndarray] = field(init=False, default_factory=dict)
 
     def start(self, belief: np.ndarray) -> np.ndarray:
         """Start from the model's ``belief``; returns the model's belief (the lattice's, summed)."""
@@ -630,6 +654,39 @@ class LatticeFilter:
                     term = term * row.reshape([dims[k] if j == k else 1 for j in range(len(tables))])
             out += term
         return out.ravel()
+
+    def readings_after(self, places: Sequence[np.ndarray], moves: Sequence[str], action: str) -> list[np.ndarray]:
+        """For each of ``places`` (model states): the distribution of ``action``'s joint reading were
+        the robot there -- the belief restricted to the place's poses -- and the commanded ``moves``
+        made first, each pose whose path the map blocks staying where it is (moved without noise,
+        :meth:`PoseLattice.shifted`: a ranking, not a prediction). A place the moves take wholly off
+        the map reads uniformly."""
+        lattice = self.lattice
+        out = []
+        for states in places:
+            fine = np.where(np.isin(lattice.state, states), self.fine, 0.0)
+            for move in moves:
+                deltas = self.motions.get(move)
+                if deltas is not None:
+                    stuck = lattice.blocked(deltas)
+                    fine = lattice.shifted(fine * ~stuck, deltas) + fine * stuck
+            total = float(fine.sum())
+            if total > 0:
+                out.append(self.probabilities(action, fine / total))
+            else:
+                n = int(np.prod([t.shape[1] for t in self.tables[action]]))
+                out.append(np.full(n, 1.0 / n))
+        return out
+
+    def pose_successors(self, action: str) -> np.ndarray:
+        """Per valid pose: the pose the commanded ``action`` takes it to without noise
+        (:meth:`PoseLattice.successors`; itself for an action that does not move; computed once)."""
+        out = self._successors.get(action)
+        if out is None:
+            deltas = self.motions.get(action)
+            out = self.lattice.successors(deltas) if deltas is not None else np.arange(self.lattice.n_poses)
+            self._successors[action] = out
+        return out
 
     def expected_log_likelihood(self, action: str, fine: np.ndarray | None = None) -> float:
         """``-Σ_pose b(pose) H(O_a | pose)``: the mean log-likelihood of one reading of ``action`` were

@@ -42,6 +42,8 @@ if TYPE_CHECKING:
 class BeliefFilter(Protocol):
     """What ``localize``'s loop asks of the belief it keeps (see the module)."""
 
+    belief: np.ndarray
+    """The belief over the model's states (a lattice's, summed per state)."""
     gathers_places: bool
     """Whether :meth:`planning_belief` gathers each place's spread into one mode, so that a
     look-alike place is a mode of its own (:func:`beliefloc.robots.localize.planning_goal`)."""
@@ -75,6 +77,14 @@ class BeliefFilter(Protocol):
     def information(self, action: Action) -> float: ...
 
     def move_outlook(self, move: Action, readings: Sequence[Action]) -> tuple[float, list[float]]: ...
+
+    def macro_graph(self) -> tuple[np.ndarray, list[list[np.ndarray]]]: ...
+
+    def place_units(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]: ...
+
+    def readings_after(
+        self, places: Sequence[np.ndarray], moves: Sequence[Action], reading: Action
+    ) -> list[np.ndarray]: ...
 
 
 class ModelFilter:
@@ -159,6 +169,39 @@ class ModelFilter:
             mutual_information(r.observation.probabilities(moved), expected_log_likelihood(r, moved)) for r in readings
         ]
 
+    def macro_graph(self) -> tuple[np.ndarray, list[list[np.ndarray]]]:
+        """What a telling macro (:mod:`beliefloc.planning.telling`) searches over: per action, each
+        state's most likely successor (``(n_actions, n_states)``), and per action, its observation
+        parts' tables by state (``(n_states, n_values)`` each; none for a move)."""
+        from beliefloc.planning.ec2 import most_likely_successors
+
+        return most_likely_successors(self.model)[0], [
+            [part.confusion[part.truth] for part in action.observation.parts] for action in self.model.actions
+        ]
+
+    def place_units(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """A place (``states``) in :meth:`macro_graph`'s units: the states and the belief on each."""
+        return states, self.belief[states]
+
+    def readings_after(
+        self, places: Sequence[np.ndarray], moves: Sequence[Action], reading: Action
+    ) -> list[np.ndarray]:
+        """For each of ``places`` (states): the distribution of ``reading``'s observation were the
+        robot there (the belief restricted to them) and ``moves`` made first (``T_a``)."""
+        out = []
+        for states in places:
+            belief = np.zeros_like(self.belief)
+            belief[states] = self.belief[states]
+            for move in moves:
+                belief = predict(move, belief)
+            total = float(belief.sum())
+            out.append(reading.observation.probabilities(belief / total if total > 0 else belief))
+        return out
+
+
+PLACE_POSES = 16
+"""How many of a place's likeliest lattice poses a telling macro leads along (the rest hold little)."""
+
 
 def tracker_noise(grid: GridLayout) -> OdometryNoise:
     """The motion noise the lattice filter assumes, a little wider than a real base's: 10 % of a
@@ -228,6 +271,7 @@ class LatticeFilter:
         self._declared: tuple[int, float] | None = None
         self._elsewhere: float | None = None
         self._planning: np.ndarray | None = None
+        self._graph: tuple[np.ndarray, list[list[np.ndarray]]] | None = None
 
     @property
     def lattice(self) -> PoseLattice:
@@ -345,3 +389,34 @@ class LatticeFilter:
         the map), and the expected information of each of ``readings`` taken where it lands, given
         that it moved (:meth:`beliefloc.continuous.pose_lattice.LatticeFilter.move_outlook`)."""
         return self.core.move_outlook(move.name, [r.name for r in readings])
+
+    def macro_graph(self) -> tuple[np.ndarray, list[list[np.ndarray]]]:
+        """What a telling macro (:mod:`beliefloc.planning.telling`) searches over, by lattice pose:
+        per action, the pose it takes each pose to without noise
+        (:meth:`beliefloc.continuous.pose_lattice.LatticeFilter.pose_successors`), and per action,
+        its reading parts' tables by pose (why not by the states: :class:`~beliefloc.robots.localize.LookAlikes`)."""
+        if self._graph is None:
+            core = self.core
+            actions = self.model.actions
+            self._graph = (
+                np.stack([core.pose_successors(a.name) for a in actions]),
+                [[np.asarray(t, dtype=np.float64) for t in core.tables.get(a.name, [])] for a in actions],
+            )
+        return self._graph
+
+    def place_units(self, states: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """A place (``states``) in :meth:`macro_graph`'s units: its :data:`PLACE_POSES` likeliest
+        lattice poses and the belief on each."""
+        lattice = self.lattice
+        poses = np.flatnonzero(np.isin(lattice.state, states) & (self.core.fine > 0))
+        mass = self.core.fine[poses]
+        keep = np.argsort(-mass, kind="stable")[:PLACE_POSES]
+        return poses[keep], mass[keep]
+
+    def readings_after(
+        self, places: Sequence[np.ndarray], moves: Sequence[Action], reading: Action
+    ) -> list[np.ndarray]:
+        """For each of ``places`` (states): the distribution of ``reading``'s joint reading were the
+        robot among the lattice poses of the place, and ``moves`` made first, each pose stopped where
+        the map blocks its path (:meth:`beliefloc.continuous.pose_lattice.LatticeFilter.readings_after`)."""
+        return self.core.readings_after(places, [m.name for m in moves], reading.name)
