@@ -27,6 +27,7 @@ from beliefloc.robots.belief_filter import ModelFilter
 from beliefloc.robots.line_protocol import MAX_LINE_CHARS, LineRobot, action_message
 from beliefloc.robots.localize import (
     Command,
+    LookAlikes,
     Places,
     SimulatedReadingRobot,
     informative_move,
@@ -225,6 +226,76 @@ def test_a_reading_taken_here_is_replaced_by_the_action_that_tells_the_most(kitc
     assert action.name == "look" and reading is None
     action, _ = informative_move(tracker, model, Places(grid), moves, np.random.default_rng(0), unread[1:])
     assert action.is_actuation
+
+
+def test_a_move_found_blocked_is_remembered_by_the_way_it_drives(kitchen: Any) -> None:
+    """A step back found blocked facing one way is a step forward blocked once turned round on the
+    spot (the telling macros turned round and drove into the same wall); a cell away, neither."""
+    model, _ = kitchen
+    grid = model.grid
+    assert grid is not None
+    places = Places(grid, model.actuation_actions)
+    places.add("backward")  # stopped where it stands
+    assert "backward" in places.here() and "forward" not in places.here()
+    places.after_move(MotionReport(odometry=(0.0, 0.0, math.pi)))
+    assert "forward" in places.here() and "backward" not in places.here()
+    assert "backward" in places.after(model.action("rotate_cw"), model.action("rotate_cw"))
+    places.after_move(MotionReport(odometry=(grid.cell_size, 0.0, 0.0)))
+    assert not places.here() & {"forward", "backward"}
+
+
+def _ladder(notched: bool) -> dict[str, Any]:
+    """Two corridors joined by rungs, unchanged by a half turn -- but for one cell walled in at the
+    east end of the south corridor when ``notched``."""
+    south = "#......##" if notched else "#.......#"
+    return {
+        "name": "ladder",
+        "grid": {"rows": 5, "cols": 9, "cell_size": 1.0, "headings": 4},
+        "layout": "\n".join(["#########", "#.......#", "#.#.#.#.#", south, "#########"]),
+        "actions": {name: {"cost": 1, "failure": 0.0} for name in ("forward", "backward", "rotate_cw", "rotate_ccw")},
+        "sensors": {"scan": {"type": "scan", "cost": 1, "beams_deg": [90, 0, -90], "bins": [0.5, 1.5], "error": 0.05}},
+    }
+
+
+@pytest.mark.parametrize("truth", [0, 1])
+def test_two_look_alike_places_are_led_to_where_a_reading_tells_them_apart(truth: int) -> None:
+    """Khalvati & Mackworth's pairwise selection (:class:`LookAlikes`): a belief split 0.9 / 0.1
+    between a state of the notched ladder and its image under the half turn -- the same readings
+    everywhere but near the notch -- is led there and settled on the robot's own state, whichever of
+    the two it is at; on the ladder without the notch nothing tells them apart, and no macro is offered."""
+
+    class Gathering(ModelFilter):
+        gathers_places = True
+
+    for notched in (True, False):
+        model, _ = _of(_ladder(notched))
+        grid = model.grid
+        assert grid is not None
+        pair = [grid.state_of(1, 2, 1), grid.state_of(3, 6, 3)]  # east in the north corridor, its image
+        belief = np.zeros(model.n_states)
+        belief[pair] = [0.9, 0.1]
+        tracker = Gathering(model)
+        tracker.start(belief)
+        places = Places(grid)
+        lookalikes = LookAlikes(model, tracker, places, 0.99)
+        if not notched:
+            assert lookalikes.next_action(set(), None, True) is None
+            continue
+        robot = SimulatedRobot(model, pair[truth], np.random.default_rng(truth))
+        action = None
+        for _ in range(40):
+            action = lookalikes.next_action(places.here(), action, True)
+            if action is None:
+                break
+            observation = robot.act(action.name)
+            tracker.predict(action, None)
+            tracker.correct(action, observation)
+            if action.is_actuation:
+                places.after_move(None)
+            else:
+                places.add(action.name)
+        assert tracker.belief.max() >= 0.99
+        assert int(np.argmax(tracker.belief)) == robot.state
 
 
 def test_the_first_command_carries_the_plan_and_its_expectation(kitchen: Any) -> None:

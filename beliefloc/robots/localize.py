@@ -38,7 +38,8 @@ from beliefloc.errors import ImpossibleObservationError, InvalidValueError, Repl
 from beliefloc.model import Action, GridLayout, Model
 from beliefloc.planning.best_first import PlanResult
 from beliefloc.planning.successors import SuccessorEvaluator
-from beliefloc.pose import pose_json
+from beliefloc.planning.telling import few_places, needed_evidence, telling_macros, which_place_evidence
+from beliefloc.pose import belief_places, pose_json
 from beliefloc.robots.belief_filter import BeliefFilter, ModelFilter
 from beliefloc.robots.odometry import MotionReport, ReportingRobot, motion
 from beliefloc.robots.readings import RawReading, ReadingBinner
@@ -166,6 +167,13 @@ place; at 0.5, two of 400 ec2-macros episodes still were (the truth's place held
 degree twin 3.3 m away); at 0.2 both are refused."""
 
 
+CANDIDATES = 8
+"""How many of the best macros over a place's likeliest units :class:`LookAlikes` judges again by the
+whole place."""
+KEEP_GOING = 0.95
+"""A telling macro under way (:class:`LookAlikes`) goes on while its two places hold this much."""
+
+
 def planning_goal(settings: PlannerSettings, tracker: BeliefFilter) -> PlannerSettings:
     """The settings the planner plans with: ``settings`` for the model's own filter; for a filter
     whose planning belief gathers each place into one mode (:attr:`BeliefFilter.gathers_places`),
@@ -220,6 +228,10 @@ def localize(
     is left to learn -- which side of a cell or sector border -- is not in the planner's model.
     (``rng``, seeded ``0`` when None, draws a move only when no action is expected to tell anything.)
 
+    **Two look-alike places** (a filter that gathers places, such as the pose lattice): once two
+    places hold the planner's goal between them, the robot follows the macro that tells them apart
+    best per cost by the filter's own tables (:class:`LookAlikes`), not the planner.
+
     **Confirmation** (``confirm``): a belief that reaches the threshold is not declared at once. The
     robot first makes a move (the most informative of those that keep the threshold by themselves,
     :func:`keeping_moves`) and takes a reading from where it lands; the state
@@ -255,7 +267,7 @@ def localize(
     declaration = DeclarationCheck()
     declaration.start(tracker.peak())
     recovered = 0
-    places = Places(model.grid)  # the readings taken, and the moves blocked, and where
+    places = Places(model.grid, model.actuation_actions)  # the readings taken, and the moves blocked, and where
     moves = model.actuation_actions
     draw = rng if rng is not None else np.random.default_rng(0)
     confirmed = not confirm
@@ -265,6 +277,8 @@ def localize(
     # beyond the reach's threshold, what a declaration risks: the belief's own probability that the
     # robot is beyond the declared state's promise (a look-alike place) -- at most half the rest
     risk = RIVAL_SHARE * (1.0 - settings.threshold)
+    lookalikes = LookAlikes(model, tracker, places, chosen.threshold)
+    last: Action | None = None  # the action done last
 
     def at_threshold() -> bool:
         return tracker.peak() >= settings.threshold and tracker.elsewhere() <= risk
@@ -301,6 +315,10 @@ def localize(
             unread = [a for a in model.perception_actions if a.name not in read_here]
             if unread or untried:
                 forced, pending = informative_move(tracker, model, places, untried, draw, unread)
+        if forced is None and tracker.gathers_places:
+            # a few look-alike places hold the planner's goal between them: lead them to where a reading
+            # tells them apart, by the lattice's tables (see LookAlikes)
+            forced = lookalikes.next_action(read_here, last, moved(report, model.grid))
         if forced is not None:
             decision, action, planned = forced.name, forced, None
         else:
@@ -350,6 +368,7 @@ def localize(
             break
         steps += 1
         cost += action.cost
+        last = action
         if action.is_actuation and moved(report, model.grid):
             places.after_move(report)
         else:  # a reading taken here, or a move that left the robot where it was (blocked)
@@ -427,6 +446,8 @@ class Places:
     forgotten."""
 
     grid: GridLayout | None
+    moves: Sequence[Action] = ()
+    """The moves along the heading, whose blocking is remembered by direction (below)."""
     pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
     done: list[tuple[str, float, float, float]] = field(default_factory=list)
 
@@ -440,16 +461,18 @@ class Places:
         c, s = math.cos(yaw), math.sin(yaw)
         self.pose = (x + c * dx - s * dy, y + s * dx + c * dy, yaw + dyaw)
 
-    def after(self, move: Action) -> set[str]:
-        """The actions already done from (near) where the commanded ``move`` would take the robot
-        (a turn or a move along the heading, by its commanded motion; empty for a compass move,
-        whose motion in the odometry's frame is unknown)."""
-        asked = motion(self.grid, move)
-        if not asked or not ("turn" in asked or "advance" in asked):
-            return set()
-        dx, dyaw = float(asked.get("advance", 0.0)), float(asked.get("turn", 0.0))
+    def after(self, *moves: Action) -> set[str]:
+        """The actions already done from (near) where the commanded ``moves``, one after the other,
+        would take the robot (turns and moves along the heading, by their commanded motion; empty
+        when one is a compass move, whose motion in the odometry's frame is unknown)."""
         x, y, yaw = self.pose
-        return self.here((x + math.cos(yaw) * dx, y + math.sin(yaw) * dx, yaw + dyaw))
+        for move in moves:
+            asked = motion(self.grid, move)
+            if not asked or not ("turn" in asked or "advance" in asked):
+                return set()
+            dx, dyaw = float(asked.get("advance", 0.0)), float(asked.get("turn", 0.0))
+            x, y, yaw = x + math.cos(yaw) * dx, y + math.sin(yaw) * dx, yaw + dyaw
+        return self.here((x, y, yaw))
 
     def unread_after(self, move: Action, readings: Sequence[Action]) -> list[Action]:
         """Those of ``readings`` not yet taken where the commanded ``move`` would take the robot."""
@@ -460,16 +483,125 @@ class Places:
         self.done.append((name, *self.pose))
 
     def here(self, pose: tuple[float, float, float] | None = None) -> set[str]:
-        """The actions already done from (near) the present pose (or ``pose``)."""
+        """The actions already done from (near) the present pose (or ``pose``); and of
+        :attr:`moves`, those that drive the way a move found blocked here drove, whatever the robot's
+        heading then (a step back blocked facing north is a step forward blocked facing south)."""
         grid = self.grid
         cell = grid.cell_size / 4 if grid is not None else 0.0
         sector = (2 * math.pi / grid.headings if grid is not None and grid.headings > 1 else math.inf) / 4
         x, y, yaw = self.pose if pose is None else pose
-        return {
-            name
-            for name, px, py, pyaw in self.done
-            if math.hypot(px - x, py - y) < cell and abs(math.remainder(pyaw - yaw, 2 * math.pi)) < sector
-        }
+        near = [(name, pyaw) for name, px, py, pyaw in self.done if math.hypot(px - x, py - y) < cell]
+        out = {name for name, pyaw in near if abs(math.remainder(pyaw - yaw, 2 * math.pi)) < sector}
+        ways = {m.name: way for m in self.moves if (way := self._way(m)) is not None}
+        stopped = [pyaw + ways[name] for name, pyaw in near if name in ways]
+        for name, way in ways.items():
+            if any(abs(math.remainder(yaw + way - d, 2 * math.pi)) < sector for d in stopped):
+                out.add(name)
+        return out
+
+    def _way(self, move: Action) -> float | None:
+        """The direction a move along the heading drives, relative to the heading (0 or π); None
+        for a turn or a compass move."""
+        asked = motion(self.grid, move) or {}
+        advance = float(asked.get("advance", 0.0))
+        return None if advance == 0.0 else (0.0 if advance > 0 else math.pi)
+
+
+@dataclass
+class LookAlikes:
+    """Khalvati & Mackworth's pairwise action selection for the end of a search: once a few places
+    (at most :data:`~beliefloc.planning.telling.MAX_PLACES`, modes of the planning belief) hold the
+    planner's ``goal`` between them, the robot follows the macro that tells them apart best per
+    unit of cost (:func:`beliefloc.planning.telling.telling_macros`) -- its moves, then its reading --
+    judged by the filter's own units and tables (:meth:`BeliefFilter.macro_graph`: the lattice's
+    poses), not the model's states.
+
+    Why: the planner plans with the model's exact tables. On tb3-sandbox a pixel of saved wall moves
+    a cell centre's reading across a bin edge, so the planner expects one scan near the arena's
+    centre to tell the 180° mirror twins apart, and the lattice (a laser with 2 cm of error) reads
+    the same from both: an episode replanned for 140 steps with the twin at 0.1 and ended at the
+    step limit, at the right place. The walls' asymmetries tell them apart; this macro goes there.
+    (By the states -- a place's cells moved whole by their most likely successors and read as the
+    average of their poses -- the macros of an episode traced expected 3-4 nats from their reading
+    where the lattice expected 0.01-0.4: which part of a cell is free differs between mirror twins
+    where the robot's own pose reads the same from both, and a pillar that stops a cell's centre
+    does not stop the robot beside it.)
+
+    A macro is followed to its end, then a new one is chosen; sooner when one of its moves left the
+    robot where it was (a pillar the place's cell centre passes and the robot, off the centre, does
+    not) or its next action was already done here (a reading taken, a move found blocked). Chosen
+    afresh after every action instead, the macros of an episode traced flipped between two of equal
+    worth, forward and back, for 30 actions.
+    """
+
+    model: Model
+    tracker: BeliefFilter
+    places: Places
+    goal: float
+    _going: bool = False
+    _left: list[Action] = field(default_factory=list)
+    """The macro's actions still to do."""
+    _given: Action | None = None
+
+    def next_action(self, read_here: set[str], last: Action | None, last_moved: bool) -> Action | None:
+        """The next action of the macro under way or of a new one; None when the belief is not down to
+        two places or no reading within reach is expected to tell them apart. ``read_here``: the
+        actions already done where the robot stands; ``last``: the action done last, and whether it
+        moved the robot."""
+        belief = self.tracker.belief
+        found = [(members, belief[members]) for _, members in belief_places(self.model, belief)]
+        # begun when two places hold the goal, the macros go on while they hold KEEP_GOING: a move's
+        # noise lends a third place 1-3 % until the next reading takes it back, and the planner's
+        # step in between undid the macro's
+        places = few_places(found, KEEP_GOING if self._going else self.goal)
+        self._going = places is not None
+        stale = last is not self._given or (last is not None and last.is_actuation and not last_moved)
+        if places is None or stale or (self._left and self._left[0].name in read_here):
+            self._left.clear()
+        if places is not None and not self._left:
+            self._left = self._macro(places)
+        self._given = self._left.pop(0) if self._left else None
+        return self._given
+
+    def _macro(self, places: list[tuple[np.ndarray, np.ndarray]]) -> list[Action]:
+        """The best of the :data:`CANDIDATES` best macros over the filter's own units (states, or
+        lattice poses: :meth:`BeliefFilter.macro_graph`), judged again by the filter's account of
+        where each whole place goes (:meth:`BeliefFilter.readings_after`); empty when none is
+        expected to tell anything."""
+        model = self.model
+        graph, tables = self.tracker.macro_graph()
+        index = {a.name: k for k, a in enumerate(model.actions)}
+
+        def taken(path: tuple[int, ...]) -> set[int]:
+            return {index[name] for name in self.places.after(*(model.actions[k] for k in path)) if name in index}
+
+        masses = np.array([float(mass.sum()) for _, mass in places])
+        units = []
+        for (states, _), total in zip(places, masses, strict=True):
+            members, mass = self.tracker.place_units(states)
+            units.append((members, mass * (total / mass.sum())))
+        candidates = telling_macros(
+            graph,
+            np.array([a.cost for a in model.actions], dtype=np.float64),
+            [index[a.name] for a in model.actuation_actions],
+            {index[a.name]: tables[index[a.name]] for a in model.perception_actions},
+            units,
+            self.goal,
+            taken,
+            count=CANDIDATES,
+        )
+        weights = masses / masses.sum()
+        needed = needed_evidence(weights, self.goal)
+        best: list[Action] = []
+        best_worth = 0.0
+        for macro in candidates:
+            moves = [model.actions[k] for k in macro.moves]
+            reading = model.actions[macro.reading]
+            read = self.tracker.readings_after([states for states, _ in places], moves, reading)
+            worth = min(which_place_evidence([np.stack(read)], weights), needed) / macro.cost
+            if worth > best_worth * (1 + 1e-9) + 1e-12:
+                best, best_worth = [*moves, reading], worth
+        return best
 
 
 def informative_move(
