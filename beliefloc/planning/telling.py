@@ -233,10 +233,9 @@ def _evidence(rows: Sequence[np.ndarray], weights: np.ndarray) -> np.ndarray:
 
 
 MAX_PLACES = 2
-"""The most look-alike places a telling macro leads together: a pair, as the paper's macros. With
-up to four (tb3-sandbox's pillars make four-fold look-alikes), the macros took over from the planner
-early, chose reading after cheap reading that each nudged the belief, and the episode traced ended
-at the step limit all the same."""
+"""The most look-alike places a telling macro leads together: a pair, as the paper's macros. (An
+early version that led up to four -- tb3-sandbox's pillars make four-fold look-alikes -- took over
+from the planner while it still made progress, and its cheap readings each nudged the belief.)"""
 
 
 def few_places(places: Sequence[Place], goal: float, most: int = MAX_PLACES) -> list[Place] | None:
