@@ -404,20 +404,30 @@ class PoseLattice:
         valid pose is, is dropped; unnormalised)."""
         image = self._box_image_of(fine)
         box_rows, box_cols, _ = self._box
-        G, rows, cols = image.shape
-        yaws = self.yaws()
+        _, rows, cols = image.shape
         moved = np.zeros_like(image)
-        for g in range(G):
-            dx, dy, dyaw = deltas[0] if len(deltas) == 1 else deltas[g]
-            c, s = math.cos(yaws[g]), math.sin(yaws[g])
-            dr, dc = round(-(s * dx + c * dy) / self.spacing), round((c * dx - s * dy) / self.spacing)
-            turned = (g - round(dyaw / self.yaw_step)) % G  # lattice yaws go clockwise
+        for g, (dr, dc, turned) in enumerate(self._steps(deltas).tolist()):
             r_lo, r_hi = max(0, dr), min(rows, rows + dr)
             c_lo, c_hi = max(0, dc), min(cols, cols + dc)
             if r_lo < r_hi and c_lo < c_hi:
                 moved[turned, r_lo:r_hi, c_lo:c_hi] += image[g, r_lo - dr : r_hi - dr, c_lo - dc : c_hi - dc]
         moved *= self.stand[None, box_rows, box_cols]
         return self._box_gather(moved)
+
+    def _steps(self, deltas: Sequence[tuple[float, float, float]]) -> np.ndarray:
+        """Per lattice yaw ``g``: the rows and columns a robot-frame delta (``deltas[g]``, or the one
+        for all) shifts a pose by, to the nearest lattice position, and the lattice yaw it ends at
+        (``(G, 3)`` integers)."""
+        G = self.shape[0]
+        yaws = self.yaws()
+        out = np.zeros((G, 3), dtype=np.int64)
+        for g in range(G):
+            dx, dy, dyaw = deltas[0] if len(deltas) == 1 else deltas[g]
+            c, s = math.cos(yaws[g]), math.sin(yaws[g])
+            out[g, 0] = round(-(s * dx + c * dy) / self.spacing)
+            out[g, 1] = round((c * dx - s * dy) / self.spacing)
+            out[g, 2] = (g - round(dyaw / self.yaw_step)) % G  # lattice yaws go clockwise
+        return out
 
     def successors(self, deltas: Sequence[tuple[float, float, float]]) -> np.ndarray:
         """Per valid pose: the pose a robot-frame delta per lattice yaw (as :meth:`shifted`) takes it
@@ -429,13 +439,7 @@ class PoseLattice:
         index[self.flat] = poses
         g, rc = np.divmod(self.flat, rows * cols)
         r, c = np.divmod(rc, cols)
-        yaws = self.yaws()
-        shift = np.zeros((G, 3), dtype=np.int64)  # per lattice yaw: rows, columns, yaw steps
-        for k in range(G):
-            dx, dy, dyaw = deltas[0] if len(deltas) == 1 else deltas[k]
-            cos, sin = math.cos(yaws[k]), math.sin(yaws[k])
-            shift[k] = (round(-(sin * dx + cos * dy) / self.spacing), round((cos * dx - sin * dy) / self.spacing), 0)
-            shift[k, 2] = (k - round(dyaw / self.yaw_step)) % G  # lattice yaws go clockwise
+        shift = self._steps(deltas)
         to_r, to_c, to_g = r + shift[g, 0], c + shift[g, 1], shift[g, 2]
         inside = (to_r >= 0) & (to_r < rows) & (to_c >= 0) & (to_c < cols)
         target = np.where(inside, index[np.where(inside, to_g * rows * cols + to_r * cols + to_c, 0)], -1)

@@ -73,7 +73,7 @@ def needed_evidence(weights: np.ndarray, goal: float) -> float:
 
 
 Place = tuple[np.ndarray, np.ndarray]
-"""A look-alike place: its states and the belief's mass on each."""
+"""A look-alike place: its units (states or lattice poses) and the belief's mass on each."""
 
 
 def telling_macros(
@@ -92,13 +92,14 @@ def telling_macros(
     best first (each a different node or reading); none when no reading within reach is expected
     to tell anything.
 
-    ``fstar``: ``(n_actions, n_states)`` most likely successors; ``costs``: per action; ``moves``
-    and ``readings``: the actuation actions to lead the places along, and the perception actions
-    with their per-state part tables; ``places``: each a few neighbouring states with the belief's
-    mass on each (a place reads as the mixture of its states: compared state by state, two mirror
-    places whose likeliest cells are not exact mirrors of each other look told apart by readings
-    that cannot); ``goal``: the probability one place should reach (the evidence needed: its
-    log-odds less the likeliest place's); ``taken(moves)``: the actions already done where those
+    ``fstar``: ``(n_actions, n_units)``, each unit's successor under each action (states' most
+    likely successors, or lattice poses'); ``costs``: per action; ``moves`` and ``readings``: the
+    actuation actions to lead the places along, and the perception actions with their part tables
+    by unit; ``places``: each a few neighbouring units with the belief's mass on each (a place
+    reads as the mixture of its units: compared unit by unit, two mirror places whose likeliest
+    cells are not exact mirrors of each other look told apart by readings that cannot); ``goal``:
+    the probability one place should reach (the evidence needed: its log-odds less the likeliest
+    place's); ``taken(moves)``: the actions already done where those
     moves lead: a reading taken there is not offered there again, and a move found blocked where
     the robot stands, or where moves of at most :data:`NEAR_COST` lead, is not tried there."""
     if len(places) < 2 or not readings:
