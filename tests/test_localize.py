@@ -34,6 +34,7 @@ from beliefloc.robots.localize import (
     keeping_moves,
     localize,
     planning_goal,
+    securing_move,
 )
 from beliefloc.robots.odometry import MotionReport
 from beliefloc.robots.readings import RawReading, ReadingBinner
@@ -226,6 +227,77 @@ def test_a_reading_taken_here_is_replaced_by_the_action_that_tells_the_most(kitc
     assert action.name == "look" and reading is None
     action, _ = informative_move(tracker, model, Places(grid), moves, np.random.default_rng(0), unread[1:])
     assert action.is_actuation
+
+
+def test_the_last_mile_takes_what_raises_the_declaration_most_per_cost(kitchen: Any) -> None:
+    """Once the planner's goal is met but not the declaration's, the loop takes the action expected
+    to raise the declared probability the most per cost (:func:`securing_move`): between two states
+    that one sensor tells apart and the other reads alike, that sensor's reading; nothing when no
+    action is expected to raise it (each expectation is the filter's, here exact)."""
+    model, _ = kitchen
+    grid = model.grid
+    assert grid is not None
+    look, scan = model.action("look"), model.action("scan")
+    truth_look = np.array([look.observation.true_observation(s) for s in range(model.n_states)])
+    truth_scan = np.array([scan.observation.true_observation(s) for s in range(model.n_states)])
+    pairs = [
+        (a, b)
+        for a in range(model.n_states)
+        for b in range(a + 1, min(model.n_states, a + 40))
+        if truth_look[a] != truth_look[b] and truth_scan[a] == truth_scan[b]
+    ]
+    first, second = pairs[0]
+    belief = np.zeros(model.n_states)
+    belief[[first, second]] = 0.5
+    tracker = ModelFilter(model)
+    tracker.start(belief)
+    moves = model.actuation_actions
+    chosen = securing_move(tracker, model, Places(grid), moves, [scan, look])
+    assert chosen == (look, None)
+    expected_look, expected_scan = tracker.declared_after((), [look, scan])
+    assert expected_look > 0.9 and expected_scan == pytest.approx(0.5, abs=0.02)
+    # read both here, the belief sure of one state: nothing raises it
+    sure = np.zeros(model.n_states)
+    sure[first] = 1.0
+    tracker.start(sure)
+    places = Places(grid)
+    places.add("look")
+    places.add("scan")
+    assert securing_move(tracker, model, places, moves, []) is None
+    assert securing_move(tracker, model, places, [], []) is None
+
+
+def test_modes_a_cell_or_two_apart_are_one_place_and_look_alikes_are_not() -> None:
+    """A place known to a few tenths of a metre parts into modes a cell or two apart: those are one
+    place's spread (:meth:`LookAlikes.one_place`), which the loop secures rather than leading them
+    apart by macros; modes farther apart, or a heading sector and more turned, are look-alikes; one
+    mode that holds the goal alone is neither."""
+    smap = load_map(MAPS / "tb3-sandbox.yaml")
+    model = compile_model(smap)
+    grid = model.grid
+    assert grid is not None
+
+    def beside(dc: int, turn: int = 0, state: int | None = None) -> int:
+        r, c, h = (int(v) for v in grid.cell_heading(centre if state is None else state))
+        return grid.state_of(r, c + dc, (h + turn) % grid.headings)
+
+    # a cell with free cells 2, 3 and 5 columns east of it
+    centre = next(s for s in range(model.n_states) if min(beside(dc, state=s) for dc in (2, 3, 5)) >= 0)
+
+    tracker = ModelFilter(model)
+    places = Places(grid)
+
+    def one_place(other: int, share: float = 0.3) -> bool:
+        belief = np.zeros(model.n_states)
+        belief[centre], belief[other] = 1.0 - share, share
+        tracker.start(belief)
+        return LookAlikes(model, tracker, places, 0.99).one_place()
+
+    assert one_place(beside(2))
+    assert one_place(beside(3, turn=1))
+    assert not one_place(beside(5))
+    assert not one_place(beside(2, turn=4))
+    assert not one_place(beside(2), share=0.005)  # the first mode holds the goal alone
 
 
 def test_a_move_found_blocked_is_remembered_by_the_way_it_drives(kitchen: Any) -> None:

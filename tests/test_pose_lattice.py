@@ -336,6 +336,64 @@ def test_the_declared_probability_is_the_better_reach_and_never_more_than_the_pr
     assert probability <= float(core.fine[_promised(lattice, state)].sum()) + 1e-12
 
 
+@settings(max_examples=6, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), spread=st.floats(0.02, 0.3))
+def test_the_declaration_expected_after_a_move_and_a_reading_is_each_reading_s_weighed_by_its_probability(
+    tb3: LatticeFilter, seed: int, spread: float
+) -> None:
+    """``declared_after``: for a belief bunched within the place it is about to declare, the
+    declared probability after each joint reading (the belief corrected by it, pose by pose),
+    weighed by the reading's probability -- after a commanded move, too; the belief unchanged."""
+    rng = np.random.default_rng(seed)
+    core = tb3.core
+    start = _bunched(core.lattice, rng, spread)
+    for moves, reading in [((), "scan"), (("forward",), "scan"), (("rotate_ccw",), "scan"), (("backward",), None)]:
+        core.fine = start.copy()
+        expected = core.declared_after(list(moves), [reading])[0]
+        assert np.array_equal(core.fine, start)
+        for move in moves:
+            core.predict(move, None, None)
+        moved = core.fine.copy()
+        if reading is None:
+            brute = core.declared()[1]
+        else:
+            seen = core.probabilities(reading)
+            brute = 0.0
+            for o in np.flatnonzero(seen > 0).tolist():
+                core.fine = moved.copy()
+                core.correct(reading, tb3.model.action(reading).observation.decode(o))
+                brute += seen[o] * core.declared()[1]
+        assert expected == pytest.approx(brute, abs=1e-6)  # the poses beyond NEAR_CELLS: next to nothing
+    tb3.start(uniform(tb3.model.n_states))
+
+
+@pytest.mark.parametrize("action", ["forward", "rotate_cw", "backward"])
+def test_a_move_worked_out_in_a_window_is_the_whole_lattice_s_there(tb3: LatticeFilter, action: str) -> None:
+    """``predict`` with a window of the lattice image: the mass the whole lattice's prediction puts
+    on the window's poses, when the belief lies well inside it; nothing outside it."""
+    core = tb3.core
+    lattice = core.lattice
+    rng = np.random.default_rng(3)
+    start = _bunched(lattice, rng, 0.05)
+    _g, r, c = lattice.image_indices
+    centre_r, centre_c = int(np.average(r, weights=start)), int(np.average(c, weights=start))
+    span = 8 * lattice.k
+    window = lattice.window(slice(centre_r - span, centre_r + span), slice(centre_c - span, centre_c + span))
+    start = np.where(np.isin(np.arange(lattice.n_poses), window[3]), start, 0.0)
+    start /= start.sum()
+    core.fine = start.copy()
+    core.predict(action, None, None)
+    whole = core.fine.copy()
+    core.fine = start.copy()
+    core.predict(action, None, None, window)
+    inside = np.zeros(lattice.n_poses, dtype=bool)
+    inside[window[3]] = True
+    assert not core.fine[~inside].any()
+    assert whole[~inside].sum() < 1e-9
+    np.testing.assert_allclose(core.fine[inside], whole[inside], rtol=1e-9, atol=1e-12)
+    tb3.start(uniform(tb3.model.n_states))
+
+
 def test_the_promise_is_what_simulate_continuous_judges_wrong_by() -> None:
     assert PROMISE_CELLS == WRONG_CELLS and PROMISE_SECTORS == 1.0
 

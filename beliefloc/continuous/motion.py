@@ -33,6 +33,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from scipy import special
@@ -178,6 +179,29 @@ def region_kernel(shift: float, sigma: float) -> tuple[int, np.ndarray]:
 
 
 def region_kernel_2d(shift: tuple[float, float], cov: np.ndarray) -> tuple[tuple[int, int], np.ndarray]:
+    """:func:`_region_kernel_2d`, remembered for the last :data:`KERNELS_KEPT` shifts and covariances:
+    a commanded move asks for the same few kernels at every step (the depot's lattice: 40 yaws a
+    prediction, a third of its time). The weights are read-only."""
+    c = np.asarray(cov, dtype=np.float64)
+    return _kept_kernel_2d(
+        float(shift[0]), float(shift[1]), float(c[0, 0]), float(c[0, 1]), float(c[1, 0]), float(c[1, 1])
+    )
+
+
+KERNELS_KEPT = 1024
+"""How many 2-D motion kernels :func:`region_kernel_2d` remembers."""
+
+
+@lru_cache(maxsize=KERNELS_KEPT)
+def _kept_kernel_2d(
+    row: float, col: float, c00: float, c01: float, c10: float, c11: float
+) -> tuple[tuple[int, int], np.ndarray]:
+    first, weights = _region_kernel_2d((row, col), np.array([[c00, c01], [c10, c11]]))
+    weights.setflags(write=False)
+    return first, weights
+
+
+def _region_kernel_2d(shift: tuple[float, float], cov: np.ndarray) -> tuple[tuple[int, int], np.ndarray]:
     """``((first_row, first_col), weights)``: the 2-D kernel that moves mass from a cell to the cells
     ``(first_row + i, first_col + j)`` with probability ``weights[i, j]`` when the robot, anywhere in
     the cell (uniform), moves by ``shift = (rows, cols)`` cells with Gaussian noise of covariance

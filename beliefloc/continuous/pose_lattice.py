@@ -86,6 +86,12 @@ FREE_PAST_WALL = 0.1
 was not stopped (the lattice position is up to half a spacing from the true pose)."""
 
 
+NEAR_CELLS = 3
+"""The expected declaration after a reading (:meth:`LatticeFilter.declared_after`) is worked out
+on the poses within this many cells of the most likely state: the promise (1.5 cells) and the
+declared state's own drift within it."""
+
+
 INFORMATION_POSES = 100_000
 """A belief over more poses than this has its readings' information (:meth:`LatticeFilter.information`)
 estimated from :data:`INFORMATION_SAMPLE` of them (the depot's lattice: 10^6 poses)."""
@@ -341,6 +347,14 @@ class PoseLattice:
         return out
 
     @cached_property
+    def image_indices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(yaw, row, column)``: each valid pose's indices into the lattice image."""
+        _G, rows, cols = self.shape
+        g, rc = np.divmod(self.flat, rows * cols)
+        r, c = np.divmod(rc, cols)
+        return g, r, c
+
+    @cached_property
     def _box(self) -> tuple[slice, slice, np.ndarray]:
         """``(rows, cols, flat)``: the bounding box of the valid positions and the valid poses'
         indices into a ``(yaws, box rows, box cols)`` image. Motions are worked out in the box
@@ -349,9 +363,7 @@ class PoseLattice:
         and is dropped either way -- the same numbers for a twentieth of the work."""
         r, c = np.nonzero(self.stand)
         rows, cols = slice(int(r.min()), int(r.max()) + 1), slice(int(c.min()), int(c.max()) + 1)
-        _G, full_rows, full_cols = self.shape
-        g, rc = np.divmod(self.flat, full_rows * full_cols)
-        pr, pc = np.divmod(rc, full_cols)
+        g, pr, pc = self.image_indices
         height, width = rows.stop - rows.start, cols.stop - cols.start
         flat = g * (height * width) + (pr - rows.start) * width + (pc - cols.start)
         return rows, cols, flat
@@ -368,6 +380,24 @@ class PoseLattice:
         out: np.ndarray = image.reshape(-1)[self._box[2]]
         return out
 
+    def window(self, rows: slice, cols: slice) -> tuple[slice, slice, np.ndarray, np.ndarray]:
+        """``(rows, cols, flat, poses)``: a part of the lattice image (clipped to it), the valid poses
+        in it, and their indices into a ``(yaws, rows, cols)`` image of it -- where
+        :meth:`predict` may be worked out when only the poses near some place matter."""
+        _G, full_rows, full_cols = self.shape
+        rows = slice(max(0, rows.start), min(full_rows, rows.stop))
+        cols = slice(max(0, cols.start), min(full_cols, cols.stop))
+        g, r, c = self.image_indices
+        poses = np.flatnonzero((r >= rows.start) & (r < rows.stop) & (c >= cols.start) & (c < cols.stop))
+        width = max(0, cols.stop - cols.start)
+        flat = (
+            g[poses] * (max(0, rows.stop - rows.start) * width)
+            + (r[poses] - rows.start) * width
+            + c[poses]
+            - cols.start
+        )
+        return rows, cols, flat, poses
+
     # --- motion ---------------------------------------------------------------------------------
 
     def predict(
@@ -375,12 +405,19 @@ class PoseLattice:
         fine: np.ndarray,
         deltas: Sequence[tuple[float, float, float]],
         noise: OdometryNoise,
+        window: tuple[slice, slice, np.ndarray, np.ndarray] | None = None,
     ) -> np.ndarray:
         """``fine`` moved by a robot-frame delta per lattice yaw (``deltas[g]``; one delta for all
         when ``len(deltas) == 1``) with ``noise``; mass that lands where no valid pose is, is dropped.
-        Unnormalised: the mass kept (0 when every pose moved off the valid ones)."""
-        image = self._box_image_of(fine)
-        rows, cols, _ = self._box
+        Unnormalised: the mass kept (0 when every pose moved off the valid ones). With a ``window``
+        (:meth:`window`), only the mass within it, moved within it (the rest 0)."""
+        if window is None:
+            image = self._box_image_of(fine)
+            rows, cols, _ = self._box
+        else:
+            rows, cols, flat, poses = window
+            image = np.zeros((self.shape[0], rows.stop - rows.start, cols.stop - cols.start))
+            image.reshape(-1)[flat] = fine[poses]
         G = self.shape[0]
         yaws = self.yaws()
         groups: dict[tuple[float, float, float], list[int]] = {}
@@ -396,7 +433,11 @@ class PoseLattice:
                 part[members] = image[members]
                 moved += predict_grid(part, yaws, self.spacing, delta, noise, normalize=False)
         moved *= self.stand[None, rows, cols]
-        return self._box_gather(moved)
+        if window is None:
+            return self._box_gather(moved)
+        out = np.zeros(self.n_poses)
+        out[poses] = moved.reshape(-1)[flat]
+        return out
 
     def shifted(self, fine: np.ndarray, deltas: Sequence[tuple[float, float, float]]) -> np.ndarray:
         """``fine`` moved by a robot-frame delta per lattice yaw (as :meth:`predict`) to the nearest
@@ -524,11 +565,19 @@ class LatticeFilter:
 
     # --- motion ---------------------------------------------------------------------------------
 
-    def predict(self, action: str, odometry: tuple[float, float, float] | None, blocked: bool | None) -> None:
+    def predict(
+        self,
+        action: str,
+        odometry: tuple[float, float, float] | None,
+        blocked: bool | None,
+        window: tuple[slice, slice, np.ndarray, np.ndarray] | None = None,
+    ) -> None:
         """The motion of ``action``: by the reported ``odometry`` when given; else by the commanded
         motion, each pose whose path the map blocks staying where it is, weighed by the ``blocked``
         flag when given (see the module). Raises :class:`ImpossibleObservationError` when no pose is
-        left (the motion takes every pose the robot may be in off the map)."""
+        left (the motion takes every pose the robot may be in off the map). With a ``window``
+        (:meth:`PoseLattice.window`) the mass outside it is dropped (a look at the poses near a
+        place)."""
         fine = self.fine
         if odometry is not None:
             deltas = self.motions.get(action)
@@ -542,7 +591,7 @@ class LatticeFilter:
                     fine = fine * np.where(self.lattice.blocked(deltas, maybe=True), 1.0, UNMAPPED_STOP)
                 else:
                     fine = fine * np.where(self.lattice.blocked(deltas), FREE_PAST_WALL, 1.0)
-            moved = self.lattice.predict(fine, [odometry], self.noise)
+            moved = self.lattice.predict(fine, [odometry], self.noise, window)
         else:
             deltas = self.motions.get(action)
             if deltas is None:
@@ -557,8 +606,11 @@ class LatticeFilter:
             else:
                 goes = fine * np.where(stuck, FLAG_FLOOR, 1.0)
                 stays = np.zeros_like(fine)
-            moved = self.lattice.predict(goes, deltas, self.noise) if goes.any() else np.zeros_like(fine)
-            moved += stays
+            moved = self.lattice.predict(goes, deltas, self.noise, window) if goes.any() else np.zeros_like(fine)
+            if window is not None:
+                moved[window[3]] += stays[window[3]]
+            else:
+                moved += stays
         total = moved.sum()
         if not total > 0:
             raise ImpossibleObservationError(f"{action}: the motion takes every pose the robot may be in off the map")
@@ -576,6 +628,75 @@ class LatticeFilter:
             return 0.0
         finally:
             self.fine = fine
+
+    def declared_after(self, moves: Sequence[str], readings: Sequence[str | None]) -> list[float]:
+        """For each of ``readings`` (None: no reading), the declared probability (the state's own
+        reach, :meth:`state_reach`) expected after the commanded ``moves`` (with their noise,
+        nothing reported, as :meth:`peak_after`) and that reading where they end: each joint
+        reading's probability times the reach of the state the belief after it would declare.
+        Worked out on the poses within :data:`NEAR_CELLS` cells of the most likely state after the
+        moves: a belief near its declaration has next to nothing farther, and no reading makes a
+        state farther than the promise the most likely one. The belief is not changed."""
+        lattice = self.lattice
+        k = lattice.k
+        fine = self.fine
+        if moves:
+            # the moves worked out near the place alone: a move goes at most a cell's diagonal
+            row, col, _heading = (int(v) for v in lattice.layout.cell_heading(int(np.argmax(self.belief))))
+            reach = (NEAR_CELLS + 2 * len(moves)) * k
+            window = lattice.window(
+                slice(row * k - reach, row * k + k + reach), slice(col * k - reach, col * k + k + reach)
+            )
+        try:
+            for move in moves:
+                self.predict(move, None, None, window)
+            moved = self.fine
+        except ImpossibleObservationError:
+            return [0.0] * len(readings)
+        finally:
+            self.fine = fine
+        best = int(np.argmax(lattice.coarse(moved)))
+        _g, r, c = lattice.image_indices
+        row, col, _heading = (int(v) for v in lattice.layout.cell_heading(best))
+        span = NEAR_CELLS * k + (k - 1) / 2
+        near = np.flatnonzero(
+            (np.abs(r - (row * k + (k - 1) / 2)) <= span) & (np.abs(c - (col * k + (k - 1) / 2)) <= span)
+        )
+        near = near[moved[near] > 0]
+        return [self._declared_after_reading(best, near, moved[near], reading) for reading in readings]
+
+    def _declared_after_reading(self, best: int, near: np.ndarray, weights: np.ndarray, reading: str | None) -> float:
+        """:meth:`declared_after` for one reading, the belief ``weights`` on the poses ``near``
+        (``best``: the most likely state before the reading)."""
+        lattice = self.lattice
+        tables = self.tables.get(reading, []) if reading is not None else []
+        radius, turns = self._own_reach()
+        g, r, c = lattice.image_indices
+        unread = min(1.0, float(weights[self._within(best, g[near], r[near], c[near], radius, turns)].sum()))
+        if not tables or not near.size:
+            return unread
+        joint = tables[0][near].astype(np.float64)
+        for table in tables[1:]:
+            joint = (joint[:, :, None] * table[near][:, None, :]).reshape(near.size, -1)
+        seen = weights @ joint  # p(o), the near poses' share
+        after = weights[:, None] * (joint**self.temper if self.temper != 1.0 else joint)
+        totals = after.sum(axis=0)
+        keep = (seen > 0) & (totals > 0)
+        if not keep.any():
+            return unread
+        seen, after, totals = seen[keep], after[:, keep], totals[keep]
+        # the most likely state after each reading: the poses' mass summed per state
+        order = np.argsort(lattice.state[near], kind="stable")
+        states = lattice.state[near][order]
+        starts = np.flatnonzero(np.r_[True, states[1:] != states[:-1]])
+        per_state = np.add.reduceat(after[order], starts, axis=0)
+        declared = states[starts][np.argmax(per_state, axis=0)]
+        peaks = np.zeros(seen.size)
+        for state in np.unique(declared).tolist():
+            columns = declared == state
+            within = self._within(state, g[near], r[near], c[near], radius, turns)
+            peaks[columns] = within @ after[:, columns] / totals[columns]
+        return float(np.dot(seen, np.minimum(peaks, 1.0)) / seen.sum())
 
     # --- readings -------------------------------------------------------------------------------
 
@@ -800,11 +921,15 @@ class LatticeFilter:
     def state_reach(self, state: int) -> float:
         """The mass within :data:`REACH_CELLS` cells of ``state``'s cell centre and
         :data:`REACH_SECTORS` sectors of its heading."""
+        return min(1.0, self._mass_around(state, *self._own_reach()))
+
+    def _own_reach(self) -> tuple[float, int]:
+        """A state's own reach in lattice steps: ``(radius, turns)``; a lattice pose's whole square
+        and yaw step within the promise."""
         k, m = self.lattice.k, self.lattice.m
-        # in lattice steps; a lattice pose's whole square and yaw step within the promise
         radius = min(REACH_CELLS * k, PROMISE_CELLS * k - 1 / math.sqrt(2))
         turns = math.floor(min(REACH_SECTORS * m, PROMISE_SECTORS * m - 0.5) + 1e-9)
-        return min(1.0, self._mass_around(state, radius, turns))
+        return radius, turns
 
     def elsewhere(self, state: int) -> float:
         """The mass of the lattice poses beyond ``state``'s promise: farther than
@@ -817,24 +942,36 @@ class LatticeFilter:
 
     def _mass_around(self, state: int, radius: float, turns: int) -> float:
         """The mass of the lattice poses within ``radius`` lattice steps of ``state``'s cell centre
-        (a disc) and ``turns`` lattice yaws of its heading (every yaw with one heading): a box of
-        the lattice image."""
+        (a disc) and ``turns`` lattice yaws of its heading (every yaw with one heading)
+        (:meth:`_within`), summed over a box of the lattice image."""
         lattice = self.lattice
-        layout = lattice.layout
-        row, col, heading = (int(v) for v in layout.cell_heading(state))
-        k, m = lattice.k, lattice.m
+        row, col, _heading = (int(v) for v in lattice.layout.cell_heading(state))
+        k = lattice.k
         G, rows, cols = lattice.shape
         half = (k - 1) / 2  # the cell centre's offset from its first lattice position
         lo, hi = math.ceil(half - radius - 1e-9), math.floor(half + radius + 1e-9)
-        offsets = np.arange(lo, hi + 1)
-        disc = np.hypot(*np.meshgrid(offsets - half, offsets - half, indexing="ij")) <= radius + 1e-9
-        if layout.headings == 1:
-            turns = 0  # one lattice yaw
-        g = (heading * m + np.arange(-min(turns, G // 2), min(turns, (G - 1) // 2) + 1)) % G
-        r, c = row * k + offsets, col * k + offsets
-        r_in, c_in = (r >= 0) & (r < rows), (c >= 0) & (c < cols)
-        box = lattice.image_of(self.fine)[np.ix_(g, r[r_in], c[c_in])]
-        return float((box * disc[np.ix_(r_in, c_in)]).sum())
+        r = np.arange(max(0, row * k + lo), min(rows, row * k + hi + 1))
+        c = np.arange(max(0, col * k + lo), min(cols, col * k + hi + 1))
+        if not (r.size and c.size):
+            return 0.0
+        box = lattice.image_of(self.fine)[:, r[0] : r[-1] + 1, c[0] : c[-1] + 1]
+        inside = self._within(state, np.arange(G)[:, None, None], r[None, :, None], c[None, None, :], radius, turns)
+        return float((box * inside).sum())
+
+    def _within(self, state: int, g: np.ndarray, r: np.ndarray, c: np.ndarray, radius: float, turns: int) -> np.ndarray:
+        """Whether the lattice poses at yaw index ``g``, row ``r`` and column ``c`` (arrays that
+        broadcast) lie within ``radius`` lattice steps of ``state``'s cell centre and ``turns``
+        lattice yaws of its heading (every yaw with one heading)."""
+        lattice = self.lattice
+        row, col, heading = (int(v) for v in lattice.layout.cell_heading(state))
+        k, G = lattice.k, lattice.shape[0]
+        half = (k - 1) / 2
+        near: np.ndarray = np.hypot(r - (row * k + half), c - (col * k + half)) <= radius + 1e-9
+        if lattice.layout.headings == 1:
+            return near
+        offset = (g - heading * lattice.m + G // 2) % G - G // 2
+        out: np.ndarray = near & (offset >= -min(turns, G // 2)) & (offset <= min(turns, (G - 1) // 2))
+        return out
 
     def mean_reach(self, mode: int) -> tuple[int, float]:
         """The state holding the mean pose of the mass within ``mode``'s promise, and the mass within

@@ -72,6 +72,8 @@ class BeliefFilter(Protocol):
 
     def peak_after(self, move: Action) -> float: ...
 
+    def declared_after(self, moves: Sequence[Action], readings: Sequence[Action | None]) -> list[float]: ...
+
     def planning_belief(self) -> np.ndarray: ...
 
     def information(self, action: Action) -> float: ...
@@ -140,6 +142,22 @@ class ModelFilter:
     def peak_after(self, move: Action) -> float:
         """The most likely state's probability were the commanded ``move`` made now (``T_a``)."""
         return float(predict_reported(move, self.belief, None, self.model.grid).max())
+
+    def declared_after(self, moves: Sequence[Action], readings: Sequence[Action | None]) -> list[float]:
+        """For each of ``readings`` (None: none), the most likely state's probability expected after
+        ``moves`` (``T_a``) and that reading: ``sum_o max_s b'(s) O(o | s)``."""
+        belief = self.belief
+        for move in moves:
+            belief = predict_reported(move, belief, None, self.model.grid)
+        support = np.flatnonzero(belief > 0)
+        out = []
+        for reading in readings:
+            if reading is None or not support.size:
+                out.append(float(belief.max()))
+                continue
+            joint = reading.observation.likelihood_matrix(support) * belief[support][:, None]
+            out.append(float(joint.max(axis=0).sum() / joint.sum()))
+        return out
 
     def planning_belief(self) -> np.ndarray:
         """The belief itself: the planner's goal is the threshold's."""
@@ -366,6 +384,12 @@ class LatticeFilter:
         """The declared probability were the commanded ``move`` made now, nothing read
         (:meth:`beliefloc.continuous.pose_lattice.LatticeFilter.peak_after`)."""
         return self.core.peak_after(move.name) if move.is_actuation else self.peak()
+
+    def declared_after(self, moves: Sequence[Action], readings: Sequence[Action | None]) -> list[float]:
+        """For each of ``readings`` (None: none), the declared probability expected after the
+        commanded ``moves`` and that reading
+        (:meth:`beliefloc.continuous.pose_lattice.LatticeFilter.declared_after`)."""
+        return self.core.declared_after([m.name for m in moves], [r.name if r is not None else None for r in readings])
 
     def planning_belief(self) -> np.ndarray:
         """The belief the planner plans from: each of its modes (:func:`beliefloc.pose.belief_modes`,
