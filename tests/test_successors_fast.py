@@ -17,6 +17,13 @@ from .conftest import MAPS
 FAST_MAPS = ("kitchen.yaml", "corridors.yaml", "tb3-sandbox.yaml", "window-2x2.yaml")
 
 
+@pytest.fixture(autouse=True)
+def _numpy_passes(monkeypatch):
+    """These are the NumPy passes' tests: the compiled ones (equal to a few ulps, not bit for bit) are
+    tested in test_successors_compiled.py."""
+    monkeypatch.setattr(successors, "fused", None)
+
+
 def _successors(action, belief):
     """``(o, b')`` for every reading ``o`` of ``action`` possible from ``belief``: Bayes' rule the plain way."""
     for o in range(action.observation.n_observations if action.observation.parts else 0):

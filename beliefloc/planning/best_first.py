@@ -50,6 +50,7 @@ import numpy as np
 import xxhash
 
 from beliefloc.model import Model
+from beliefloc.planning import successors
 from beliefloc.planning.settings import (
     DEFAULT_MAX_EXPANSIONS,
     DEFAULT_THRESHOLD,
@@ -163,6 +164,10 @@ def key_and_peak(belief: np.ndarray, work: KeyWork) -> tuple[bytes, float]:
     ):
         peak = float(belief.max())
         return belief_key(belief, work, peak), peak
+    if successors.fused is not None:  # the same rounding in one compiled pass
+        peak, fits = successors.fused.round_key(belief, KEY_RESOLUTION, work.whole)
+        if fits and float(np.rint(peak * KEY_RESOLUTION)) <= KEY_RESOLUTION:
+            return _digest(work.whole.data), peak
     maxima = np.empty((n + _KEY_BLOCK - 1) // _KEY_BLOCK)
     with np.errstate(invalid="ignore"):  # a NaN entry (no belief) cast to an integer: the key is made again
         for index, start in enumerate(range(0, n, _KEY_BLOCK)):

@@ -24,9 +24,13 @@ contingent planner, which merges equal beliefs, takes them all with their statis
 
 from __future__ import annotations
 
+import itertools
 import math
+import os
 from collections.abc import Callable, Iterator
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from types import ModuleType
 
 import numpy as np
 
@@ -40,6 +44,15 @@ try:  # the kernels behind ``sparse @ vector``, called with an output of our own
     from scipy.sparse._sparsetools import csr_matvec as _csr_matvec
 except ImportError:  # pragma: no cover - a SciPy that moved them: the public product instead
     _csr_matvec = _csc_matvec = None
+
+fused: ModuleType | None
+"""The compiled passes for large beliefs (``_fused.c``; setup.py builds them where a C compiler is found),
+or None: then the NumPy passes below, the same plans. Setting it to None (tests, a comparison) makes the
+evaluators made afterwards and :func:`~beliefloc.planning.best_first.key_and_peak` use NumPy's."""
+try:
+    from beliefloc.planning import _fused as fused
+except ImportError:  # pragma: no cover - an install without the extension
+    fused = None
 
 _LARGE_BYTES = 2**20
 """Beliefs of at least this many bytes are predicted into reused vectors (:meth:`SuccessorEvaluator._predict`)."""
@@ -268,6 +281,29 @@ def _group_sums(
     return mass, mass_log_mass, peak
 
 
+_Sums = tuple[np.ndarray, np.ndarray, np.ndarray]
+"""Each signature group's ``Σ b``, ``Σ b ln b`` and ``max b``."""
+
+_POOL: ThreadPoolExecutor | None = None
+_POOL_MADE = False
+
+
+def _pool() -> ThreadPoolExecutor | None:
+    """Threads for the compiled passes of an expansion, one per core this process may use (at most
+    four: the passes share the memory bus), made once; None on one core."""
+    global _POOL, _POOL_MADE
+    if not _POOL_MADE:
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        _POOL = ThreadPoolExecutor(min(4, cores), thread_name_prefix="beliefloc-successors") if cores > 1 else None
+        _POOL_MADE = True
+    return _POOL
+
+
+def _combined(first: _Sums, second: _Sums) -> _Sums:
+    """The group sums of two parts of a belief's states, as those of their union."""
+    return first[0] + second[0], first[1] + second[1], np.maximum(first[2], second[2])
+
+
 class SuccessorEvaluator:
     """Successor statistics and beliefs for one model; precomputes signature groups once."""
 
@@ -278,6 +314,9 @@ class SuccessorEvaluator:
         self._spare: list[np.ndarray] = []
         self._large = model.n_states * 8 >= _LARGE_BYTES
         self._ranks: dict[int, np.ndarray] = {}
+        # large beliefs only: small ones keep NumPy's sums bit for bit (the paper's worlds' figures)
+        self._fused = fused if self._large else None
+        self._fused_kinds: bool | None = None
 
     def recycle(self, vector: np.ndarray) -> None:
         """Take back a belief this evaluator made that nobody refers to any more; a later prediction
@@ -308,6 +347,9 @@ class SuccessorEvaluator:
             out = self._vector()
             np.copyto(out, belief)
             return out
+        fused = self._fused_predict(action, belief, stats=False)
+        if fused is not None:
+            return fused[0]
         built = action.__dict__.get("transition_transposed")  # the cached_property, if computed
         matrix, kernel = (transition, _csc_matvec) if built is None else (built, _csr_matvec)
         if (
@@ -327,6 +369,54 @@ class SuccessorEvaluator:
         kernel(n_rows, n_columns, matrix.indptr, matrix.indices, matrix.data, belief, out)
         return out
 
+    def _fused_predict(
+        self, action: Action, belief: np.ndarray, stats: bool, out: np.ndarray | None = None
+    ) -> tuple[np.ndarray, float, float] | None:
+        """``T_aᵀ b`` into a recycled vector, bit for bit :func:`~beliefloc.belief.predict`'s, by a
+        compiled pass; with ``stats``, its entropy and maximum taken in the same call, chunk by chunk while
+        it is in the cache (equal to :func:`_entropy_max`'s to a few ulps: another
+        summation order and logarithm). At 10^7 states a move's prediction, entropy and maximum took
+        ~0.12 s in three NumPy passes and a zeroing, 0.04-0.05 s here. None where the pass does not
+        apply (no extension, a matrix of another kind). Safe to run beside another call given ``out``
+        (a vector of |S| floats: :meth:`_vector` is not)."""
+        if self._fused is None or not _blocked_vector(belief) or belief.shape != (self.model.n_states,):
+            return None
+        # T_aᵀ's rows if the transpose is built (localize's updates build it), else T_a's own rows: one
+        # more pass over the prediction, but no transpose to build (0.5-0.9 s and 280 MB a move at 10^7)
+        built = action.__dict__.get("transition_transposed")  # the cached_property, if computed
+        matrix = action.transition if built is None else built
+        if (
+            matrix is None
+            or matrix.format != "csr"
+            or matrix.dtype != np.float64
+            or matrix.indices.dtype != matrix.indptr.dtype
+            or matrix.indptr.dtype not in (np.int32, np.int64)
+        ):
+            return None
+        if out is None:
+            out = self._vector()
+        xlogx, peak, nan = self._fused.predict_stats(
+            matrix.indptr, matrix.indices, matrix.data, belief, out, stats, built is None
+        )
+        if nan and stats:  # a NaN entry: the NumPy statistics (entropy() skips it, max() returns it)
+            return out, entropy(out), float(out.max())
+        return out, -xlogx, peak
+
+    def _fused_group_sums(
+        self, groups: _Groups, predicted: np.ndarray, start: int = 0, stop: int | None = None
+    ) -> _Sums | None:
+        """:meth:`_group_sums` by the compiled pass: each group's ``Σ b``, ``Σ b ln b`` and ``max b`` in one
+        read of the belief and its labels (equal to NumPy's to a few ulps), over the states
+        ``start:stop`` (all by default; a group with none there has sums 0 and maximum -inf). None where
+        it does not apply, or when an entry is NaN (the NumPy code then says so)."""
+        if self._fused is None or groups.label is None or not _blocked_vector(predicted):
+            return None
+        count = len(groups.starts)
+        mass, mass_log_mass, peak = np.empty(count), np.empty(count), np.empty(count)
+        if self._fused.group_stats(predicted[start:stop], groups.label[start:stop], mass, mass_log_mass, peak):
+            return None
+        return mass, mass_log_mass, peak
+
     def _buffers(self) -> tuple[np.ndarray, np.ndarray]:
         """Two scratch vectors of |S| floats, reused by every evaluation: a new 80 MB array costs its
         page faults at 10^7 states."""
@@ -339,6 +429,10 @@ class SuccessorEvaluator:
         (:func:`_entropy_max`) instead of a copy of its support and three passes (the start belief's
         estimate: 0.2 s at 10^7 states)."""
         if self._large and _blocked_vector(belief) and belief.shape == (self.model.n_states,):
+            if self._fused is not None:
+                xlogx, peak, nan = self._fused.belief_stats(belief)
+                if not nan:
+                    return -xlogx, peak
             return _entropy_max(belief, self._buffers()[0])
         return entropy(belief), float(belief.max())
 
@@ -348,15 +442,23 @@ class SuccessorEvaluator:
         With ``beliefs``, the successor beliefs that came out whole are put there by action index:
         those of the actions that observe nothing, whose successor is the prediction itself (the
         very array :meth:`successor` would compute again, at 50 ms a prediction at 10^7 states)."""
+        if self._fused_applies(belief):
+            return self._evaluate_fused(belief, beliefs)
         out: list[SuccessorStats] = []
         work = self._buffers()[0]
         for index, action in enumerate(self.model.actions):
-            # a perception's prediction is the belief itself, only read here: no copy
-            predicted = belief if action.transition is None else self._predict(action, belief)
             groups = self._groups[index]
+            fused = None
+            if action.transition is None:
+                predicted = belief  # a perception's prediction is the belief itself, only read here: no copy
+            else:
+                fused = self._fused_predict(action, belief, stats=groups is None)
+                predicted = self._predict(action, belief) if fused is None else fused[0]
             if groups is None:
-                if self._large:
-                    h, peak = _entropy_max(predicted, work)
+                if fused is not None:
+                    h, peak = fused[1], fused[2]
+                elif self._large:
+                    h, peak = self.entropy_max(predicted)
                 else:
                     h, peak = _entropy(predicted, work), float(predicted.max())
                 out.append(SuccessorStats(index, None, 1.0, h, peak))
@@ -366,6 +468,81 @@ class SuccessorEvaluator:
                     self.recycle(predicted)
                 continue
             out.extend(self._observe(index, groups, predicted))
+            if predicted is not belief:
+                self.recycle(predicted)
+        return out
+
+    def _fused_applies(self, belief: np.ndarray) -> bool:
+        """Whether :meth:`_evaluate_fused` takes ``belief``: the compiled passes are built, the belief is
+        large, and every action's matrix and signature groups are of the kinds they read."""
+        if self._fused is None or not _blocked_vector(belief) or belief.shape != (self.model.n_states,):
+            return False
+        if self._fused_kinds is None:
+            matrices = [a.transition for a in self.model.actions if a.transition is not None]
+            self._fused_kinds = all(
+                m.format == "csr"
+                and m.dtype == np.float64
+                and m.indices.dtype == m.indptr.dtype
+                and m.indptr.dtype in (np.int32, np.int64)
+                for m in matrices
+            ) and all(groups is None or groups.label is not None for groups in self._groups)
+        return self._fused_kinds
+
+    def _evaluate_fused(self, belief: np.ndarray, beliefs: dict[int, np.ndarray] | None) -> list[SuccessorStats]:
+        """:meth:`evaluate` by the compiled passes, side by side on the cores this process may use
+        (:func:`_pool`; each pass releases the interpreter's lock). At 10^7 states an expansion's four
+        moves are ~0.05 s of passes each and a look's group sums ~0.04 s: the look's are taken in two
+        halves, last, so that two cores end together (five passes on two cores otherwise wait for the
+        fifth)."""
+        actions = self.model.actions
+        n = self.model.n_states
+        pool = _pool()
+        outs = [self._vector() if action.transition is not None else None for action in actions]
+        whole = [i for i, a in enumerate(actions) if a.transition is not None or self._groups[i] is None]
+        looks = [i for i, a in enumerate(actions) if a.transition is None and self._groups[i] is not None]
+        cuts = (0, n // 2, n)  # with or without a pool: the same sums, bit for bit, on any number of cores
+        tasks = [(i, 0, n) for i in whole] + [(i, lo, hi) for i in looks for lo, hi in itertools.pairwise(cuts)]
+
+        def measure(task: tuple[int, int, int]) -> tuple[np.ndarray, tuple[float, float] | None, _Sums | None]:
+            index, lo, hi = task
+            action, groups = actions[index], self._groups[index]
+            predicted = belief
+            if action.transition is not None:
+                fused = self._fused_predict(action, belief, groups is None, outs[index])
+                assert fused is not None  # _fused_applies checked the matrices
+                predicted = fused[0]
+                if groups is None:
+                    return predicted, (fused[1], fused[2]), None
+            if groups is None:
+                return predicted, None, None  # a perception that observes nothing: taken below
+            return predicted, None, self._fused_group_sums(groups, predicted, lo, hi)
+
+        done = list(pool.map(measure, tasks)) if pool else [measure(task) for task in tasks]
+        results: dict[int, tuple[np.ndarray, tuple[float, float] | None, _Sums | None]] = {}
+        for (index, _, _), (predicted, entropy_peak, sums) in zip(tasks, done, strict=True):
+            if index in results:  # the second half of a look's sums
+                earlier = results[index][2]
+                if earlier is None or sums is None:  # a NaN entry: the NumPy sums below
+                    results[index] = (predicted, None, None)
+                else:
+                    results[index] = (predicted, None, _combined(earlier, sums))
+            else:
+                results[index] = (predicted, entropy_peak, sums)
+        out: list[SuccessorStats] = []
+        for index in range(len(actions)):
+            predicted, entropy_peak, sums = results[index]
+            groups = self._groups[index]
+            if groups is None:
+                h, peak = entropy_peak if entropy_peak is not None else self.entropy_max(predicted)
+                out.append(SuccessorStats(index, None, 1.0, h, peak))
+                if beliefs is not None:
+                    beliefs[index] = predicted if predicted is not belief else belief.copy()
+                elif predicted is not belief:
+                    self.recycle(predicted)
+                continue
+            if sums is None:  # a NaN entry: the NumPy sums say so
+                sums = self._group_sums(groups, predicted)
+            out.extend(self._observation_stats(index, groups, sums))
             if predicted is not belief:
                 self.recycle(predicted)
         return out
@@ -385,11 +562,15 @@ class SuccessorEvaluator:
                 yield stats, weighted
 
     def _observe(self, index: int, groups: _Groups, predicted: np.ndarray) -> list[SuccessorStats]:
-        sums = None
-        if self._large and len(groups.starts) <= _BLOCKED_GROUPS:
+        sums = self._fused_group_sums(groups, predicted)
+        if sums is None and self._large and len(groups.starts) <= _BLOCKED_GROUPS:
             sums = _group_sums(predicted, groups, self._rank(index, groups), *self._buffers())
         if sums is None:
             sums = self._group_sums(groups, predicted)
+        return self._observation_stats(index, groups, sums)
+
+    def _observation_stats(self, index: int, groups: _Groups, sums: _Sums) -> list[SuccessorStats]:
+        """Every observation's successor statistics from the signature groups' sums (the module docs)."""
         mass, mass_log_mass, peak = sums
         table = groups.likelihood
         probability = mass @ table
@@ -441,8 +622,11 @@ class SuccessorEvaluator:
         groups = self._groups[action]
         if self._large and groups is not None and groups.label is not None and _blocked_vector(predicted):
             weighted = self._vector()
-            column = groups.likelihood[:, observation]
-            total = _weighted_sum(predicted, column, groups.label, weighted, self._buffers()[0])
+            column = np.ascontiguousarray(groups.likelihood[:, observation])
+            if self._fused is not None:  # the same bits in one compiled pass
+                total = self._fused.weighted_sum(predicted, column, groups.label, weighted)
+            else:
+                total = _weighted_sum(predicted, column, groups.label, weighted, self._buffers()[0])
         else:
             likelihood = self._likelihood(action, observation)
             weighted = np.multiply(predicted, likelihood, out=self._vector()) if self._large else predicted * likelihood

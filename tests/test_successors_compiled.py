@@ -1,0 +1,252 @@
+"""The compiled passes for large beliefs (``beliefloc/planning/_fused.c``, issue 28): predictions and Bayes
+updates bit for bit as NumPy's and SciPy's, entropies and group sums to a few ulps, the same plans, and
+no read or write outside the vectors whatever the arguments."""
+
+from __future__ import annotations
+
+import math
+import shutil
+import sysconfig
+
+import numpy as np
+import pytest
+
+from beliefloc import compile_model, load_map
+from beliefloc.belief import entropy, predict
+from beliefloc.planning import best_first, successors
+from beliefloc.planning.successors import SuccessorEvaluator
+from beliefloc.simulation.gridworld import generate_gridworld, gridworld_yaml
+
+from .conftest import MAPS
+
+
+def _compiler() -> bool:
+    command = (sysconfig.get_config_var("CC") or "cc").split()[0]
+    return shutil.which(command) is not None
+
+
+def test_the_compiled_passes_are_built_where_a_compiler_is():
+    """setup.py builds the extension as optional: a broken build would only make the search slower, so
+    this says so wherever a C compiler is found (CI's machines have one)."""
+    if not _compiler():
+        pytest.skip("no C compiler: the NumPy passes are used")
+    assert successors.fused is not None
+
+
+fused = successors.fused
+needs_fused = pytest.mark.skipif(fused is None, reason="the compiled passes are not built")
+REL = 1e-13
+"""Entropies and group sums: another summation order and logarithm, a few ulps per entry."""
+
+
+def _world(tmp_path, states: int, seed: int):
+    world = tmp_path / f"world-{states}-{seed}.yaml"
+    world.write_text(
+        gridworld_yaml(generate_gridworld(states, np.random.default_rng(seed)), seed=seed), encoding="utf-8"
+    )
+    return compile_model(load_map(world))
+
+
+def _beliefs(n: int, rng: np.random.Generator) -> list[np.ndarray]:
+    """Dense, with holes (zero entries), uniform, one state, and a wide spread of magnitudes."""
+    full = rng.random(n)
+    holes = full.copy()
+    holes[rng.random(n) < 0.5] = 0.0
+    holes[0] = 1.0
+    one = np.zeros(n)
+    one[n // 2] = 1.0
+    spread = np.exp(rng.uniform(-600.0, 0.0, n))
+    return [b / b.sum() for b in (full, holes, np.ones(n), one, spread)]
+
+
+def _models(tmp_path):
+    names = ("kitchen.yaml", "corridors.yaml", "tb3-sandbox.yaml", "window-2x2.yaml")
+    return [compile_model(load_map(MAPS / name)) for name in names] + [_world(tmp_path, 4000, 2)]
+
+
+@needs_fused
+def test_predictions_bit_for_bit_with_their_entropy_and_maximum(tmp_path):
+    """``T_aᵀ b`` from T_a's rows (scattered) and from the transpose's rows (gathered) is SciPy's product
+    bit for bit; the entropy and maximum taken with it are ``entropy()``'s and ``max()``'s."""
+    rng = np.random.default_rng(3)
+    checked = 0
+    for model in _models(tmp_path):
+        for action in model.actions:
+            if action.transition is None:
+                continue
+            forward, transposed = action.transition, action.transition_transposed
+            for belief in _beliefs(model.n_states, rng):
+                expected = predict(action, belief)
+                for matrix, by_source in ((forward, True), (transposed, False)):
+                    for stats in (True, False):
+                        out = np.full(model.n_states, np.nan)
+                        xlogx, peak, nan = fused.predict_stats(
+                            matrix.indptr, matrix.indices, matrix.data, belief, out, stats, by_source
+                        )
+                        assert out.tobytes() == expected.tobytes()
+                        assert not nan
+                        if stats:
+                            assert -xlogx == pytest.approx(entropy(expected), rel=REL, abs=1e-300)
+                            assert peak == float(expected.max())
+                        checked += 1
+    assert checked > 100
+
+
+@needs_fused
+def test_a_beliefs_entropy_and_maximum():
+    rng = np.random.default_rng(4)
+    for n in (1, 3, 4, 5, 1023, 1024, 1025, 5000):
+        for belief in _beliefs(n, rng):
+            xlogx, peak, nan = fused.belief_stats(belief)
+            assert -xlogx == pytest.approx(entropy(belief), rel=REL, abs=1e-300)
+            assert (peak, nan) == (float(belief.max()), 0)
+    holed = np.array([0.5, np.nan, 0.5])
+    assert fused.belief_stats(holed)[2]
+
+
+@needs_fused
+def test_group_sums_whole_and_in_parts(tmp_path):
+    """Each signature group's mass, mass-log-mass and maximum are NumPy's; over two parts of the states,
+    combined, the same to a few ulps (the maximum exactly)."""
+    rng = np.random.default_rng(5)
+    checked = 0
+    for model in _models(tmp_path):
+        evaluator = SuccessorEvaluator(model)
+        evaluator._fused = fused
+        for groups in evaluator._groups:
+            if groups is None or groups.label is None:
+                continue
+            for belief in _beliefs(model.n_states, rng):
+                mass, mass_log_mass, peak = evaluator._group_sums(groups, belief)
+                whole = evaluator._fused_group_sums(groups, belief)
+                cut = model.n_states // 3
+                first = evaluator._fused_group_sums(groups, belief, 0, cut)
+                second = evaluator._fused_group_sums(groups, belief, cut, None)
+                assert whole is not None and first is not None and second is not None
+                for sums in (whole, successors._combined(first, second)):
+                    np.testing.assert_allclose(sums[0], mass, rtol=REL, atol=1e-300)
+                    np.testing.assert_allclose(sums[1], mass_log_mass, rtol=REL, atol=1e-300)
+                    assert sums[2].tobytes() == peak.tobytes()
+                checked += 1
+    assert checked > 10
+
+
+@needs_fused
+def test_bayes_updates_bit_for_bit():
+    """``b * column[label]`` and its sum, as NumPy's product and ``np.add.reduce`` (its pairwise tree)."""
+    rng = np.random.default_rng(6)
+    for n in (1, 7, 8, 9, 127, 128, 129, 136, 1000, 4097, 65_537):
+        column = rng.random(5)
+        column[1] = 0.0
+        label = rng.integers(0, 5, n).astype(np.intp)
+        for belief in _beliefs(n, rng):
+            out = np.empty(n)
+            total = fused.weighted_sum(belief, column, label, out)
+            expected = belief * column[label]
+            assert out.tobytes() == expected.tobytes()
+            assert total.hex() == float(np.add.reduce(expected)).hex()
+
+
+@needs_fused
+def test_search_keys_round_as_numpy_does():
+    rng = np.random.default_rng(7)
+    resolution = float(best_first.KEY_RESOLUTION)
+    for n in (1, 5, 1000):
+        for belief in _beliefs(n, rng):
+            belief = belief.copy()
+            belief[0] = 2.5 / resolution  # a tie: to even
+            whole = np.empty(n, dtype=np.int32)
+            peak, fits = fused.round_key(belief, resolution, whole)
+            assert fits and peak == float(belief.max())
+            assert whole.tobytes() == np.rint(belief * resolution).astype(np.int32).tobytes()
+    whole = np.empty(2, dtype=np.int32)
+    assert not fused.round_key(np.array([0.5, 3.0]), resolution, whole)[1]  # 3 * 2^30 does not fit
+    assert not fused.round_key(np.array([0.5, np.nan]), resolution, whole)[1]
+
+
+@needs_fused
+def test_bad_arguments_raise_and_touch_nothing_outside():
+    """Indices past the vectors, rows that run backwards or past the entries, vectors of other lengths or
+    types: an exception, never a read or write outside a buffer."""
+    indptr = np.array([0, 1, 2], dtype=np.int32)
+    data = np.array([1.0, 1.0])
+    belief = np.array([0.5, 0.5])
+    out = np.zeros(2)
+    with pytest.raises(ValueError, match="out of range"):
+        fused.predict_stats(indptr, np.array([0, 7], dtype=np.int32), data, belief, out, True, True)
+    with pytest.raises(ValueError, match="out of range"):
+        fused.predict_stats(indptr, np.array([0, -1], dtype=np.int32), data, belief, out, True, False)
+    with pytest.raises(ValueError, match="out of range"):
+        fused.predict_stats(np.array([0, 2, 1], dtype=np.int32), np.array([0, 1], dtype=np.int32), data, belief,
+                            out, True, True)  # fmt: skip
+    with pytest.raises(ValueError, match="out of range"):
+        fused.predict_stats(np.array([0, 1, 9], dtype=np.int32), np.array([0, 1], dtype=np.int32), data, belief,
+                            out, True, False)  # fmt: skip
+    with pytest.raises(ValueError, match="do not fit"):
+        fused.predict_stats(indptr, np.array([0, 1], dtype=np.int64), data, belief, out, True, True)
+    with pytest.raises(ValueError, match="do not fit"):
+        fused.predict_stats(indptr, np.array([0, 1], dtype=np.int32), data, belief, np.zeros(5), True, False)
+    with pytest.raises(TypeError):
+        fused.predict_stats(indptr, np.array([0, 1], dtype=np.int32), data, belief.astype(np.float32), out, True, True)
+    with pytest.raises((TypeError, ValueError, BufferError)):
+        fused.belief_stats(np.zeros((4, 4))[:, 0])  # not contiguous
+    with pytest.raises(ValueError, match="not a group"):
+        fused.weighted_sum(belief, np.array([1.0]), np.array([0, 1], dtype=np.intp), out)
+    groups = np.zeros(1)
+    with pytest.raises(ValueError, match="not a group"):
+        fused.group_stats(belief, np.array([0, 3], dtype=np.intp), groups, groups.copy(), groups.copy())
+    with pytest.raises((TypeError, ValueError, BufferError)):
+        fused.weighted_sum(belief, np.array([1.0]), np.array([0, 0], dtype=np.intp), np.zeros(4)[::2])
+    with pytest.raises(ValueError, match="do not fit"):
+        fused.weighted_sum(belief, np.array([1.0]), np.array([0, 0], dtype=np.intp), np.zeros(3))
+
+
+@needs_fused
+@pytest.mark.parametrize("pool", (True, False))
+def test_expansions_match_the_numpy_passes(tmp_path, monkeypatch, pool):
+    """Every successor of the compiled passes, with and without threads: the same actions and readings as
+    the NumPy passes', the same probabilities, entropies and maxima to a few ulps; with and without
+    threads the same bits."""
+    model = _world(tmp_path, 4000, 3)
+    monkeypatch.setattr(successors, "_LARGE_BYTES", 0)
+    if not pool:
+        monkeypatch.setattr(successors, "_POOL", None)
+        monkeypatch.setattr(successors, "_POOL_MADE", True)
+    rng = np.random.default_rng(8)
+    compiled = SuccessorEvaluator(model)
+    monkeypatch.setattr(successors, "fused", None)
+    plain = SuccessorEvaluator(model)
+    for belief in _beliefs(model.n_states, rng):
+        got = compiled.evaluate(belief)
+        expected = plain.evaluate(belief)
+        assert [(s.action, s.observation) for s in got] == [(s.action, s.observation) for s in expected]
+        for g, e in zip(got, expected, strict=True):
+            assert g.probability == pytest.approx(e.probability, rel=1e-12)
+            assert g.entropy == pytest.approx(e.entropy, rel=1e-12, abs=1e-12)
+            assert g.max_belief == pytest.approx(e.max_belief, rel=1e-12)
+        for index, action in enumerate(model.actions):
+            if action.transition is not None:
+                assert compiled.successor(belief, index, None).tobytes() == predict(action, belief).tobytes()
+
+
+@needs_fused
+@pytest.mark.parametrize(("states", "seed"), [(400, 1), (4000, 1), (4000, 5)])
+def test_searches_find_the_same_plans(tmp_path, monkeypatch, states, seed):
+    """The search on the compiled passes finds the NumPy passes' plan: the same steps, cost and effort,
+    the numbers to a few ulps."""
+    model = _world(tmp_path, states, seed)
+    start = np.full(model.n_states, 1.0 / model.n_states)
+    monkeypatch.setattr(successors, "_LARGE_BYTES", 0)
+    monkeypatch.setattr(best_first, "_RECYCLE_BYTES", 0)
+    compiled = best_first.plan(model, start.copy(), max_expansions=400, time_limit=60.0)
+    monkeypatch.setattr(successors, "fused", None)
+    plain = best_first.plan(model, start.copy(), max_expansions=400, time_limit=60.0)
+    assert plain.expanded > 4
+    assert compiled.status is plain.status
+    assert (compiled.expanded, compiled.generated, compiled.cost) == (plain.expanded, plain.generated, plain.cost)
+    assert [(s.action, s.observation, s.cost) for s in compiled.steps] == [
+        (s.action, s.observation, s.cost) for s in plain.steps
+    ]
+    for c, p in zip(compiled.steps, plain.steps, strict=True):
+        assert math.isclose(c.probability, p.probability, rel_tol=1e-12)
+        assert math.isclose(c.max_belief, p.max_belief, rel_tol=1e-12)
