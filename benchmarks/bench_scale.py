@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import subprocess
 import sys
@@ -273,6 +274,21 @@ def _baseline_tree(ref: str, folder: Path) -> Path:
     return target
 
 
+def _same_steps(before: list[dict[str, Any]], after: list[dict[str, Any]]) -> tuple[bool, float]:
+    """Whether two ``plan --json`` step lists are the same plan: the same actions, readings and costs, and
+    each step's probability and ``max(b)`` within 1e-9 of the other's (the compiled passes sum entropies
+    and group masses in another order than NumPy's: a few ulps); with the largest relative difference."""
+    apart = 0.0
+    if len(before) != len(after):
+        return False, math.inf
+    for b, a in zip(before, after, strict=True):
+        if (b["action"], b["observation"], b["cost"]) != (a["action"], a["observation"], a["cost"]):
+            return False, math.inf
+        for key in ("probability", "max_belief"):
+            apart = max(apart, abs(a[key] - b[key]) / max(abs(b[key]), 1e-300))
+    return apart <= 1e-9, apart
+
+
 def cell(value: Any, form: str = ".2f") -> str:
     return "-" if value is None else format(value, form)
 
@@ -338,11 +354,14 @@ def _report(rows: list[dict[str, Any]], args: argparse.Namespace, seconds: float
             )
         if "before" in row:
             before = row["before"]
-            same = before["phases"]["plan"] == p["plan"] and before["npz_plan"]["steps"] == r["npz_plan"]["steps"]
+            steps, apart = _same_steps(before["npz_plan"]["steps"], r["npz_plan"]["steps"])
+            same = before["phases"]["plan"] == p["plan"] and steps
             if p["status"] != "found" or before["phases"]["status"] != "found":
                 same = same or "(out of budget: the partial plans depend on how far each search got)"
             lines.append(
                 f"  - the same plan before and after: {same if isinstance(same, str) else 'yes' if same else 'NO'}"
+                f" (actions, readings and costs; each step's probability and max(b) within {apart:.1e} of "
+                "the other's, relatively)"
             )
     lines += ["", f"Whole run: {seconds:.0f} s.", ""]
     return "\n".join(lines)
