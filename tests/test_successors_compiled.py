@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 import shutil
 import sysconfig
+import threading
 
 import numpy as np
 import pytest
@@ -250,3 +251,28 @@ def test_searches_find_the_same_plans(tmp_path, monkeypatch, states, seed):
     for c, p in zip(compiled.steps, plain.steps, strict=True):
         assert math.isclose(c.probability, p.probability, rel_tol=1e-12)
         assert math.isclose(c.max_belief, p.max_belief, rel_tol=1e-12)
+
+
+@needs_fused
+def test_a_forked_child_makes_its_own_threads(tmp_path):
+    """A process forked after a search has its parent's pool object but none of its threads: it makes a
+    new pool instead of waiting forever on the old one."""
+    import multiprocessing
+
+    model = _world(tmp_path, 400, 1)
+    pool = successors._pool()
+    if pool is None:
+        pytest.skip("one core: no pool")
+    meeting = threading.Barrier(pool._max_workers)  # every thread of the parent's pool started
+    for task in [pool.submit(meeting.wait, 10) for _ in range(pool._max_workers)]:
+        task.result()
+    context = multiprocessing.get_context("fork")
+    with context.Pool(1) as workers:
+        result = workers.apply_async(_evaluate_large, (model,))
+        assert result.get(timeout=30) > 0
+
+
+def _evaluate_large(model) -> int:
+    successors._LARGE_BYTES = 0
+    belief = np.full(model.n_states, 1.0 / model.n_states)
+    return len(SuccessorEvaluator(model).evaluate(belief))

@@ -299,6 +299,16 @@ def _pool() -> ThreadPoolExecutor | None:
     return _POOL
 
 
+def _forget_pool() -> None:
+    """In a forked child: the parent's threads did not come along, so its pool would never run a task."""
+    global _POOL, _POOL_MADE
+    _POOL, _POOL_MADE = None, False
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_pool)
+
+
 def _combined(first: _Sums, second: _Sums) -> _Sums:
     """The group sums of two parts of a belief's states, as those of their union."""
     return first[0] + second[0], first[1] + second[1], np.maximum(first[2], second[2])
