@@ -103,6 +103,12 @@ loop of the policy."""
 _CANCELLED = 1e-10
 """A reach that a change takes away to less than this share of the change is taken away entirely: what
 is left is the rounding of sums made in another order (a node left out of the policy has no reach)."""
+_TRUSTED_REACH = 1e-6
+"""Reaches placed by :meth:`_Search._flow` are right to about :data:`_SETTLED_REACH` of the reaches they add
+to, and a node the policy no longer reaches can keep a remainder of that size. A tip whose reach is below
+this, or no tip at all, is checked by one traversal of the policy (:meth:`_Search._retrace`) before it is
+believed: a remainder of 6e-18 on a node out of the policy was expanded as a tip, and the search ended
+"out of budget" with a complete policy."""
 _INFORMATIVE = 1e-9
 """Less expected information than this (nats) from the uniform belief counts as none."""
 _SAME = 1e-12
@@ -537,6 +543,8 @@ class _Search:
         whose reach is no longer the node's is stale (:meth:`next_tip` drops it)."""
         self._reached: list[_Node] = []
         """Every node whose reach was set since the current start was chosen."""
+        self._exact = False
+        """Whether the reaches are those of a traversal (:meth:`_retrace`), not changed since."""
 
     def root(self, belief: np.ndarray) -> _Node:
         """The node of ``belief`` (one the graph has already, or a new one) as the policy's start."""
@@ -877,6 +885,7 @@ class _Search:
         :attr:`_tips`, once, when every change is placed. Should the changes go round a loop more than
         :data:`_MAX_FLOW` times (a loop the policy almost never leaves), the reaches are recomputed by one
         traversal of the policy instead (loops cut where they close, :meth:`best_policy`)."""
+        self._exact = False
         queue = collections.deque(pending)
         popleft, append, pop = queue.popleft, queue.append, pending.pop
         reached = self._reached
@@ -930,6 +939,7 @@ class _Search:
             node.reach = reach[node.number]
             if node.leaf is LeafKind.FRONTIER and node.reach >= self.prune_below and node.reach > 0.0:
                 heapq.heappush(self._tips, (-node.reach * node.value, -node.reach, node.number, node))
+        self._exact = True
 
     def _dead_ends(self) -> list[_Node]:
         """Expanded nodes of finite value from which no policy ends at a goal or a frontier leaf with
@@ -982,13 +992,18 @@ class _Search:
         of equal ones the most likely, then the oldest), among those reached with at least
         ``prune_below``; None when there is none (the policy is complete). ``root`` is the start
         :meth:`root` returned: the reaches are kept for it."""
-        tips = self._tips
-        while tips:
-            _, negative, _, node = tips[0]
-            if node.leaf is LeafKind.FRONTIER and node.reach == -negative:
-                return node
-            heapq.heappop(tips)
-        return None
+        while True:
+            tips = self._tips
+            while tips:
+                _, negative, _, node = tips[0]
+                if node.leaf is LeafKind.FRONTIER and node.reach == -negative:
+                    break
+                heapq.heappop(tips)
+            found = tips[0][3] if tips else None
+            if self._exact or (found is not None and found.reach > _TRUSTED_REACH):
+                return found
+            self._retrace()  # the reaches anew: then believed as they are
+
 
     def policy(self, root: _Node) -> tuple[PolicyNode, float]:
         """The best policy as a graph of :class:`PolicyNode`, and the probability of ending at a leaf
