@@ -102,3 +102,69 @@ def test_beams_that_share_rays_read_the_plain_average_over_the_sub_poses(
         expected = expected @ compile_.scan_confusion(sensor)
         expected = (1.0 - lattice_sensors.FLOOR) * expected + lattice_sensors.FLOOR / expected.shape[1]
         np.testing.assert_allclose(table[some], expected, atol=1e-6)
+
+
+def _brute_density(z: float, beam: float, poses: np.ndarray, sensor: ScanSensor, lattice: PoseLattice) -> np.ndarray:
+    """``p(z | pose)`` of a measured range, pose by pose: a ray cast from every sub-pose, its reading
+    ``N(r, σ)``, short readings uniform below ``r`` (or the last edge), random ones uniform over
+    RANDOM_RANGE."""
+    _, _, sigma, random, short = sensor.region(real_place=True)
+    random = max(random, lattice_sensors.MIN_RANDOM)
+    short = short / (1.0 - random)
+    sigma = math.hypot(sigma, lattice.spacing / lattice_sensors.SUB_SAMPLES / math.sqrt(12.0))
+    last = float(sensor.bins[-1])
+    reach = last + 4.0 * sigma
+    offsets = lattice_sensors.lattice_sub_offsets(lattice, lattice_sensors.SUB_SAMPLES, lattice_sensors.YAW_SAMPLES)
+    image = lattice.image
+    i, j = image.pixel_of(poses[:, 0, None] + offsets[None, :, 0], poses[:, 1, None] + offsets[None, :, 1])
+    weight = ~np.asarray(image.blocked)[i, j]
+    weight = weight / weight.sum(axis=1, keepdims=True)
+    density = np.zeros(len(poses))
+    for (dx, dy, dyaw), w in zip(offsets, weight.T, strict=True):
+        r = cast_rays(image, poses[:, 0] + dx, poses[:, 1] + dy, poses[:, 2] + dyaw + math.radians(beam), reach)
+        hit = np.where(r <= reach, np.exp(-0.5 * ((z - r) / sigma) ** 2) / (sigma * math.sqrt(2 * math.pi)), 0.0)
+        limit = np.minimum(np.where(r <= reach, r, last), last)
+        density += w * ((1.0 - short) * hit + short * (z < limit) / limit)
+    return (1.0 - random) * density + random / lattice_sensors.RANDOM_RANGE
+
+
+def test_a_measured_range_is_scored_by_the_ranges_of_the_poses_sub_poses(
+    tb3: tuple[SemanticMap, PoseLattice, ScanSensor],
+) -> None:
+    """:meth:`BeamSamples.log_likelihood` (rays cast once, shared between beams and shifts, gathered by
+    pose) is the density of the measured range computed pose by pose from rays cast from each sub-pose."""
+    _, lattice, sensor = tb3
+    samples = lattice_sensors.beam_samples(sensor, lattice, lattice.pose_array)
+    rng = np.random.default_rng(6)
+    some = rng.choice(lattice.n_poses, 300, replace=False)
+    poses = lattice.pose_array[some]
+    for beam, angle in enumerate(sensor.beams):
+        for z in (0.05, 0.4, 1.0, 1.73, float(sensor.bins[-1]) - 0.01):
+            np.testing.assert_allclose(
+                np.exp(samples.log_likelihood(beam, z, some)),
+                _brute_density(z, angle, poses, sensor, lattice),
+                rtol=1e-9,
+                atol=1e-12,
+            )
+
+
+def test_a_measured_ranges_density_over_a_bin_is_the_bins_probability(
+    tb3: tuple[SemanticMap, PoseLattice, ScanSensor],
+) -> None:
+    """The two models of a beam agree: integrated over a bin, the measured range's density gives the
+    probability the binned table has for that bin (before its confusion and floor)."""
+    _, lattice, sensor = tb3
+    samples = lattice_sensors.beam_samples(sensor, lattice, lattice.pose_array)
+    tables = lattice_sensors.scan_tables(sensor, lattice, lattice.pose_array, samples)
+    confusion = compile_.scan_confusion(sensor)
+    some = np.random.default_rng(7).choice(lattice.n_poses, 200, replace=False)
+    edges = np.r_[0.0, np.asarray(sensor.bins, dtype=np.float64)]
+    for beam in range(len(sensor.beams)):
+        table = tables[beam][some].astype(np.float64)
+        raw = (table - lattice_sensors.FLOOR / table.shape[1]) / (1.0 - lattice_sensors.FLOOR)
+        raw = raw @ np.linalg.inv(confusion)  # the bins' probabilities before the confusion
+        for k in range(1, len(edges) - 1):  # bin 0 also holds the noise's mass below 0 m
+            z = np.linspace(edges[k], edges[k + 1], 2001)
+            density = np.array([np.exp(samples.log_likelihood(beam, float(v), some)) for v in z])
+            mass = (0.5 * (density[1:] + density[:-1]) * np.diff(z)[:, None]).sum(axis=0)  # trapezoids
+            np.testing.assert_allclose(mass, raw[:, k], atol=5e-4)

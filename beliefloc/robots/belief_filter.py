@@ -34,9 +34,11 @@ from beliefloc.pose import gathered_modes
 from beliefloc.robots.odometry import MotionReport, motion, predict_reported
 from beliefloc.robots.readings import RawReading, ReadingBinner
 from beliefloc.robots.surprise import expected_log_likelihood, reading_moments, respread
+from beliefloc.semantic_map.sections import ScanSensor
 
 if TYPE_CHECKING:
     from beliefloc.continuous.lattice_scan import LatticeScanModel
+    from beliefloc.semantic_map.lattice_sensors import BeamSamples
 
 
 class BeliefFilter(Protocol):
@@ -252,6 +254,13 @@ def commanded_deltas(grid: GridLayout, action: Action, lattice: PoseLattice) -> 
     return [(math.cos(a) * gx + math.sin(a) * gy, -math.sin(a) * gx + math.cos(a) * gy, 0.0) for a in yaws.tolist()]
 
 
+MEASURED_SUPPORT = 1e-12
+"""A measured range is scored at the lattice poses holding at least this share of the most likely one's
+mass; the others are dropped (their mass goes to 0, as a particle filter drops its least likely
+particles; the motion noise spreads mass back around the belief, and a robot that is not where the belief
+is shows up in the fit check). Scoring a beam costs 12 sub-poses a pose: the depot has 1,003,520 poses."""
+
+
 class LatticeFilter:
     """The pose-lattice filter behind the :class:`BeliefFilter` interface (see the module)."""
 
@@ -276,9 +285,10 @@ class LatticeFilter:
         self.model = model
         self.binner = binner
         self._scan_model: LatticeScanModel | None = None
+        self._samples: dict[str, BeamSamples] = {}
         lattice = make_lattice(binner.smap, grid, max_poses)
         slots = {a.name: [(s.name, s.first_part, s.n_parts) for s in binner.sensors(a)] for a in model.actions}
-        tables = sensor_tables(binner.smap, model, lattice, slots)
+        tables = sensor_tables(binner.smap, model, lattice, slots, self._samples)
         motions = {}
         for action in model.actuation_actions:
             deltas = commanded_deltas(grid, action, lattice)
@@ -327,7 +337,17 @@ class LatticeFilter:
             return self.belief, 1.0
         digits = action.observation.decode(observation)
         scans = self.binner.full_scans(action, readings) if readings else {}
-        if scans:
+        beams = self._measured_beams(action, readings) if readings and not scans else []
+        if beams:
+            # the poses that hold mass (a pose at 1e-12 of the best one cannot matter to this update)
+            fine = self.core.fine
+            held = np.flatnonzero(fine > MEASURED_SUPPORT * fine.max())
+            log = np.full(self.lattice.n_poses, -np.inf)
+            log[held] = 0.0
+            for samples, beam, measured, _ in beams:
+                log[held] += samples.log_likelihood(beam, measured, held)
+            self.belief, probability = self.core.correct(action.name, digits, log, [part for *_, part in beams])
+        elif scans:
             if self._scan_model is None:
                 from beliefloc.continuous.lattice_scan import LatticeScanModel
 
@@ -349,6 +369,27 @@ class LatticeFilter:
 
     def expected_log_likelihood(self, action: Action) -> float:
         return self.core.expected_log_likelihood(action.name)
+
+    def _measured_beams(
+        self, action: Action, readings: Mapping[str, RawReading]
+    ) -> list[tuple[BeamSamples, int, float, int]]:
+        """The beams of ``action``'s scans read one by one whose measured range lies within the last bin
+        edge: ``(the sensor's samples, beam, range, observation part)``. A beam that read nothing, or
+        beyond the last edge, keeps its bin's table."""
+        out = []
+        for slot in self.binner.sensors(action):
+            raw = readings.get(slot.name)
+            samples = self._samples.get(slot.name)
+            if samples is None or not isinstance(slot.sensor, ScanSensor):
+                continue
+            values = [raw] if isinstance(raw, (int, float)) else raw  # a one-beam scan may be the number alone
+            if not isinstance(values, (list, tuple)):
+                continue
+            for beam, value in enumerate(values):
+                # ranges the binner accepted (it raised on any other); a bool is no range
+                if isinstance(value, (int, float)) and not isinstance(value, bool) and 0.0 <= value <= samples.bins[-1]:
+                    out.append((samples, beam, float(value), slot.first_part + beam))
+        return out
 
     def log_likelihood_variance(self, action: Action) -> float:
         return self.core.log_likelihood_variance(action.name)

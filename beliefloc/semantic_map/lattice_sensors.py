@@ -30,6 +30,7 @@ Pure numpy/scipy, no I/O.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -75,51 +76,114 @@ def _widen(*parts: float) -> float:
     return float(math.sqrt(sum(p * p for p in parts)))
 
 
-def scan_tables(sensor: ScanSensor, lattice: PoseLattice, poses: np.ndarray) -> list[np.ndarray]:
-    """One ``(n_poses, len(bins) + 1)`` table per beam of ``sensor``: the readings' distribution
-    averaged over the square and yaw step each lattice pose stands for (:func:`lattice_sub_offsets`:
-    :data:`SUB_SAMPLES` positions per axis, the ones on a blocked pixel left out, times
-    :data:`YAW_SAMPLES` yaws)."""
+@dataclass(frozen=True, eq=False)
+class BeamSamples:
+    """What each beam of a scan sensor reads from the sub-poses a lattice pose stands for
+    (:func:`lattice_sub_offsets`): the ray-cast ranges behind both the binned tables
+    (:func:`scan_tables`) and the score of a measured range (:meth:`log_likelihood`)."""
+
+    ranges: np.ndarray
+    """``(shifts, positions, angles)`` ranges (``inf``: nothing within :attr:`reach`)."""
+    which: np.ndarray
+    """``(lattice yaws, yaw offsets, beams)``: the angle each beam's ray takes."""
+    weights: np.ndarray
+    """``(positions, shifts)``: each sub-position's share of its position (:func:`_standing_weights`)."""
+    n_turns: int
+    sigma: float
+    """The range noise, widened by the sub-square's spread."""
+    random: float
+    short: float
+    """The share of short readings among those that are not random."""
+    bins: np.ndarray
+    reach: float
+
+    def log_likelihood(self, beam: int, measured: float, poses: np.ndarray) -> np.ndarray:
+        """``ln p(z | pose)`` of beam ``beam``'s measured range ``z`` (metres) at the lattice poses
+        ``poses`` (indices), up to one constant for all poses: the density of ``z`` averaged over the
+        pose's sub-poses, each reading its ray-cast range ``r`` with the noise ``N(r, σ)``, short
+        readings uniform below ``r`` and random ones uniform over :data:`RANDOM_RANGE` mixed in as
+        :func:`scan_tables` mixes them. Where the binned tables only know that 1.62 m is in
+        [1.5, 3) m, this knows it to the noise: on the depot (one beam) a look-alike 20 cm away is told
+        apart by one reading."""
+        n_positions = self.weights.shape[0]
+        g, p = np.divmod(np.asarray(poses, dtype=np.intp), n_positions)
+        angle = self.which[g, :, beam]  # (poses, yaw offsets)
+        r = self.ranges[:, p[:, None], angle]  # (shifts, poses, yaw offsets)
+        finite = np.isfinite(r)
+        near = np.where(finite, r, 0.0)
+        gauss = np.where(finite, np.exp(-0.5 * ((measured - near) / self.sigma) ** 2), 0.0)
+        gauss /= self.sigma * math.sqrt(2.0 * math.pi)
+        last = float(self.bins[-1])
+        limit = np.minimum(np.where(finite, r, last), last)
+        short = np.where(measured < limit, 1.0 / np.maximum(limit, 1e-3), 0.0)
+        density = (1.0 - self.short) * gauss + self.short * short
+        # the sub-poses' shares: each shift's standing weight, the yaw offsets alike
+        mean = np.einsum("sp,spt->p", self.weights[p].T, density) / self.n_turns
+        out: np.ndarray = np.log((1.0 - self.random) * mean + self.random / RANDOM_RANGE)
+        return out
+
+
+def beam_samples(sensor: ScanSensor, lattice: PoseLattice, poses: np.ndarray) -> BeamSamples:
+    """Every beam's ray from every sub-pose of every lattice position (:data:`SUB_SAMPLES` positions per
+    axis, the ones on a blocked pixel left out, times :data:`YAW_SAMPLES` yaws). Beams a whole number of
+    yaw offsets apart share their rays (tb3-sandbox's beams at -90, 0 and 90 degrees: one cast in three)."""
     _, _, sigma, random, short = sensor.region(real_place=True)
     random = max(random, MIN_RANDOM)
     # what the sub-poses leave of the square: each stands for a square of side spacing / SUB_SAMPLES
     sigma = _widen(sigma, lattice.spacing / SUB_SAMPLES / math.sqrt(12.0))
     bins = np.asarray(sensor.bins, dtype=np.float64)
     reach = float(bins[-1]) + 4.0 * sigma
-    confusion = compile_.scan_confusion(sensor)
-    # a random reading is a range uniform over [0, RANDOM_RANGE]: mostly beyond the last bin
-    edges = np.minimum(np.r_[0.0, bins, max(RANDOM_RANGE, float(bins[-1]))], max(RANDOM_RANGE, float(bins[-1])))
-    anywhere = np.diff(edges) / edges[-1]
     G = lattice.shape[0]
     n_positions = lattice.n_poses // G
     xy = poses[:n_positions, :2]  # the valid poses are every lattice yaw at each valid position
     offsets = lattice_sub_offsets(lattice, SUB_SAMPLES, YAW_SAMPLES)
     shifts = np.unique(offsets[:, :2], axis=0)
     turns = np.unique(offsets[:, 2])
-    # each ray's direction: lattice yaw + yaw offset + beam angle. Beams a whole number of yaw
-    # offsets apart share their rays (tb3-sandbox's beams at -90, 0 and 90 degrees: one cast in three)
+    # each ray's direction: lattice yaw + yaw offset + beam angle
     direction = lattice.yaws()[:, None, None] + turns[None, :, None] + np.radians(sensor.beams)[None, None, :]
     rounded = np.round(np.mod(direction, 2 * math.pi), 9)
     _, first, which = np.unique(
         np.where(rounded >= np.round(2 * math.pi, 9), 0.0, rounded), return_index=True, return_inverse=True
     )
     angles = direction.ravel()[first]
-    which = which.reshape(direction.shape)  # (lattice yaw, yaw offset, beam) -> angle
     weights = _standing_weights(lattice, xy, shifts)
+    ranges = np.full((len(shifts), n_positions, len(angles)), np.inf)  # 48 MB on the depot
+    for s, (dx, dy) in enumerate(shifts):
+        held = np.flatnonzero(weights[:, s] > 0)
+        if held.size:
+            cast = cast_rays(lattice.image, xy[held, 0, None] + dx, xy[held, 1, None] + dy, angles[None, :], reach)
+            cast[cast > reach] = np.inf
+            ranges[s, held] = cast
+    return BeamSamples(
+        ranges, which.reshape(direction.shape), weights, len(turns), sigma, random, short / (1.0 - random), bins, reach
+    )
+
+
+def scan_tables(
+    sensor: ScanSensor, lattice: PoseLattice, poses: np.ndarray, samples: BeamSamples | None = None
+) -> list[np.ndarray]:
+    """One ``(n_poses, len(bins) + 1)`` table per beam of ``sensor``: the readings' distribution
+    averaged over the square and yaw step each lattice pose stands for (:func:`beam_samples`, or
+    ``samples`` already cast)."""
+    samples = samples if samples is not None else beam_samples(sensor, lattice, poses)
+    bins, sigma, random = samples.bins, samples.sigma, samples.random
+    confusion = compile_.scan_confusion(sensor)
+    # a random reading is a range uniform over [0, RANDOM_RANGE]: mostly beyond the last bin
+    edges = np.minimum(np.r_[0.0, bins, max(RANDOM_RANGE, float(bins[-1]))], max(RANDOM_RANGE, float(bins[-1])))
+    anywhere = np.diff(edges) / edges[-1]
+    G = lattice.shape[0]
+    n_positions = samples.weights.shape[0]
     dist = np.zeros((len(sensor.beams), G, n_positions, len(bins) + 1))
-    for (dx, dy), weight in zip(shifts, weights.T, strict=True):
+    for s, weight in enumerate(samples.weights.T):
         held = np.flatnonzero(weight > 0)
         if not held.size:
             continue
-        ranges = cast_rays(
-            lattice.image, xy[held, 0, None] + dx, xy[held, 1, None] + dy, angles[None, :], reach
-        )  # (positions, angles)
-        ranges[ranges > reach] = np.inf
-        readings = regions.scan_distribution(ranges, bins, sigma, 0.0, short / (1.0 - random))
-        share = weight[held, None] / len(turns)
+        ranges = samples.ranges[s, held]  # (positions, angles)
+        readings = regions.scan_distribution(ranges, bins, sigma, 0.0, samples.short)
+        share = weight[held, None] / samples.n_turns
         for b in range(len(sensor.beams)):
-            for t in range(len(turns)):
-                dist[b][:, held] += readings[:, which[:, t, b], :].transpose(1, 0, 2) * share
+            for t in range(samples.n_turns):
+                dist[b][:, held] += readings[:, samples.which[:, t, b], :].transpose(1, 0, 2) * share
     tables = []
     for b in range(len(sensor.beams)):
         rows = (1.0 - random) * dist[b].reshape(-1, len(bins) + 1) + random * anywhere
@@ -211,11 +275,15 @@ def _floored(dist: np.ndarray) -> np.ndarray:
 
 
 def sensor_tables(
-    smap: SemanticMap, model: Model, lattice: PoseLattice, slots_of: dict[str, list[tuple[str, int, int]]]
+    smap: SemanticMap,
+    model: Model,
+    lattice: PoseLattice,
+    slots_of: dict[str, list[tuple[str, int, int]]],
+    samples: dict[str, BeamSamples] | None = None,
 ) -> dict[str, list[np.ndarray]]:
     """The tables of every action: ``slots_of[action] = [(sensor name, first part, n_parts), ...]``
     (the sensors the action reads, in the model's part order). A sensor read by several actions is
-    computed once."""
+    computed once. ``samples``, when given, receives each scan sensor's :class:`BeamSamples`."""
     layout = model.grid
     assert layout is not None
     poses = lattice.poses()
@@ -227,7 +295,10 @@ def sensor_tables(
             sensor = smap.sensors[name]
             if name not in by_sensor:
                 if isinstance(sensor, ScanSensor):
-                    by_sensor[name] = scan_tables(sensor, lattice, poses)
+                    cast = beam_samples(sensor, lattice, poses)
+                    if samples is not None:
+                        samples[name] = cast
+                    by_sensor[name] = scan_tables(sensor, lattice, poses, cast)
                 elif isinstance(sensor, LookSensor):
                     by_sensor[name] = look_tables(sensor, smap, layout, lattice, poses)
                 else:
