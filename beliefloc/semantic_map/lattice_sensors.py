@@ -99,7 +99,7 @@ class BeamSamples:
 
     def log_likelihood(self, beam: int, measured: float, poses: np.ndarray) -> np.ndarray:
         """``ln p(z | pose)`` of beam ``beam``'s measured range ``z`` (metres) at the lattice poses
-        ``poses`` (indices), up to one constant for all poses: the density of ``z`` averaged over the
+        ``poses`` (indices): the density of ``z`` (per metre) averaged over the
         pose's sub-poses, each reading its ray-cast range ``r`` with the noise ``N(r, σ)``, short
         readings uniform below ``r`` and random ones uniform over :data:`RANDOM_RANGE` mixed in as
         :func:`scan_tables` mixes them. Where the binned tables only know that 1.62 m is in
@@ -147,7 +147,7 @@ def beam_samples(sensor: ScanSensor, lattice: PoseLattice, poses: np.ndarray) ->
     )
     angles = direction.ravel()[first]
     weights = _standing_weights(lattice, xy, shifts)
-    ranges = np.full((len(shifts), n_positions, len(angles)), np.inf)  # 48 MB on the depot
+    ranges = np.full((len(shifts), n_positions, len(angles)), np.inf)  # 96 MB on the depot
     for s, (dx, dy) in enumerate(shifts):
         held = np.flatnonzero(weights[:, s] > 0)
         if held.size:
