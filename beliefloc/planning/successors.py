@@ -457,30 +457,31 @@ class SuccessorEvaluator:
         out: list[SuccessorStats] = []
         work = self._buffers()[0]
         for index, action in enumerate(self.model.actions):
+            # a perception's prediction is the belief itself, only read here: no copy
+            predicted = belief if action.transition is None else self._predict(action, belief)
             groups = self._groups[index]
-            fused = None
-            if action.transition is None:
-                predicted = belief  # a perception's prediction is the belief itself, only read here: no copy
-            else:
-                fused = self._fused_predict(action, belief, stats=groups is None)
-                predicted = self._predict(action, belief) if fused is None else fused[0]
             if groups is None:
-                if fused is not None:
-                    h, peak = fused[1], fused[2]
-                elif self._large:
+                if self._large:
                     h, peak = self.entropy_max(predicted)
                 else:
                     h, peak = _entropy(predicted, work), float(predicted.max())
                 out.append(SuccessorStats(index, None, 1.0, h, peak))
-                if beliefs is not None:
-                    beliefs[index] = predicted if predicted is not belief else belief.copy()
-                elif predicted is not belief:
-                    self.recycle(predicted)
+                self._keep_whole(index, predicted, belief, beliefs)
                 continue
             out.extend(self._observe(index, groups, predicted))
             if predicted is not belief:
                 self.recycle(predicted)
         return out
+
+    def _keep_whole(
+        self, index: int, predicted: np.ndarray, belief: np.ndarray, beliefs: dict[int, np.ndarray] | None
+    ) -> None:
+        """An action that observes nothing: its successor is ``predicted`` whole, kept in ``beliefs`` (a
+        copy when it is the belief itself) or handed back for reuse."""
+        if beliefs is not None:
+            beliefs[index] = predicted if predicted is not belief else belief.copy()
+        elif predicted is not belief:
+            self.recycle(predicted)
 
     def _fused_applies(self, belief: np.ndarray) -> bool:
         """Whether :meth:`_evaluate_fused` takes ``belief``: the compiled passes are built, the belief is
@@ -545,10 +546,7 @@ class SuccessorEvaluator:
             if groups is None:
                 h, peak = entropy_peak if entropy_peak is not None else self.entropy_max(predicted)
                 out.append(SuccessorStats(index, None, 1.0, h, peak))
-                if beliefs is not None:
-                    beliefs[index] = predicted if predicted is not belief else belief.copy()
-                elif predicted is not belief:
-                    self.recycle(predicted)
+                self._keep_whole(index, predicted, belief, beliefs)
                 continue
             if sums is None:  # a NaN entry: the NumPy sums say so
                 sums = self._group_sums(groups, predicted)
