@@ -18,9 +18,18 @@ from beliefloc.errors import InvalidValueError, ModelError
 from beliefloc.files.macro_file import load_macros, save_macros
 from beliefloc.model import Model
 from beliefloc.planning.ec2 import full_parts, observation_difference, pair_context
-from beliefloc.planning.macros import build_macros, expected_path, indistinguishable_pairs, macro_candidates
+from beliefloc.planning.macros import (
+    MacroSearch,
+    MacroTable,
+    build_macros,
+    expected_path,
+    indistinguishable_pairs,
+    macro_candidates,
+    pair_macros,
+    search_macros,
+)
 from beliefloc.semantic_map import SemanticMap
-from beliefloc.simulation.strategies import EpisodeStatus
+from beliefloc.simulation.strategies import EpisodeStatus, SharedWork
 
 from .conftest import MAPS
 
@@ -266,4 +275,102 @@ def test_ec2_macros_localizes_in_the_corridors(seed: int):
     start = model.states.index("1,10,1")  # mid corridor, facing east
     belief = np.full(model.n_states, 1.0 / model.n_states)
     record = run_episode(model, "ec2-macros", start, belief, seed=seed, max_steps=500)
+    assert record.status is EpisodeStatus.LOCALIZED, record
+
+
+# --- macros searched per pair (maps whose table would be too big) ----------------------------------
+
+
+def _check_searched(model: Model) -> None:
+    """Every pair's searched macro costs what the table's does, is None exactly where the table has
+    none, and does what it claims: it ends on a told-apart pair, never passing through one."""
+    table = build_macros(model)
+    ctx = pair_context(model)
+    searched = search_macros(ctx, table.pair_i, table.pair_j, max_settled=10**9)
+    for p, actions in enumerate(searched):
+        if actions is None:
+            assert not np.isfinite(table.cost[p]), p
+            continue
+        assert sum(float(ctx.costs[a]) for a in actions) == pytest.approx(table.cost[p])
+        path_i = expected_path(ctx, int(table.pair_i[p]), actions)
+        path_j = expected_path(ctx, int(table.pair_j[p]), actions)
+        told = [_distinguishable(model, table.gamma, a, b) for a, b in zip(path_i, path_j, strict=True)]
+        assert told[-1] and not any(told[:-1]), p
+        assert all(a != b for a, b in zip(path_i[:-1], path_j[:-1], strict=True))  # no merged pair on the way
+
+
+@pytest.mark.parametrize("seed", range(10))
+def test_searched_macros_cost_what_the_table_says(seed: int):
+    _check_searched(_random_world(seed, costs=seed % 2 == 1))
+
+
+@pytest.mark.parametrize("name", ["corridors.yaml", "window-2x2.yaml", "ladder-symmetric.yaml", "tb3-sandbox.yaml"])
+def test_searched_macros_on_the_bundled_maps(name: str):
+    _check_searched(_model(name))
+
+
+def test_a_search_gives_up_within_its_budget():
+    """On the symmetric ladder some pairs are never told apart; with a budget of one settled pair
+    only the one-action macros are found."""
+    model = _model("corridors.yaml")
+    table = build_macros(model)
+    ctx = pair_context(model)
+    searched = search_macros(ctx, table.pair_i, table.pair_j, max_settled=1)
+    lengths = {len(a) for a in searched if a is not None}
+    assert lengths == {1}
+    assert sum(a is None for a in searched) == int((table.length > 1).sum())
+
+
+def test_the_search_stands_in_for_a_table_too_big():
+    model = _model("corridors.yaml")
+    ctx = pair_context(model)
+    assert isinstance(pair_macros(model, ctx), MacroTable)
+    search = pair_macros(model, ctx, max_pairs=10)
+    assert isinstance(search, MacroSearch)
+    table = build_macros(model)
+    rng = np.random.default_rng(4)
+    belief = rng.dirichlet(np.ones(model.n_states) * 0.3)
+    top = np.argsort(-belief, kind="stable")[:12]
+    ii, jj = np.triu_indices(len(top), 1)
+    i, j = top[ii], top[jj]
+    costs = ctx.costs
+    by_search = [sum(costs[list(search.sequence(m))]) if m >= 0 else None for m in search.macro_ids(i, j).tolist()]
+    by_table = [sum(costs[list(table.sequence(m))]) if m >= 0 else None for m in table.macro_ids(i, j).tolist()]
+    assert by_search == by_table and any(c is not None for c in by_search)
+    # the candidates start with the macro of the most probable pair that has one, as with the table
+    weight = np.where(np.array([c is not None for c in by_table]), belief[i] * belief[j], -1.0)
+    heaviest = int(np.argmax(weight))
+    states = np.flatnonzero(belief > 0)
+    first_by_table = macro_candidates(table, states, belief)[0]
+    first_by_search = macro_candidates(search, states, belief)[0]
+    assert first_by_table == table.sequence(
+        int(table.macro_ids(i[heaviest : heaviest + 1], j[heaviest : heaviest + 1])[0])
+    )
+    assert sum(costs[list(first_by_search)]) == by_table[heaviest]
+
+
+def test_searched_candidates_do_not_depend_on_what_was_asked_before():
+    model = _model("corridors.yaml")
+    ctx = pair_context(model)
+    rng = np.random.default_rng(9)
+    beliefs = [rng.dirichlet(np.ones(model.n_states) * 0.2) for _ in range(3)]
+    fresh, used = MacroSearch(ctx), MacroSearch(ctx)
+    for belief in beliefs[:2]:
+        macro_candidates(used, np.flatnonzero(belief > 0), belief)
+    last = beliefs[2]
+    assert macro_candidates(used, np.flatnonzero(last > 0), last) == macro_candidates(
+        fresh, np.flatnonzero(last > 0), last
+    )
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_ec2_macros_localizes_in_the_corridors_with_searched_macros(seed: int):
+    from beliefloc.simulation.episode import run_episode
+
+    model = _model("corridors.yaml")
+    shared = SharedWork.for_model(model)
+    shared._macros[None] = MacroSearch(shared.pair_context(None))
+    start = model.states.index("1,10,1")
+    belief = np.full(model.n_states, 1.0 / model.n_states)
+    record = run_episode(model, "ec2-macros", start, belief, seed=seed, max_steps=500, shared=shared)
     assert record.status is EpisodeStatus.LOCALIZED, record

@@ -30,9 +30,9 @@ from __future__ import annotations
 
 import heapq
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 import scipy.sparse as sp
@@ -100,6 +100,19 @@ class MacroTable:
         """``pair_i * n_states + pair_j``, sorted (computed once: :meth:`find` runs every step)."""
         keys: np.ndarray = self.pair_i.astype(np.int64) * self.n_states + self.pair_j.astype(np.int64)
         return keys
+
+    def macro_ids(self, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        """The distinct macro of each pair ``(i, j)``, -1 where the pair has none or is not in the table."""
+        pairs = self.find(i, j)
+        ids: np.ndarray = (
+            np.where(pairs >= 0, self.macro_id[np.maximum(pairs, 0)], -1)
+            if self.n_pairs
+            else np.full(np.shape(pairs), -1)
+        )
+        return ids
+
+    def tie_keys(self, ids: np.ndarray) -> np.ndarray:
+        return ids
 
     def sequence(self, macro: int) -> tuple[int, ...]:
         """The action indices of distinct macro ``macro``."""
@@ -182,6 +195,25 @@ def count_indistinguishable_pairs(signature: np.ndarray) -> int:
     return int((counts * (counts - 1) // 2).sum())
 
 
+def _check_gamma(model: Model, ctx: PairContext) -> None:
+    lo, hi = gamma_bounds(model)
+    if not lo <= ctx.gamma < hi:
+        raise InvalidValueError(
+            f"gamma {ctx.gamma:g} is outside [{lo:.4g}, {hi:.4g}), the range in which 'distinguishable' means "
+            "'different noise-free readings' for this model's sensors; macros are built on that grouping. "
+            "Leave gamma unset for the default (the middle of the range)."
+        )
+
+
+def pair_macros(model: Model, context: PairContext, *, max_pairs: int = DEFAULT_MAX_PAIRS) -> PairMacros:
+    """The macros a selection draws on: the whole table (Algorithm 2) when its pairs fit in
+    ``max_pairs``, else a :class:`MacroSearch` that finds the pairs asked for."""
+    if count_indistinguishable_pairs(context.full_signature) > max_pairs:
+        _check_gamma(model, context)
+        return MacroSearch(context)
+    return build_macros(model, context=context, max_pairs=max_pairs)
+
+
 def build_macros(
     model: Model,
     gamma: float | None = None,
@@ -195,13 +227,7 @@ def build_macros(
 
     started = time.perf_counter()
     ctx = context if context is not None else pair_context(model, gamma)
-    lo, hi = gamma_bounds(model)
-    if not lo <= ctx.gamma < hi:
-        raise InvalidValueError(
-            f"gamma {ctx.gamma:g} is outside [{lo:.4g}, {hi:.4g}), the range in which 'distinguishable' means "
-            "'different noise-free readings' for this model's sensors; macros are built on that grouping. "
-            "Leave gamma unset for the default (the middle of the range)."
-        )
+    _check_gamma(model, ctx)
     n = model.n_states
     sig = ctx.full_signature
     total = count_indistinguishable_pairs(sig)
@@ -310,6 +336,152 @@ def build_macros(
     )
 
 
+# --- the pairs asked for, searched when asked (maps whose table would be too big) -----------------
+
+SEARCH_MAX_SETTLED = 4096
+"""A searched pair's budget: pairs settled before it is given up as having no macro."""
+
+
+class PairMacros(Protocol):
+    """Where :func:`macro_candidates` gets a pair's macro: a whole table, or a search per pair."""
+
+    def macro_ids(self, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        """The macro of each pair ``(i, j)``, -1 where the pair has none (or is told apart already)."""
+        ...
+
+    def tie_keys(self, ids: np.ndarray) -> np.ndarray:
+        """An order of macros for equally weighted pairs that does not depend on what was asked before."""
+        ...
+
+    def sequence(self, macro: int) -> tuple[int, ...]: ...
+
+
+def search_macros(
+    ctx: PairContext, pair_i: np.ndarray, pair_j: np.ndarray, *, max_settled: int = SEARCH_MAX_SETTLED
+) -> list[tuple[int, ...] | None]:
+    """Each pair's least-cost macro, by a Dijkstra forward from the pair over the same pair graph as
+    :func:`build_macros` (the module docstring), every pair searched on its own; None when no macro
+    was found within ``max_settled`` settled pairs -- never distinguishable, or too far to matter.
+
+    The cost of every macro found equals the table's (``tests/test_macros.py``); on equal costs it
+    may be another sequence than the table's. Nodes are ``pair number * n^2 + i * n + j``, so one
+    vectorised search serves every pair asked for."""
+    n = ctx.model.n_states
+    sig = ctx.full_signature
+    moving = [k for k, a in enumerate(ctx.model.actions) if a.transition is not None]
+    count = len(pair_i)
+    found: list[tuple[int, ...] | None] = [None] * count
+    if count == 0 or not moving:
+        return found
+    span = np.int64(n) * n
+    cheapest = float(ctx.costs[moving].min())
+    start = np.arange(count, dtype=np.int64) * span + np.asarray(pair_i, dtype=np.int64) * n + np.asarray(pair_j)
+    best = np.full(count, np.inf)
+    last_node = np.full(count, -1, dtype=np.int64)
+    last_action = np.full(count, -1, dtype=np.int64)
+    settled_count = np.zeros(count, dtype=np.int64)
+    settled = np.zeros(0, dtype=np.int64)
+    parent: dict[int, tuple[int, int]] = {}
+    none = np.full(count, -1, dtype=np.int64)
+    buckets: dict[float, list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {0.0: [(start, none, none)]}
+    heap = [0.0]
+    while heap:
+        level = heapq.heappop(heap)
+        keys, parents, actions = (np.concatenate(part) for part in zip(*buckets.pop(level), strict=True))
+        pick = np.lexsort((actions, parents, keys))  # per node: the first parent, then the first action
+        keys, parents, actions = keys[pick], parents[pick], actions[pick]
+        firsts = np.ones(len(keys), dtype=bool)
+        firsts[1:] = keys[1:] != keys[:-1]
+        keys, parents, actions = keys[firsts], parents[firsts], actions[firsts]
+        src = keys // span
+        fresh = ~np.isin(keys, settled, assume_unique=True)
+        fresh &= level + cheapest < best[src] - _EPS  # nothing from here can beat the macro found
+        fresh &= settled_count[src] < max_settled
+        keys, parents, actions, src = keys[fresh], parents[fresh], actions[fresh], src[fresh]
+        if len(keys) == 0:
+            continue
+        settled = np.union1d(settled, keys)
+        np.add.at(settled_count, src, 1)
+        for key, up, a in zip(keys.tolist(), parents.tolist(), actions.tolist(), strict=True):
+            if up >= 0:
+                parent[key] = (up, a)
+        fi, fj = (keys % span) // n, keys % n
+        for a in moving:
+            si, sj = ctx.fstar[a, fi], ctx.fstar[a, fj]
+            lo, hi = np.minimum(si, sj), np.maximum(si, sj)
+            cost = level + float(ctx.costs[a])
+            told = sig[lo] != sig[hi]
+            better = np.flatnonzero(told & (cost < best[src] - _EPS))
+            if len(better):  # the first node of each pair's search (keys are sorted) ends its macro here
+                _, first = np.unique(src[better], return_index=True)
+                better = better[first]
+                best[src[better]] = cost
+                last_node[src[better]] = keys[better]
+                last_action[src[better]] = a
+            going = ~told & (lo != hi)  # a merged pair is a dead end
+            if not going.any():
+                continue
+            nxt = src[going] * span + lo[going].astype(np.int64) * n + hi[going]
+            if cost not in buckets:
+                buckets[cost] = []
+                heapq.heappush(heap, cost)
+            buckets[cost].append((nxt, keys[going], np.full(len(nxt), a, dtype=np.int64)))
+    for p in np.flatnonzero(np.isfinite(best)).tolist():
+        sequence = [int(last_action[p])]
+        node = int(last_node[p])
+        while node != int(start[p]):
+            node, a = parent[node]
+            sequence.append(a)
+        found[p] = tuple(reversed(sequence))
+    return found
+
+
+@dataclass(eq=False)
+class MacroSearch:
+    """The macros of the pairs asked for, each searched when first asked (:func:`search_macros`) and
+    remembered: for a map whose look-alike pairs are too many for a :class:`MacroTable` (the depot's
+    one-beam scan leaves 206 million), where a selection only ever asks for its top hypotheses'
+    pairs. A pair's macro does not depend on what was asked before, so the runs stay reproducible."""
+
+    context: PairContext
+    max_settled: int = SEARCH_MAX_SETTLED
+    _macro_of_pair: dict[int, int] = field(default_factory=dict)
+    _sequences: list[tuple[int, ...]] = field(default_factory=list)
+    _ids: dict[tuple[int, ...], int] = field(default_factory=dict)
+
+    def macro_ids(self, i: np.ndarray, j: np.ndarray) -> np.ndarray:
+        n = self.context.model.n_states
+        sig = self.context.full_signature
+        a, b = np.minimum(i, j).astype(np.int64), np.maximum(i, j).astype(np.int64)
+        keys = a * n + b
+        ask = (a != b) & (sig[a] == sig[b])
+        new = sorted({k for k in keys[ask].tolist() if k not in self._macro_of_pair})
+        if new:
+            news = np.array(new, dtype=np.int64)
+            for key, sequence in zip(
+                new, search_macros(self.context, news // n, news % n, max_settled=self.max_settled), strict=True
+            ):
+                self._macro_of_pair[key] = -1 if sequence is None else self._id(sequence)
+        return np.array(
+            [self._macro_of_pair[k] if ok else -1 for k, ok in zip(keys.tolist(), ask.tolist(), strict=True)],
+            dtype=np.int64,
+        )
+
+    def tie_keys(self, ids: np.ndarray) -> np.ndarray:
+        order = sorted(set(ids.tolist()), key=lambda m: (len(self._sequences[m]), self._sequences[m]))
+        rank = {m: r for r, m in enumerate(order)}
+        return np.array([rank[m] for m in ids.tolist()], dtype=np.int64)
+
+    def sequence(self, macro: int) -> tuple[int, ...]:
+        return self._sequences[macro]
+
+    def _id(self, sequence: tuple[int, ...]) -> int:
+        if sequence not in self._ids:
+            self._ids[sequence] = len(self._sequences)
+            self._sequences.append(sequence)
+        return self._ids[sequence]
+
+
 def _distinct_macros(first: np.ndarray, nxt: np.ndarray, length: np.ndarray) -> tuple[np.ndarray, ...]:
     """Hash-cons the macros: a macro is (first action, the distinct macro after it). Shortest first,
     so the macro after the first action always has its id already."""
@@ -340,22 +512,21 @@ def expected_path(ctx: PairContext, state: int, actions: tuple[int, ...]) -> lis
 
 
 def macro_candidates(
-    table: MacroTable, states: np.ndarray, belief: np.ndarray, *, limit: int = 32
+    table: PairMacros, states: np.ndarray, belief: np.ndarray, *, limit: int = 32
 ) -> list[tuple[int, ...]]:
     """Algorithm 3, line 2: the macros of the pairs of hypotheses, those of the most probable pairs
     first, at most ``limit`` distinct ones (Sec. VII-B's reduction, applied to the candidates)."""
-    if len(states) < 2 or table.n_pairs == 0:
+    if len(states) < 2:
         return []
     top = states[np.lexsort((states, -belief[states]))][: max(2, min(len(states), 64))]
     ii, jj = np.triu_indices(len(top), 1)
     i, j = top[ii], top[jj]
-    pairs = table.find(i, j)
-    has = pairs >= 0
-    pairs, weight = pairs[has], (belief[i] * belief[j])[has]
-    ids = table.macro_id[pairs]
+    ids = table.macro_ids(i, j)
     ok = ids >= 0
-    ids, weight = ids[ok], weight[ok]
-    order = np.lexsort((ids, -weight))
+    ids, weight = ids[ok], (belief[i] * belief[j])[ok]
+    if len(ids) == 0:
+        return []
+    order = np.lexsort((table.tie_keys(ids), -weight))
     chosen: list[int] = []
     for macro in ids[order].tolist():
         if macro not in chosen:

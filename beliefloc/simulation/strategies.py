@@ -37,7 +37,7 @@ from beliefloc.planning.contingent import (
     information_prices,
 )
 from beliefloc.planning.ec2 import PairContext, hypotheses, pair_context, select
-from beliefloc.planning.macros import MacroTable, build_macros, macro_candidates
+from beliefloc.planning.macros import MacroTable, PairMacros, macro_candidates, pair_macros
 from beliefloc.planning.settings import (
     DEFAULT_MAX_EXPANSIONS,
     DEFAULT_MAX_HYPOTHESES,
@@ -303,7 +303,7 @@ class EC2Strategy:
     model: Model
     context: PairContext
     rng: np.random.Generator
-    table: MacroTable | None = None
+    table: PairMacros | None = None
     max_hypotheses: int = DEFAULT_MAX_HYPOTHESES
     plan_seconds: list[float] = field(default_factory=list)
     new_plan: PlanResult | None = None
@@ -360,7 +360,7 @@ class SharedWork:
     model: Model
     evaluator: SuccessorEvaluator
     _contexts: dict[float | None, PairContext] = field(default_factory=dict)
-    _macros: dict[float | None, MacroTable] = field(default_factory=dict)
+    _macros: dict[float | None, PairMacros] = field(default_factory=dict)
     _prices: InformationPrices | None = None
 
     @classmethod
@@ -378,9 +378,10 @@ class SharedWork:
             self._prices = information_prices(self.model, self.evaluator)
         return self._prices
 
-    def macros(self, gamma: float | None) -> MacroTable:
+    def macros(self, gamma: float | None) -> PairMacros:
+        """The macro table, or where its pairs would be too many, a search per pair asked for."""
         if gamma not in self._macros:
-            self._macros[gamma] = build_macros(self.model, gamma, context=self.pair_context(gamma))
+            self._macros[gamma] = pair_macros(self.model, self.pair_context(gamma))
         return self._macros[gamma]
 
 
@@ -389,9 +390,10 @@ StrategyFactory = Callable[[StrategyName, PlannerSettings, SharedWork, np.random
 
 def _ec2(with_macros: bool) -> StrategyFactory:
     def make(name: StrategyName, settings: PlannerSettings, shared: SharedWork, rng: np.random.Generator) -> Strategy:
-        table = settings.macros
-        gamma = table.gamma if table is not None else settings.gamma
+        given = settings.macros
+        gamma = given.gamma if given is not None else settings.gamma
         context = shared.pair_context(gamma)
+        table: PairMacros | None = given
         if with_macros and table is None:
             table = shared.macros(gamma)
         return EC2Strategy(
