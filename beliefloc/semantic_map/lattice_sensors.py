@@ -83,7 +83,8 @@ class BeamSamples:
     (:func:`scan_tables`) and the score of a measured range (:meth:`log_likelihood`)."""
 
     ranges: np.ndarray
-    """``(shifts, positions, angles)`` ranges (``inf``: nothing within :attr:`reach`)."""
+    """``(angles, positions, shifts)`` ranges (``inf``: nothing within :attr:`reach`): a pose's rays at
+    one angle lie side by side, which is how :meth:`log_likelihood` reads them."""
     which: np.ndarray
     """``(lattice yaws, yaw offsets, beams)``: the angle each beam's ray takes."""
     weights: np.ndarray
@@ -108,17 +109,18 @@ class BeamSamples:
         n_positions = self.weights.shape[0]
         g, p = np.divmod(np.asarray(poses, dtype=np.intp), n_positions)
         angle = self.which[g, :, beam]  # (poses, yaw offsets)
-        r = self.ranges[:, p[:, None], angle]  # (shifts, poses, yaw offsets)
-        finite = np.isfinite(r)
-        near = np.where(finite, r, 0.0)
-        gauss = np.where(finite, np.exp(-0.5 * ((measured - near) / self.sigma) ** 2), 0.0)
-        gauss /= self.sigma * math.sqrt(2.0 * math.pi)
+        r = self.ranges[angle, p[:, None], :]  # (poses, yaw offsets, shifts)
         last = float(self.bins[-1])
-        limit = np.minimum(np.where(finite, r, last), last)
-        short = np.where(measured < limit, 1.0 / np.maximum(limit, 1e-3), 0.0)
-        density = (1.0 - self.short) * gauss + self.short * short
+        limit = np.minimum(r, last)  # nothing within reach: short readings anywhere below the last edge
+        density = np.where(measured < limit, self.short / np.maximum(limit, 1e-3), 0.0)
+        # the Gaussian where it is not lost beside the rest: beyond 12 sigma it is e^-72 of its peak
+        np.subtract(r, measured, out=r)
+        close = np.flatnonzero(np.abs(r, out=r) < 12.0 * self.sigma)
+        apart = r.ravel()[close] / self.sigma
+        peak = (1.0 - self.short) / (self.sigma * math.sqrt(2.0 * math.pi))
+        density.flat[close] += peak * np.exp(-0.5 * apart * apart)
         # the sub-poses' shares: each shift's standing weight, the yaw offsets alike
-        mean = np.einsum("sp,spt->p", self.weights[p].T, density) / self.n_turns
+        mean = np.einsum("ps,pts->p", self.weights[p], density) / self.n_turns
         out: np.ndarray = np.log((1.0 - self.random) * mean + self.random / RANDOM_RANGE)
         return out
 
@@ -147,13 +149,13 @@ def beam_samples(sensor: ScanSensor, lattice: PoseLattice, poses: np.ndarray) ->
     )
     angles = direction.ravel()[first]
     weights = _standing_weights(lattice, xy, shifts)
-    ranges = np.full((len(shifts), n_positions, len(angles)), np.inf)  # 96 MB on the depot
+    ranges = np.full((len(angles), n_positions, len(shifts)), np.inf)  # 96 MB on the depot
     for s, (dx, dy) in enumerate(shifts):
         held = np.flatnonzero(weights[:, s] > 0)
         if held.size:
             cast = cast_rays(lattice.image, xy[held, 0, None] + dx, xy[held, 1, None] + dy, angles[None, :], reach)
             cast[cast > reach] = np.inf
-            ranges[s, held] = cast
+            ranges[:, held, s] = cast.T
     return BeamSamples(
         ranges, which.reshape(direction.shape), weights, len(turns), sigma, random, short / (1.0 - random), bins, reach
     )
@@ -178,7 +180,7 @@ def scan_tables(
         held = np.flatnonzero(weight > 0)
         if not held.size:
             continue
-        ranges = samples.ranges[s, held]  # (positions, angles)
+        ranges = samples.ranges[:, held, s].T  # (positions, angles)
         readings = regions.scan_distribution(ranges, bins, sigma, 0.0, samples.short)
         share = weight[held, None] / samples.n_turns
         for b in range(len(sensor.beams)):
