@@ -141,7 +141,7 @@ class MacroTable:
         i, j = self.pair_i[never], self.pair_j[never]
         graph = sp.coo_matrix((np.ones(len(never)), (i, j)), shape=(self.n_states, self.n_states)).tocsr()
         _, labels = connected_components(graph, directed=False)
-        involved = np.unique(np.concatenate([i, j]))
+        involved = sorted_distinct(np.concatenate([i, j]))
         classes: dict[int, list[int]] = {}
         for s in involved.tolist():
             classes.setdefault(int(labels[s]), []).append(s)
@@ -185,6 +185,18 @@ def indistinguishable_pairs(signature: np.ndarray) -> tuple[np.ndarray, np.ndarr
     key = i.astype(np.int64) * n + j
     sort = np.argsort(key, kind="stable")
     return i[sort].astype(np.int32), j[sort].astype(np.int32)
+
+
+def sorted_distinct(values: np.ndarray) -> np.ndarray:
+    """``np.unique`` of a 1-D array, by a sort: for integers with many distinct values NumPy 2.4's
+    ``np.unique`` hashes, 40x slower than sorting (a million entries: 1.2 s against 0.03 s here)."""
+    out = np.sort(np.ravel(values))
+    if out.size > 1:
+        keep = np.empty(out.size, dtype=bool)
+        keep[0] = True
+        np.not_equal(out[1:], out[:-1], out=keep[1:])
+        out = out[keep]
+    return out
 
 
 def count_indistinguishable_pairs(signature: np.ndarray) -> int:
@@ -282,7 +294,7 @@ def build_macros(
     done_count = 0
     while heap:
         level = heapq.heappop(heap)
-        frontier = np.unique(np.concatenate(buckets.pop(level)))
+        frontier = sorted_distinct(np.concatenate(buckets.pop(level)))
         frontier = frontier[~settled[frontier] & (dist[frontier] == level)]
         if len(frontier) == 0:
             continue

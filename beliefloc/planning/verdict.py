@@ -31,7 +31,7 @@ import numpy as np
 
 from beliefloc.model import Model
 from beliefloc.planning.ec2 import full_parts, most_likely_successors, signature
-from beliefloc.planning.macros import count_indistinguishable_pairs, indistinguishable_pairs
+from beliefloc.planning.macros import count_indistinguishable_pairs, indistinguishable_pairs, sorted_distinct
 
 MAX_TWIN_PAIRS = 2_000_000
 """Above this many look-alike pairs the twin check is skipped (it would cost more than it saves)."""
@@ -96,7 +96,7 @@ def twin_pairs(model: Model, max_pairs: int = MAX_TWIN_PAIRS) -> tuple[np.ndarra
         if total == 0:
             break
         edge = np.repeat(starts - np.cumsum(counts) + counts, counts) + np.arange(total)
-        pred = np.unique(rev_src[edge])
+        pred = sorted_distinct(rev_src[edge])
         frontier = pred[~dead[pred]]
         dead[frontier] = True
     return pi[~dead], pj[~dead]
