@@ -107,21 +107,38 @@ class BeamSamples:
         [1.5, 3) m, this knows it to the noise: on the depot (one beam) a look-alike 20 cm away is told
         apart by one reading."""
         n_positions = self.weights.shape[0]
-        g, p = np.divmod(np.asarray(poses, dtype=np.intp), n_positions)
-        angle = self.which[g, :, beam]  # (poses, yaw offsets)
-        r = self.ranges[angle, p[:, None], :]  # (poses, yaw offsets, shifts)
+        order = np.asarray(poses, dtype=np.intp)
+        if order.size == 0:
+            return np.zeros(0)
+        sorted_poses = bool(np.all(order[1:] >= order[:-1]))
+        if not sorted_poses:
+            order = np.sort(order)
+        g, p = np.divmod(order, n_positions)
         last = float(self.bins[-1])
-        limit = np.minimum(r, last)  # nothing within reach: short readings anywhere below the last edge
-        density = np.where(measured < limit, self.short / np.maximum(limit, 1e-3), 0.0)
-        # the Gaussian where it is not lost beside the rest: beyond 12 sigma it is e^-72 of its peak
-        np.subtract(r, measured, out=r)
-        close = np.flatnonzero(np.abs(r, out=r) < 12.0 * self.sigma)
-        apart = r.ravel()[close] / self.sigma
+        cut = 12.0 * self.sigma  # beyond it the Gaussian is e^-72 of its peak: lost beside the rest
         peak = (1.0 - self.short) / (self.sigma * math.sqrt(2.0 * math.pi))
-        density.flat[close] += peak * np.exp(-0.5 * apart * apart)
-        # the sub-poses' shares: each shift's standing weight, the yaw offsets alike
-        mean = np.einsum("ps,pts->p", self.weights[p], density) / self.n_turns
+        mean = np.empty(order.size)
+        # a lattice yaw at a time: its poses' rays at each of its angles lie side by side (taken, not
+        # gathered element by element: 20x faster), and the passes stay within the cache
+        bounds = np.flatnonzero(np.r_[True, g[1:] != g[:-1], True])
+        for lo, hi in zip(bounds[:-1].tolist(), bounds[1:].tolist(), strict=True):
+            at = p[lo:hi]
+            angles = self.which[g[lo], :, beam]
+            r = np.empty((len(angles), hi - lo, self.ranges.shape[2]))  # (yaw offsets, poses, shifts)
+            for t, angle in enumerate(angles.tolist()):
+                np.take(self.ranges[angle], at, axis=0, out=r[t])
+            limit = np.minimum(r, last)  # nothing within reach: short readings anywhere below the last edge
+            density = np.where(measured < limit, self.short / np.maximum(limit, 1e-3), 0.0)
+            np.subtract(r, measured, out=r)
+            close = np.flatnonzero(np.abs(r, out=r) < cut)
+            apart = r.ravel()[close] / self.sigma
+            density.flat[close] += peak * np.exp(-0.5 * apart * apart)
+            # the sub-poses' shares: each shift's standing weight, the yaw offsets alike
+            mean[lo:hi] = np.einsum("ps,tps->p", np.take(self.weights, at, axis=0), density)
+        mean /= self.n_turns
         out: np.ndarray = np.log((1.0 - self.random) * mean + self.random / RANDOM_RANGE)
+        if not sorted_poses:
+            out = out[np.searchsorted(order, np.asarray(poses, dtype=np.intp))]
         return out
 
 
