@@ -327,6 +327,8 @@ def test_the_search_stands_in_for_a_table_too_big():
     assert isinstance(pair_macros(model, ctx), MacroTable)
     search = pair_macros(model, ctx, max_pairs=10)
     assert isinstance(search, MacroSearch)
+    with pytest.raises(InvalidValueError, match="ec2-macros"):  # a table refused says what can do without one
+        build_macros(model, max_pairs=10)
     table = build_macros(model)
     rng = np.random.default_rng(4)
     belief = rng.dirichlet(np.ones(model.n_states) * 0.3)

@@ -246,7 +246,8 @@ def build_macros(
     if total > max_pairs:
         raise InvalidValueError(
             f"{model.name}: {total:,} pairs of states look alike, more than the {max_pairs:,} a macro table "
-            "may hold; give the robot a sensor that tells more places apart"
+            "may hold; give the robot a sensor that tells more places apart (`simulate -s ec2-macros` needs no "
+            "table: it searches the macros of the pairs it meets)"
         )
     pi, pj = indistinguishable_pairs(sig)
     keys = pi.astype(np.int64) * n + pj
