@@ -249,16 +249,29 @@ def _modes_with_members(
     row, col, heading = grid.cell_heading(support)
     x, y = grid.cell_centre(row, col)
     reach = radius_cells * grid.cell_size
+    # a mode's states lie within ``reach`` in x: each search looks only between those bounds (the
+    # depot's 49,592 states a search: 15 ms a call, on every step)
+    by_x = np.argsort(x, kind="stable")
+    x_sorted = x[by_x]
     found: list[tuple[Mode, np.ndarray]] = []
     left = np.ones(support.size, dtype=bool)
-    while len(found) < max_modes and float(rest[left].sum()) >= min_probability:
-        best = int(np.flatnonzero(left)[np.argmax(rest[left])])
-        turn = np.abs(heading - heading[best]) % grid.headings
-        near_heading = np.minimum(turn, grid.headings - turn) <= 1
-        near = left & near_heading & (np.hypot(x - x[best], y - y[best]) <= reach)
+    unclaimed = rest.copy()  # the states left, the others at -1: the first best among those left
+    unclaimed_mass = float(rest.sum())
+    while len(found) < max_modes and unclaimed_mass >= min_probability and left.any():
+        best = int(np.argmax(unclaimed))
+        lo = int(np.searchsorted(x_sorted, x[best] - reach - 1e-9, side="left"))
+        hi = int(np.searchsorted(x_sorted, x[best] + reach + 1e-9, side="right"))
+        around = by_x[lo:hi]
+        turn = np.abs(heading[around] - heading[best]) % grid.headings
+        close = left[around] & (np.minimum(turn, grid.headings - turn) <= 1)
+        close &= np.hypot(x[around] - x[best], y[around] - y[best]) <= reach
+        near = np.zeros(support.size, dtype=bool)
+        near[around[close]] = True
         state = int(support[best])
         found.append((Mode(state, state_pose(grid, state), float(rest[near].sum()), int(near.sum())), support[near]))
         left &= ~near
+        unclaimed[near] = -1.0
+        unclaimed_mass = float(rest[left].sum())
     return found
 
 

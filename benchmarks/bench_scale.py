@@ -399,6 +399,7 @@ def main() -> None:
         "that reads it: the same file for both codes)",
     )
     parser.add_argument("--output", type=Path, default=RESULTS)
+    parser.add_argument("--json", type=Path, help="also write every run's measurements (not only the best) here")
     args = parser.parse_args()
     if args.child:
         print(json.dumps(child_phases(args.child[0], args.child[1], not args.no_yaml, args.time_limit)))
@@ -412,6 +413,7 @@ def main() -> None:
     if args.baseline:
         codes["before"] = _baseline_tree(args.baseline, args.workdir)
     rows = []
+    every: list[dict[str, Any]] = []
     sizes: dict[int, dict[str, int]] = {}
     for size in args.sizes:
         states = int(size)
@@ -432,6 +434,9 @@ def main() -> None:
                     _measure(code, yaml_path, models[name], states > 4_000_000, 1, small, args.time_limit)
                 )
         rows.append({name: _best(found) for name, found in runs.items()})
+        every.append({"states": states, "codes": {name: str(code) for name, code in codes.items()}, "runs": runs})
+    if args.json:
+        args.json.write_text(json.dumps(every, indent=1), encoding="utf-8")
     text = _report(rows, args, time.perf_counter() - started)
     for states, files in sizes.items():
         text += (
