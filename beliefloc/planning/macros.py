@@ -24,6 +24,11 @@ every macro is recovered by following pointers. Pairs that no sequence distingui
 are the localizability verdict: if the robot is in one of them, it can never tell which.
 
 Ties: on equal cost the first action in model order wins, then the successor found first.
+
+**Too many pairs for a table.** A map whose sensors leave more than :data:`DEFAULT_MAX_PAIRS` pairs
+alike (the depot's one-beam scan: 206 million) gets no table; a selection asks only for the pairs of its
+top hypotheses, and :class:`MacroSearch` finds each one's macro when first asked, by a Dijkstra forward
+from the pair over the same graph (:func:`search_macros`): the same least costs as the table's.
 """
 
 from __future__ import annotations
