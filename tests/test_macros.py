@@ -234,6 +234,15 @@ def test_cli_build_json_and_show(runner, tmp_path):
     assert summary.exit_code == 0 and "the longest macros" in summary.stdout
 
 
+def test_cli_build_names_gamma_only_for_gammas_error(runner, tmp_path):
+    out = tmp_path / "k.npz"
+    result = runner.invoke(
+        _app(), ["macros", "build", str(MAPS / "khalvati-example1.yaml"), "-o", str(out), "--gamma", "1"]
+    )
+    assert result.exit_code == 2 and "--gamma" in result.output and "outside" in result.output
+    assert not out.exists()
+
+
 def test_cli_build_reports_the_unlocalizable_classes(runner, tmp_path):
     out = tmp_path / "w.npz"
     result = runner.invoke(_app(), ["macros", "build", str(MAPS / "window-2x2.yaml"), "-o", str(out)])

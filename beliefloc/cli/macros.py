@@ -48,7 +48,8 @@ def build(
     """
     from beliefloc.files.macro_file import save_macros
     from beliefloc.files.model_sources import MODEL_SUFFIX
-    from beliefloc.planning.macros import build_macros
+    from beliefloc.planning.ec2 import pair_context
+    from beliefloc.planning.macros import build_macros, check_gamma
     from beliefloc.render.ec2 import classes_table, macro_summary_table
     from beliefloc.render.progress import progress_bar
     from beliefloc.source.file_kinds import MACROS
@@ -62,7 +63,9 @@ def build(
             progress.update(task, completed=done, total=total)
 
         with for_option("--gamma"):
-            table = build_macros(model, gamma, progress=advance)
+            context = pair_context(model, gamma)
+            check_gamma(model, context)
+        table = build_macros(model, context=context, progress=advance)  # a map too big for a table: not --gamma's
     try:
         save_macros(table, output, model=model)
     except OutputError as exc:

@@ -212,7 +212,7 @@ def count_indistinguishable_pairs(signature: np.ndarray) -> int:
     return int((counts * (counts - 1) // 2).sum())
 
 
-def _check_gamma(model: Model, ctx: PairContext) -> None:
+def check_gamma(model: Model, ctx: PairContext) -> None:
     lo, hi = gamma_bounds(model)
     if not lo <= ctx.gamma < hi:
         raise InvalidValueError(
@@ -226,7 +226,7 @@ def pair_macros(model: Model, context: PairContext, *, max_pairs: int = DEFAULT_
     """The macros a selection draws on: the whole table (Algorithm 2) when its pairs fit in
     ``max_pairs``, else a :class:`MacroSearch` that finds the pairs asked for."""
     if count_indistinguishable_pairs(context.full_signature) > max_pairs:
-        _check_gamma(model, context)
+        check_gamma(model, context)
         return MacroSearch(context)
     return build_macros(model, context=context, max_pairs=max_pairs)
 
@@ -244,7 +244,7 @@ def build_macros(
 
     started = time.perf_counter()
     ctx = context if context is not None else pair_context(model, gamma)
-    _check_gamma(model, ctx)
+    check_gamma(model, ctx)
     n = model.n_states
     sig = ctx.full_signature
     total = count_indistinguishable_pairs(sig)
