@@ -69,6 +69,7 @@ import itertools
 import math
 import time
 import warnings
+import weakref
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Any
@@ -422,10 +423,13 @@ def plan_policy(
     ``prices`` are the estimate's (:func:`information_prices` when None; a caller that plans often
     computes them once per model; ignored with ``Heuristic.ZERO``). Deterministic: the same inputs
     give the same policy."""
-    planner = PolicyPlanner(
-        model, threshold=threshold, heuristic=heuristic, prune_below=prune_below, evaluator=evaluator, prices=prices
-    )
-    return planner.plan(belief, max_expansions=max_expansions, time_limit=time_limit, progress=progress)
+    with _no_cycle_collection():  # until the graph is gone: the collector would walk all of it once more
+        planner = PolicyPlanner(
+            model, threshold=threshold, heuristic=heuristic, prune_below=prune_below, evaluator=evaluator, prices=prices
+        )
+        result = planner.plan(belief, max_expansions=max_expansions, time_limit=time_limit, progress=progress)
+        del planner  # its graph unlinked and freed here (_unlink)
+    return result
 
 
 class PolicyPlanner:
@@ -545,6 +549,9 @@ class _Search:
         """Every node whose reach was set since the current start was chosen."""
         self._exact = False
         """Whether the reaches are those of a traversal (:meth:`_retrace`), not changed since."""
+        # the graph is a web of cycles (parents, children, loops): unlinked when the search goes, it is freed
+        # there and then, instead of by the cycle collector's walk over all of it (_unlink)
+        weakref.finalize(self, _unlink, self._nodes).atexit = False
 
     def root(self, belief: np.ndarray) -> _Node:
         """The node of ``belief`` (one the graph has already, or a new one) as the policy's start."""
@@ -1071,6 +1078,17 @@ class _TraversalPlanner(PolicyPlanner):
     """:class:`PolicyPlanner` with :class:`_TraversalSearch` (the reference)."""
 
     _search_kind = _TraversalSearch
+
+
+def _unlink(nodes: dict[int, list[_Node]]) -> None:
+    """Cut every link of a dropped search's graph (every node that is not a goal is in ``nodes``; a goal
+    links only to the nodes it was reached from), so that it is freed as its last reference goes. Left to
+    Python's cycle collector, a graph of 7,757 expansions (the hallway's policy, 745,000 objects) cost a
+    walk of 0.3-0.7 s after the search had ended, a tenth of ``plan --policy``."""
+    for same in nodes.values():
+        for node in same:
+            node.children, node.exits, node.parents, node.origin = {}, [], [], None
+    nodes.clear()
 
 
 @contextlib.contextmanager
