@@ -891,3 +891,29 @@ def test_a_finished_search_leaves_its_graph_to_no_cycle_collector(one_shot: bool
         gc.enable()
     assert result.expanded == 300
     assert left < 50
+
+
+@QUICK
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 40))
+def test_open_share_is_solved_alike_densely_and_sparsely(seed: int, n: int):
+    """A policy's chain as plan_policy builds it: leaves absorb (a frontier counts, a goal does not), every
+    other node's branches sum to 1. NumPy's dense solution (small policies) and SciPy's sparse one agree."""
+    rng = np.random.default_rng(seed)
+    ends = np.zeros(n)
+    rows: list[int] = []
+    cols: list[int] = []
+    probabilities: list[float] = []
+    leaves = rng.random(n) < 0.3
+    leaves[-1] = True  # every node can reach a leaf through the next ones: no loop that is never left
+    ends[leaves] = (rng.random(int(leaves.sum())) < 0.5).astype(float)
+    for i in np.flatnonzero(~leaves).tolist():
+        k = int(rng.integers(1, 4))
+        to = np.r_[i + 1, rng.integers(0, n, size=k - 1)]
+        rows += [i] * k
+        cols += to.tolist()
+        probabilities += rng.dirichlet(np.ones(k) * 2).tolist()
+    dense = contingent._absorbed(ends, rows, cols, probabilities)
+    with patch.object(contingent, "_DENSE_CHAIN", 0):
+        sparse = contingent._absorbed(ends, rows, cols, probabilities)
+    assert 0.0 <= dense <= 1.0
+    assert dense == pytest.approx(sparse, abs=1e-9)

@@ -75,8 +75,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import scipy.sparse
-import scipy.sparse.linalg
 
 from beliefloc.belief import entropy, predict, uniform
 from beliefloc.model import Action, Model
@@ -134,6 +132,9 @@ _SUMMARY_DIGITS = 9
 digits (:meth:`_Search._key`)."""
 _HASH_SEED = 28
 """The seed of the random weights that turn a belief's cut probabilities into one integer key."""
+_DENSE_CHAIN = 1_000
+"""A policy of at most this many nodes has its chance of ending at a leaf that is not a goal solved densely
+(:func:`_absorbed`: 8 MB and a few milliseconds at most)."""
 
 
 _Successor = tuple[int, int | None, float, float, np.ndarray, int, float | Callable[[], float]]
@@ -1142,14 +1143,26 @@ def _reaching_an_end(nodes: list[_Node], alive: set[int]) -> set[int]:
 
 def _absorbed(ends: np.ndarray, rows: list[int], cols: list[int], probabilities: list[float]) -> float:
     """The probability that the chain started in state 0 ends in a state whose ``ends`` is 1 (its
-    transitions: ``rows -> cols`` with ``probabilities``; states without any end there)."""
+    transitions: ``rows -> cols`` with ``probabilities``; states without any end there). A chain of at
+    most :data:`_DENSE_CHAIN` states is solved by NumPy; a larger one by SciPy's sparse solver, whose
+    import (0.1 s, SciPy's dense linear algebra with it) a hallway's or a kitchen's policy does without."""
     n = len(ends)
+    if n <= _DENSE_CHAIN:
+        system = np.eye(n)
+        np.subtract.at(system, (rows, cols), probabilities)  # two branches to one node add up, as in a CSR sum
+        try:
+            absorbed = np.linalg.solve(system, ends)
+        except np.linalg.LinAlgError:
+            return 1.0  # a loop the policy never leaves: it ends nowhere, so the robot replans
+        return float(np.clip(absorbed[0], 0.0, 1.0))
+    import scipy.sparse.linalg
+
     chain = scipy.sparse.csr_matrix((probabilities, (rows, cols)), shape=(n, n))
-    system = (scipy.sparse.identity(n, format="csr") - chain).tocsc()
+    sparse_system = (scipy.sparse.identity(n, format="csr") - chain).tocsc()
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error", scipy.sparse.linalg.MatrixRankWarning)
-            absorbed = scipy.sparse.linalg.spsolve(system, ends)
+            absorbed = scipy.sparse.linalg.spsolve(sparse_system, ends)
     except scipy.sparse.linalg.MatrixRankWarning:
-        return 1.0  # a loop the policy never leaves: it ends nowhere, so the robot replans
+        return 1.0
     return float(np.clip(np.atleast_1d(absorbed)[0], 0.0, 1.0))
