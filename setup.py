@@ -1,6 +1,7 @@
-"""The one compiled part: ``beliefloc.planning._fused`` (see its source). Everything else is in
-pyproject.toml. The extension is optional: without a C compiler the install goes on and the search
-takes its NumPy passes (the same plans, slower on beliefs of 10^6 states and more)."""
+"""The two compiled parts: ``beliefloc.planning._fused`` and ``beliefloc.planning._lao`` (see their
+sources). Everything else is in pyproject.toml. Both are optional: without a C compiler the install goes
+on, the search takes its NumPy passes and LAO* its Python bookkeeping (the same plans, slower on beliefs
+of 10^6 states and more, and on policies of thousands of expansions)."""
 
 import platform
 import sys
@@ -23,6 +24,12 @@ setup(
             define_macros=macros,
             libraries=libraries,
             optional=True,
-        )
+        ),
+        Extension(
+            "beliefloc.planning._lao",
+            sources=["beliefloc/planning/_lao.c"],
+            extra_compile_args=compile_args,
+            optional=True,
+        ),
     ]
 )

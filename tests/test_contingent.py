@@ -22,7 +22,7 @@ from hypothesis import HealthCheck, assume, event, example, given, settings
 from hypothesis import strategies as st
 
 from beliefloc import compile_model, load_map
-from beliefloc.belief import observation_probabilities, point, uniform, update
+from beliefloc.belief import observation_probabilities, point, predict, uniform, update
 from beliefloc.model import Model
 from beliefloc.planning import contingent
 from beliefloc.planning.best_first import PlanStatus, PlanStep, belief_key, plan
@@ -917,3 +917,69 @@ def test_open_share_is_solved_alike_densely_and_sparsely(seed: int, n: int):
         sparse = contingent._absorbed(ends, rows, cols, probabilities)
     assert 0.0 <= dense <= 1.0
     assert dense == pytest.approx(sparse, abs=1e-9)
+
+
+needs_lao = pytest.mark.skipif(contingent.lao is None, reason="LAO*'s compiled bookkeeping is not built")
+
+
+def _without_timing(result: PolicyResult, model: Model) -> dict[str, Any]:
+    return {key: value for key, value in result.as_json(model).items() if key != "seconds"}
+
+
+@needs_lao
+@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    data=small_maps(),
+    heuristic=st.sampled_from(list(Heuristic)),
+    prune=st.sampled_from([0.0, 1e-3, 0.05]),
+    trap_check=st.sampled_from([2, 2_000]),
+    max_flow=st.sampled_from([3, 200_000]),
+    budget=st.integers(1, 400),
+)
+def test_compiled_bookkeeping_gives_the_python_loops_policy_to_the_last_bit(
+    data: dict[str, Any], heuristic: Heuristic, prune: float, trap_check: int, max_flow: int, budget: int
+):
+    """``_lao.c`` is ``_Search._revise`` and ``_Search._flow`` written out: the same expansions, values and
+    policy, bit for bit, planning on from a kept graph included; with the dead-end check after 2 backups
+    and the flow cut after 3 steps, its callback and its hand-back to ``_retrace`` are taken too."""
+    model = model_of(data)
+    start = uniform(model.n_states)
+    runs = []
+    for compiled in (contingent.lao, None):
+        with (
+            patch.object(contingent, "lao", compiled),
+            patch.object(contingent, "_TRAP_CHECK", trap_check),
+            patch.object(contingent, "_MAX_FLOW", max_flow),
+        ):
+            planner = PolicyPlanner(model, heuristic=heuristic, prune_below=prune)
+            first = planner.plan(start, max_expansions=budget, time_limit=60.0)
+            again = planner.plan(start, max_expansions=budget, time_limit=60.0)
+        runs.append([(r.expanded, r.generated, _without_timing(r, model)) for r in (first, again)])
+    assert runs[0] == runs[1]
+
+
+@needs_lao
+@pytest.mark.parametrize(("name", "budget"), [("hallway", 1_500), ("kitchen", 5_000)])
+def test_compiled_bookkeeping_gives_the_python_loops_policy_on_the_bundled_maps(name: str, budget: int):
+    """As above on the maps whose loops the random ones rarely have: a perception whose reading leaves the
+    belief as it was (a branch back to the node itself, whose visits the flow adds at once)."""
+    model = compile_model(load_map(MAPS / f"{name}.yaml"))
+    start = uniform(model.n_states)
+    runs = []
+    for compiled in (contingent.lao, None):
+        with patch.object(contingent, "lao", compiled):
+            result = plan_policy(model, start, max_expansions=budget, time_limit=60.0)
+        runs.append((result.expanded, result.generated, _without_timing(result, model)))
+    assert runs[0] == runs[1]
+
+
+@QUICK
+@given(data=small_maps(), seed=st.integers(0, 2**32 - 1))
+def test_every_action_predicted_in_one_product_is_predict_bit_for_bit(data: dict[str, Any], seed: int):
+    model = model_of(data)
+    search = contingent._Search(model, SuccessorEvaluator(model), THRESHOLD, contingent.NO_PRICES, 0.0)
+    assume(search._stacked is not None)
+    belief = np.random.default_rng(seed).dirichlet(np.ones(model.n_states) * 0.3)
+    together = search._predictions(belief)
+    for row, action in zip(together, model.actions, strict=True):
+        assert np.array_equal(row, predict(action, belief))
