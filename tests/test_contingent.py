@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import gc
 import heapq
+import itertools
 import math
 from typing import Any
 from unittest.mock import patch
@@ -983,3 +984,20 @@ def test_every_action_predicted_in_one_product_is_predict_bit_for_bit(data: dict
     together = search._predictions(belief)
     for row, action in zip(together, model.actions, strict=True):
         assert np.array_equal(row, predict(action, belief))
+
+
+@QUICK
+@given(data=small_maps())
+def test_signature_groups_are_the_states_that_read_alike_without_noise(data: dict[str, Any]):
+    model = model_of(data)
+    groups = contingent._signature_groups(model)
+    parts = [part for action in model.actions for part in action.observation.parts]
+    assume(groups is not None)
+    order, starts = groups
+    assert sorted(order.tolist()) == list(range(model.n_states))
+    readings = np.stack([part.truth for part in parts], axis=1)[order]
+    bounds = np.r_[starts, model.n_states]
+    for lo, hi in itertools.pairwise(bounds.tolist()):
+        assert (readings[lo:hi] == readings[lo]).all()  # alike within a group
+    firsts = {tuple(row) for row in readings[starts].tolist()}
+    assert len(firsts) == len(starts)  # and every group reads otherwise than the others

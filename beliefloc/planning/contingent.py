@@ -81,6 +81,7 @@ import scipy.sparse
 from beliefloc.belief import entropy, predict, uniform
 from beliefloc.model import Action, Model
 from beliefloc.planning.best_first import BeliefCache, PlanStatus, SearchProgress
+from beliefloc.planning.ec2 import full_parts, signature
 from beliefloc.planning.settings import (
     DEFAULT_MAX_EXPANSIONS,
     DEFAULT_PRUNE_BELOW,
@@ -386,17 +387,14 @@ def information_prices(model: Model, evaluator: SuccessorEvaluator | None = None
 
 
 def _signature_groups(model: Model) -> tuple[np.ndarray, np.ndarray] | None:
-    """States sorted by their noise-free readings of every sensor, with the group boundaries (None
-    when no action observes)."""
-    key = np.zeros(model.n_states, dtype=np.int64)
-    observing = False
-    for action in model.actions:
-        for part in action.observation.parts:
-            observing = True
-            _, codes = np.unique(np.stack([key, part.truth.astype(np.int64)]), axis=1, return_inverse=True)
-            key = codes.astype(np.int64).ravel()
-    if not observing:
+    """States sorted by their noise-free readings of every sensor (:func:`~beliefloc.planning.ec2.signature`),
+    with the group boundaries (None when no action observes). Planners are made often (31 in two
+    contingent episodes on the depot): ranked pair by pair with ``np.unique(..., axis=1)`` this cost
+    0.42 s a planner there, 9 % of the episodes' time."""
+    parts = full_parts(model)
+    if not parts:
         return None
+    key = signature(parts, model.n_states)
     order = np.argsort(key, kind="stable")
     ordered = key[order]
     starts = np.flatnonzero(np.r_[True, ordered[1:] != ordered[:-1]])
