@@ -60,10 +60,8 @@ its policy is complete, :class:`beliefloc.simulation.strategies.ContingentStrate
 from __future__ import annotations
 
 import collections
-import contextlib
 import enum
 import functools
-import gc
 import heapq
 import itertools
 import math
@@ -90,6 +88,7 @@ from beliefloc.planning.settings import (
     Heuristic,
 )
 from beliefloc.planning.successors import SuccessorEvaluator, _csr_matvec, reading_keys
+from beliefloc.source.located import gc_paused
 
 lao: ModuleType | None
 """LAO*'s bookkeeping compiled (``_lao.c``: :meth:`_Search._revise`'s and :meth:`_Search._flow`'s loops,
@@ -437,7 +436,7 @@ def plan_policy(
     ``prices`` are the estimate's (:func:`information_prices` when None; a caller that plans often
     computes them once per model; ignored with ``Heuristic.ZERO``). Deterministic: the same inputs
     give the same policy."""
-    with _no_cycle_collection():  # until the graph is gone: the collector would walk all of it once more
+    with gc_paused():  # until the graph is gone: the collector would walk all of it once more
         planner = PolicyPlanner(
             model, threshold=threshold, heuristic=heuristic, prune_below=prune_below, evaluator=evaluator, prices=prices
         )
@@ -489,7 +488,10 @@ class PolicyPlanner:
         root = search.root(belief)
         status = PlanStatus.FOUND
         expanded = 0
-        with _no_cycle_collection():
+        # the collector off while the graph grows: its nodes live on and point at each other, and the
+        # collector, run every few hundred new objects, walked all of them again and again (a third of
+        # the hallway's search, 2.4 -> 1.6 s of CPU without it); the search makes next to no garbage
+        with gc_paused():
             while (tip := search.next_tip(root)) is not None:
                 if expanded >= max_expansions or time.perf_counter() - start > time_limit:
                     status = PlanStatus.BUDGET_EXCEEDED
@@ -1150,22 +1152,6 @@ def _unlink(nodes: dict[int, list[_Node]]) -> None:
         for node in same:
             node.children, node.exits, node.parents, node.origin = {}, [], [], None
     nodes.clear()
-
-
-@contextlib.contextmanager
-def _no_cycle_collection() -> Iterator[None]:
-    """Python's cycle collector off while the search grows its graph (and back as it was after). Its nodes
-    are long-lived and point at each other (parents and children), and the collector, triggered by every
-    few hundred new objects, walked the whole graph again and again: a third of the hallway's search time
-    (2.4 s -> 1.6 s of CPU without it). The search makes next to no cyclic garbage (the nodes stay in the
-    graph), so nothing waits long for it."""
-    enabled = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if enabled:
-            gc.enable()
 
 
 def _xlogx(values: np.ndarray) -> np.ndarray:
