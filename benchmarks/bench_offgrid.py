@@ -21,12 +21,22 @@ Run by hand (slow; one process)::
     PYTHONPATH=$PWD python benchmarks/bench_offgrid.py --maps kitchen tb3-sandbox --episodes 30
     PYTHONPATH=$PWD python benchmarks/bench_offgrid.py --maps hallway --strategies bestfirst contingent \\
         ec2-macros --clutter 0 0.1 --episodes 30 --json offgrid.json
+
+A long campaign (the depot's 1,800 episodes take days of one core) goes in chunks that survive being
+stopped: ``--records DIR`` appends each episode, as it ends, to ``DIR/MAP-STRATEGY-cCLUTTER.jsonl``
+with the commit it ran on, and skips the episodes a file already holds; ``--pool FILE...`` prints the
+tables of every record in the files (the last record of an episode counts)::
+
+    PYTHONPATH=$PWD python benchmarks/bench_offgrid.py --maps depot --strategies ec2-macros --clutter 0 \\
+        --episodes 300 --max-steps 500 --time-limit 0.5 --records benchmarks/results/offgrid-records
+    PYTHONPATH=$PWD python benchmarks/bench_offgrid.py --pool benchmarks/results/offgrid-records/*.jsonl
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import subprocess
 import sys
 import time
 from pathlib import Path
@@ -75,6 +85,14 @@ def run_map(
     rows: list[dict[str, object]] = []
     print(f"{name}: {model.n_states} states, compiled in {compile_seconds:.1f} s", flush=True)
     for clutter in clutters:
+        todo = {
+            strategy: [
+                e for e in range(args.first, args.first + episodes) if e not in done(args, name, strategy, clutter)
+            ]
+            for strategy in strategies
+        }
+        if not any(todo.values()):
+            continue
         setup = ContinuousSetup(
             smap,
             clutter=clutter,
@@ -90,7 +108,7 @@ def run_map(
                 print(f"{name} {strategy} clutter {clutter:g}: not run: {exc}", flush=True)
                 continue
             mine = []
-            for e in range(args.first, args.first + episodes):
+            for e in todo[strategy]:
                 t = time.perf_counter()
                 record = setup.run(
                     model,
@@ -116,16 +134,87 @@ def run_map(
                     "cost": record.cost,
                     **c.as_json(),
                     "seconds": time.perf_counter() - t,
+                    "commit": COMMIT,
                 }
                 mine.append(row)
+                if args.records is not None:
+                    with records_file(args, name, strategy, clutter).open("a", encoding="utf-8") as out:
+                        out.write(json.dumps(row) + "\n")
                 if args.verbose and row["confidently_wrong"]:
                     print(f"  WRONG: episode {e}: {json.dumps(row)}", flush=True)
-            report(name, strategy, clutter, mine)
+            if mine:
+                report(f"{name} {strategy} clutter {clutter:g}", mine)
             rows.extend(mine)
     return rows
 
 
-def report(name: str, strategy: str, clutter: float, rows: list[dict[str, object]]) -> None:
+def records_file(args: argparse.Namespace, name: str, strategy: str, clutter: float) -> Path:
+    return Path(args.records) / f"{name}-{strategy}-c{clutter:g}.jsonl"
+
+
+def done(args: argparse.Namespace, name: str, strategy: str, clutter: float) -> set[int]:
+    """The episodes ``--records`` already holds for this map, strategy and clutter."""
+    if args.records is None or not records_file(args, name, strategy, clutter).exists():
+        return set()
+    return {int(r["episode"]) for r in read_records([records_file(args, name, strategy, clutter)])}  # type: ignore[call-overload]
+
+
+def read_records(paths: list[Path]) -> list[dict[str, object]]:
+    """Every episode record in the JSON-lines files, the last one of each (map, strategy, clutter, episode)."""
+    latest: dict[tuple[object, ...], dict[str, object]] = {}
+    for path in paths:
+        for line in path.read_text(encoding="utf-8").splitlines():
+            if line.strip():  # a chunk stopped mid-write leaves at most a torn last line, skipped
+                try:
+                    r = json.loads(line)
+                except json.JSONDecodeError:
+                    continue
+                latest[(r["map"], r["strategy"], r["clutter"], r["episode"])] = r
+    return list(latest.values())
+
+
+def pool(paths: list[Path]) -> int:
+    records = read_records(paths)
+    cells: dict[tuple[str, str, float], list[dict[str, object]]] = {}
+    for r in records:
+        cells.setdefault((str(r["map"]), str(r["strategy"]), float(r["clutter"])), []).append(r)  # type: ignore[arg-type]
+    for (name, strategy, clutter), rows in sorted(cells.items()):
+        numbers = sorted(int(r["episode"]) for r in rows)  # type: ignore[call-overload]
+        commits = sorted({str(r.get("commit", "?")) for r in rows})
+        print(f"{name} {strategy} clutter {clutter:g}: episodes {ranges(numbers)}, commits {', '.join(commits)}")
+        report(f"{name} {strategy} clutter {clutter:g}", rows)
+    report("every record", records)
+    return 0
+
+
+def ranges(numbers: list[int]) -> str:
+    """``[0, 1, 2, 5]`` as ``0-2, 5``."""
+    spans: list[list[int]] = []
+    for n in numbers:
+        if spans and n == spans[-1][1] + 1:
+            spans[-1][1] = n
+        else:
+            spans.append([n, n])
+    return ", ".join(f"{a}-{b}" if a != b else f"{a}" for a, b in spans)
+
+
+def commit() -> str:
+    """The commit this runs on, ``-dirty`` when the tree has changes: a record says what code made it."""
+    root = Path(__file__).resolve().parent.parent
+    try:
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=root, capture_output=True, text=True)
+        dirty = subprocess.run(
+            ["git", "status", "--porcelain", "--", "beliefloc"], cwd=root, capture_output=True, text=True
+        )
+    except OSError:
+        return "unknown"
+    return head.stdout.strip() + ("-dirty" if dirty.stdout.strip() else "") if head.returncode == 0 else "unknown"
+
+
+COMMIT = commit()
+
+
+def report(label: str, rows: list[dict[str, object]]) -> None:
     n = len(rows)
     declared = [r for r in rows if r["localized"]]
     wrong = sum(bool(r["confidently_wrong"]) for r in rows)
@@ -136,7 +225,7 @@ def report(name: str, strategy: str, clutter: float, rows: list[dict[str, object
     cost = f"{np.mean(costs):.1f}" if costs else "-"
     secs = np.mean([float(r["seconds"]) for r in rows])  # type: ignore[arg-type]
     print(
-        f"{name} {strategy} clutter {clutter:g}: {n} episodes, localized {len(declared)} "
+        f"{label}: {n} episodes, localized {len(declared)} "
         f"({100 * len(declared) / n:.0f} %), confidently wrong {wrong}, mean cost {cost}, "
         f"{secs:.2f} s/episode, statuses {statuses}",
         flush=True,
@@ -175,7 +264,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--region", action="store_true", help="region models at the real-robot values")
     parser.add_argument("--verbose", action="store_true", help="print every confidently wrong episode")
     parser.add_argument("--json", type=Path, help="write the episode records here")
+    parser.add_argument("--records", type=Path, help="append each episode to a JSON-lines file per cell here; resume")
+    parser.add_argument(
+        "--pool", type=Path, nargs="+", help="print the tables of these JSON-lines records, run nothing"
+    )
     args = parser.parse_args(argv)
+    if args.pool:
+        return pool(args.pool)
+    if args.records is not None:
+        args.records.mkdir(parents=True, exist_ok=True)
     records: list[dict[str, object]] = []
     for name in args.maps:
         records.extend(run_map(name, args.strategies, args.clutter, args.episodes, args))
