@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import shutil
+import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from beliefloc import compile_model, load_map, uniform, update
 from beliefloc.cli.app import app
@@ -67,6 +71,45 @@ def test_stale_model_is_refused(tmp_path: Path, window_copy: Path) -> None:
     with pytest.raises(ModelError, match=r"stale model: .*window\.yaml has changed"):
         load_model(tmp_path / "w.npz")
     assert load_model(tmp_path / "w.npz", check_source=False).n_states == 4
+
+
+def test_a_version_1_file_reads_as_it_did(tmp_path: Path) -> None:
+    """Version 1 kept the landmarks in the header; such a file still loads, landmark for landmark."""
+    model = compile_model(load_map(MAPS / "kitchen.yaml"))
+    assert model.grid is not None and len({cls for cls, _, _ in model.grid.landmarks}) > 1
+    path = tmp_path / "k.npz"
+    save_model(model, path)
+    with np.load(path) as npz:
+        arrays = {k: npz[k] for k in npz.files}
+    header = json.loads(arrays["header"].tobytes())
+    assert header["version"] == 2 and "landmarks" not in header["grid"]
+    header["version"] = 1
+    del header["grid"]["landmark_classes"]
+    header["grid"]["landmarks"] = [list(lm) for lm in model.grid.landmarks]
+    del arrays["grid_landmarks"]
+    arrays["header"] = np.frombuffer(json.dumps(header).encode(), dtype=np.uint8)
+    np.savez(path, **arrays)  # type: ignore[arg-type]
+    loaded = load_model(path)
+    assert loaded.grid is not None and loaded.grid.landmarks == model.grid.landmarks
+    assert loaded.fingerprint() == model.fingerprint()
+
+
+@given(
+    st.lists(
+        st.tuples(st.sampled_from(["chair", "door", "sink", "ä"]), st.integers(0, 2), st.integers(0, 2)), max_size=12
+    )
+)
+@settings(max_examples=25, deadline=None)
+def test_landmarks_round_trip_in_their_order(landmarks: list[tuple[str, int, int]]) -> None:
+    """Version 2's landmark array gives back the very tuples, in order, whatever the classes' order."""
+    model = compile_model(load_map(MAPS / "kitchen.yaml"))
+    assert model.grid is not None
+    grid = dataclasses.replace(model.grid, landmarks=tuple(landmarks))
+    model = dataclasses.replace(model, grid=grid)
+    with tempfile.TemporaryDirectory() as folder:
+        save_model(model, Path(folder) / "m.npz")
+        loaded = load_model(Path(folder) / "m.npz")
+    assert loaded.grid is not None and loaded.grid.landmarks == tuple(landmarks)
 
 
 def test_other_version_is_refused(tmp_path: Path, window_copy: Path) -> None:

@@ -211,6 +211,24 @@ def _drop(key: str) -> Callable[[dict[str, Any], Arrays], None]:
     return change
 
 
+def _row0(a: np.ndarray, row: list[int]) -> np.ndarray:
+    a = a.copy()
+    a[0] = row
+    return a
+
+
+def _version_1(landmark: list[Any]) -> Callable[[dict[str, Any], Arrays], None]:
+    """The file as version 1 wrote it (the landmarks in the header), with ``landmark`` among them."""
+
+    def change(header: dict[str, Any], arrays: Arrays) -> None:
+        header["version"] = 1
+        del header["grid"]["landmark_classes"]
+        header["grid"]["landmarks"] = [landmark]
+        del arrays["grid_landmarks"]
+
+    return change
+
+
 def _block_a_cell(header: dict[str, Any], arrays: Arrays) -> None:
     free = arrays["grid_free"].copy()
     free[1, 1] = False
@@ -247,7 +265,15 @@ CORRUPTIONS: dict[str, tuple[Callable[[dict[str, Any], Arrays], None], str]] = {
     "a part that is not there": (_header(actions__4__parts=[0, 9]), "actions[4].parts[1]: no part 9"),
     "two actions named alike": (_header(actions__1__name="forward"), "two actions are named 'forward'"),
     "an alias past the values": (_header(parts__0__aliases={"seen": 5}), "parts[0].aliases.seen: 5 is not one"),
-    "a landmark off the grid": (_header(grid__landmarks=[["chair", 9, 9]]), "chair at [9, 9] is outside the 3x3"),
+    "a landmark off the grid": (_set("grid_landmarks", lambda a: _row0(a, [0, 9, 9])), "at [9, 9] is outside the 3x3"),
+    "a landmark of no class": (_set("grid_landmarks", lambda a: _row0(a, [7, 0, 0])), "grid_landmarks[0]: class 7"),
+    "landmarks as floats": (_set("grid_landmarks", lambda a: a.astype(np.float64)), "holds float64, not integers"),
+    "landmarks of two columns": (_set("grid_landmarks", lambda a: a[:, :2]), "expected (n, 3)"),
+    "landmarks in a version 2 header": (
+        _header(grid__landmarks=[["chair", 0, 0]]),
+        "grid.landmarks: a version 2 model keeps them in array grid_landmarks",
+    ),
+    "a version 1 landmark off the grid": (_version_1(["chair", 9, 9]), "chair at [9, 9] is outside the 3x3"),
     "no grid nor names": (_header(grid=None), "neither a grid nor state names"),
     "a grid of text": (_header(grid__rows="3"), "header field grid.rows"),
     "a source without a hash": (_header(source={"path": "/x.yaml", "sha256": "nope"}), "header field source.sha256"),

@@ -2,7 +2,10 @@
 
 A model file holds a JSON header (format, version, names, costs, the grid, the source map's
 absolute path and sha256) and the arrays (CSR transitions, observation truths and confusion
-tables). Model files are shared like maps, so reading one trusts nothing in it:
+tables, the grid's free cells and landmarks). Version 2 keeps the landmarks in an array
+(``grid_landmarks``: class index, row, column) instead of the header's list of triples, which
+pydantic took 0.45-0.75 s to validate for a 10^7-state world's million objects; version 1 files
+are still read. Model files are shared like maps, so reading one trusts nothing in it:
 
 * the archive is read member by member, never with pickles, each member's size checked before a
   byte is decompressed (:mod:`beliefloc.files.npz_archive`);
@@ -50,6 +53,7 @@ from beliefloc.model import (
 )
 from beliefloc.source import limits
 from beliefloc.source.atomic_write import write_atomically
+from beliefloc.source.located import gc_paused
 
 _csr_matvec: Callable[..., None] | None
 try:  # SciPy's kernel behind ``csr @ vector``, for the transitions' row sums (see _ModelReader._row_sums)
@@ -58,7 +62,7 @@ except ImportError:  # pragma: no cover - a SciPy that moved it: np.add.reduceat
     _csr_matvec = None
 
 FORMAT = "beliefloc-model"
-VERSION = 1
+VERSION = 2
 SUFFIX = ".npz"
 FILE_LABEL = "beliefloc model file"
 """What a file that is not even an archive is said not to be."""
@@ -128,6 +132,9 @@ class _GridHeader(StrictHeader):
     headings: StrictInt = Field(ge=1)
     cell_size: float = Field(gt=0.0, allow_inf_nan=False)
     landmarks: list[tuple[StrictStr, StrictInt, StrictInt]] = []
+    """Version 1: the landmarks themselves. Version 2: empty (array ``grid_landmarks``)."""
+    landmark_classes: list[StrictStr] = []
+    """Version 2: the class names ``grid_landmarks`` indexes."""
     frame: _FrameHeader = _FrameHeader()
 
 
@@ -138,7 +145,7 @@ class _SourceHeader(StrictHeader):
 
 class _ModelHeader(StrictHeader):
     format: Literal["beliefloc-model"]
-    version: Literal[1]
+    version: Literal[1, 2]
     name: StrictStr
     n_states: StrictInt = Field(ge=1)
     state_names: list[StrictStr] | None
@@ -186,8 +193,16 @@ def save_model(model: Model, path: str | Path, *, compress: bool = True) -> None
             }
         )
     grid = model.grid
+    classes: list[str] = []
     if grid is not None:
         arrays["grid_free"] = grid.free
+        classes = list(dict.fromkeys(cls for cls, _, _ in grid.landmarks))
+        index = {cls: k for k, cls in enumerate(classes)}
+        landmarks = np.zeros((len(grid.landmarks), 3), dtype=np.int64)
+        if grid.landmarks:
+            landmarks[:, 0] = [index[cls] for cls, _, _ in grid.landmarks]
+            landmarks[:, 1:] = [(r, c) for _, r, c in grid.landmarks]
+        arrays["grid_landmarks"] = landmarks
     source = model.source
     header = {
         "format": FORMAT,
@@ -195,7 +210,7 @@ def save_model(model: Model, path: str | Path, *, compress: bool = True) -> None
         "name": model.name,
         "n_states": model.n_states,
         "state_names": None if grid is not None else model.states.names,
-        "grid": None if grid is None else {**grid.describe(), "landmarks": [list(lm) for lm in grid.landmarks]},
+        "grid": None if grid is None else {**grid.describe(), "landmark_classes": classes},
         "source": None if source is None else {"path": absolute(source.path), "sha256": source.sha256},
         "actions": actions_meta,
         "parts": parts_meta,
@@ -218,7 +233,7 @@ def load_model(path: str | Path, *, check_source: bool = True, on_warning: Warn 
 
     path = Path(path)
     with open_versioned(
-        path, FORMAT, VERSION, label=FILE_LABEL, kind=MODEL, rebuild=f"beliefloc build MAP -o {path}"
+        path, FORMAT, VERSION, label=FILE_LABEL, kind=MODEL, rebuild=f"beliefloc build MAP -o {path}", older=(1,)
     ) as archive:
         header = archive.validate(_ModelHeader)
         if header.source is not None:
@@ -326,6 +341,8 @@ class _ModelReader:
         if h.grid is not None:
             g = h.grid
             limits.MODEL_ENTRIES.check(g.rows * g.cols * g.headings, f"{self.archive.path}: header field grid")
+            if h.version >= 2 and g.landmarks:
+                raise self.broken("header field grid.landmarks: a version 2 model keeps them in array grid_landmarks")
             # the common case, a million landmarks on the grid, checked by min and max (the loop that
             # names the first one outside took 0.46 s at 10^7 states)
             rows = [r for _, r, _ in g.landmarks]
@@ -367,6 +384,8 @@ class _ModelReader:
         keys += [f"action{i}_{what}" for i, a in enumerate(h.actions) if a.transition for what in _CSR]
         if h.grid is not None:
             keys.append("grid_free")
+            if h.version >= 2:
+                keys.append("grid_landmarks")
         return keys
 
     # --- the arrays ----------------------------------------------------------------------------
@@ -385,7 +404,33 @@ class _ModelReader:
                 f"heading{'s' if g.headings != 1 else ''} are not the {self.n:,} states of header field n_states"
             )
         frame = MapFrame(g.frame.x, g.frame.y, g.frame.yaw)
-        return GridLayout(g.rows, g.cols, g.headings, g.cell_size, free, tuple(g.landmarks), frame)
+        landmarks = tuple(g.landmarks) if self.header.version == 1 else self._landmarks(g)
+        return GridLayout(g.rows, g.cols, g.headings, g.cell_size, free, landmarks, frame)
+
+    def _landmarks(self, g: _GridHeader) -> tuple[tuple[str, int, int], ...]:
+        """Version 2's landmarks: array ``grid_landmarks`` (class index, row, column per object),
+        checked against the header's classes and the grid."""
+        table = self.archive.integers("grid_landmarks", (None, 3))
+        if not table.size:
+            return ()
+        kinds, rows, cols = table[:, 0], table[:, 1], table[:, 2]
+        bad = (kinds < 0) | (kinds >= len(g.landmark_classes))
+        if bad.any():
+            k = int(np.argmax(bad))
+            raise self.broken(
+                f"array grid_landmarks[{k}]: class {int(kinds[k])} is not one of the "
+                f"{len(g.landmark_classes)} in header field grid.landmark_classes"
+            )
+        outside = (rows < 0) | (rows >= g.rows) | (cols < 0) | (cols >= g.cols)
+        if outside.any():
+            k = int(np.argmax(outside))
+            raise self.broken(
+                f"array grid_landmarks[{k}]: {g.landmark_classes[int(kinds[k])]} at [{int(rows[k])}, {int(cols[k])}] "
+                f"is outside the {g.rows}x{g.cols} grid"
+            )
+        with gc_paused():  # a million tuples that live on (the collector walked them: 0.25 s at 10^7)
+            names = np.array(g.landmark_classes, dtype=object)[kinds].tolist()
+            return tuple(zip(names, rows.tolist(), cols.tolist(), strict=True))
 
     def _part(self, j: int, meta: _PartHeader) -> ObservationPart:
         values = len(meta.values)

@@ -293,14 +293,22 @@ def _reason(exc: BaseException) -> str:
 
 @contextlib.contextmanager
 def open_versioned(
-    path: str | Path, file_format: str, version: int, *, label: str, kind: str, rebuild: str
+    path: str | Path,
+    file_format: str,
+    version: int,
+    *,
+    label: str,
+    kind: str,
+    rebuild: str,
+    older: Sequence[int] = (),
 ) -> Iterator[Archive]:
     """The beliefloc ``.npz`` file ``path`` of ``file_format`` and ``version``, header read (see
     :class:`Archive`). A :class:`ModelError` for a missing file, something that is not a zip
     archive (not a ``label``), an archive of other arrays (not ``kind``, a noun phrase of
     :mod:`beliefloc.source.file_kinds`), a beliefloc file of another kind (named), and another version
-    (``rebuild`` says how to make a new one); a :class:`~beliefloc.errors.LimitError` for an
-    archive larger than the limits, told from its directory before anything is decompressed."""
+    than ``version`` and ``older`` (``rebuild`` says how to make a new one); a
+    :class:`~beliefloc.errors.LimitError` for an archive larger than the limits, told from its directory
+    before anything is decompressed."""
     path = Path(path)
     try:
         info = os.stat(path)
@@ -328,7 +336,7 @@ def open_versioned(
             opened.members = _members(opened, archive, kind)
             opened.read_header()
             del opened.members[_HEADER_KEY]
-            _check_prelude(opened, file_format, version, kind, rebuild)
+            _check_prelude(opened, file_format, version, kind, rebuild, older)
             yield opened
 
 
@@ -419,11 +427,13 @@ def _written_prelude(file_format: str, version: int) -> bytes:
     return json.dumps({"format": file_format, "version": version}).encode()[:-1] + b","
 
 
-def _check_prelude(archive: Archive, file_format: str, version: int, kind: str, rebuild: str) -> None:
+def _check_prelude(
+    archive: Archive, file_format: str, version: int, kind: str, rebuild: str, older: Sequence[int] = ()
+) -> None:
     from beliefloc.source.file_kinds import kind_of_data, not_a
 
     path = archive.path
-    if archive.header_bytes.startswith(_written_prelude(file_format, version)):
+    if any(archive.header_bytes.startswith(_written_prelude(file_format, v)) for v in (version, *older)):
         # the header as beliefloc writes it, of this format and version: pydantic would parse the whole
         # header for these two fields (0.4 s for a 10^7-state model's); the schema checks them again
         return
@@ -438,7 +448,7 @@ def _check_prelude(archive: Archive, file_format: str, version: int, kind: str, 
         if found is not None and found != kind:
             raise ModelError(not_a(path, found, kind) + _wrong_kind_hint(found))
         raise ModelError(f"{path} is not {_beliefloc(kind)} (its header says format {prelude.format!r})")
-    if prelude.version != version:
+    if prelude.version != version and prelude.version not in older:
         raise ModelError(
             f"{path}: {kind.removeprefix('a ')} of version {prelude.version}, but this beliefloc reads version "
             f"{version}; rebuild it with '{rebuild}'"
