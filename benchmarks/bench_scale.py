@@ -154,20 +154,33 @@ def _timed_process(command: list[str], env: dict[str, str], cwd: Path) -> tuple[
     return wall, usage.ru_utime + usage.ru_stime, usage.ru_maxrss / 1024.0, proc.returncode, text
 
 
-def _stored_model(folder: Path, states: int, yaml_path: Path) -> Path:
-    """The model file of ``yaml_path`` built uncompressed (``build --uncompressed``, this code), once."""
-    stored = folder / f"gridworld-{states}-stored.npz"
+def _stored_model(folder: Path, states: int, yaml_path: Path, code: Path = ROOT, tag: str = "") -> Path:
+    """The model file of ``yaml_path`` built uncompressed (``build --uncompressed``) by the code in
+    ``code`` (``tag`` names it: a baseline's file may be of another format version), once."""
+    stored = folder / f"gridworld-{states}-stored{tag}.npz"
     if not stored.exists():
         print(f"building {stored} ...", file=sys.stderr, flush=True)
         subprocess.run(
             [sys.executable, "-m", "beliefloc", "build", str(yaml_path), "-o", str(stored), "--uncompressed"],
-            check=True, env=_env(ROOT, states > 4_000_000), cwd=ROOT, stdout=subprocess.DEVNULL,
+            check=True, env=_env(code, states > 4_000_000), cwd=code, stdout=subprocess.DEVNULL,
         )  # fmt: skip
     return stored
 
 
-def _prepare(folder: Path, states: int) -> tuple[Path, Path]:
-    """The generated map and its model file (made once, with today's code)."""
+def _baseline_model(folder: Path, states: int, yaml_path: Path, code: Path, ref: str) -> Path:
+    """The usual (compressed) model file of ``yaml_path`` built by the baseline's code, once."""
+    built = folder / f"gridworld-{states}-{ref}.npz"
+    if not built.exists():
+        print(f"building {built} ...", file=sys.stderr, flush=True)
+        subprocess.run(
+            [sys.executable, "-m", "beliefloc", "build", str(yaml_path), "-o", str(built)],
+            check=True, env=_env(code, states > 4_000_000), cwd=code, stdout=subprocess.DEVNULL,
+        )  # fmt: skip
+    return built
+
+
+def _prepare(folder: Path, states: int, compressed: bool = True) -> tuple[Path, Path]:
+    """The generated map and its model file (made once, with today's code; only when ``compressed``)."""
     yaml_path = folder / f"gridworld-{states}.yaml"
     npz_path = folder / f"gridworld-{states}.npz"
     env = _env(ROOT, states > 4_000_000)
@@ -178,7 +191,7 @@ def _prepare(folder: Path, states: int) -> tuple[Path, Path]:
              "-o", str(yaml_path)],
             check=True, env=env, cwd=ROOT, stdout=subprocess.DEVNULL,
         )  # fmt: skip
-    if not npz_path.exists():
+    if compressed and not npz_path.exists():
         print(f"building {npz_path} ...", file=sys.stderr, flush=True)
         subprocess.run(
             [sys.executable, "-m", "beliefloc", "build", str(yaml_path), "-o", str(npz_path)],
@@ -417,12 +430,15 @@ def main() -> None:
     sizes: dict[int, dict[str, int]] = {}
     for size in args.sizes:
         states = int(size)
-        yaml_path, npz_path = _prepare(args.workdir, states)
-        models = {name: npz_path for name in codes}
-        if args.uncompressed:
-            models["after"] = _stored_model(args.workdir, states, yaml_path)
-            if args.baseline_uncompressed and "before" in models:
-                models["before"] = models["after"]
+        yaml_path, npz_path = _prepare(args.workdir, states, compressed=not args.uncompressed)
+        # each code reads a model file its own code built (the format's version may differ)
+        models = {"after": _stored_model(args.workdir, states, yaml_path) if args.uncompressed else npz_path}
+        if "before" in codes:
+            models["before"] = (
+                _stored_model(args.workdir, states, yaml_path, codes["before"], f"-{args.baseline}")
+                if args.baseline_uncompressed
+                else _baseline_model(args.workdir, states, yaml_path, codes["before"], args.baseline)
+            )
         sizes[states] = {name: path.stat().st_size for name, path in models.items()}
         small = states <= args.yaml_max_states
         runs: dict[str, list[dict[str, Any]]] = {name: [] for name in codes}
