@@ -35,6 +35,7 @@ a temporary folder, on ``PYTHONPATH``) in the same invocation, side by side. Tar
 from __future__ import annotations
 
 import argparse
+import copy
 import json
 import math
 import os
@@ -260,8 +261,8 @@ def _check_code(code: Path, command: list[str], env: dict[str, str], cwd: Path) 
 
 
 def _best(runs: list[dict[str, Any]]) -> dict[str, Any]:
-    """The fastest of each timing over several runs, the highest peak RSS."""
-    best = runs[0]
+    """The fastest of each timing over several runs, the highest peak RSS (the runs are left as they were)."""
+    best = copy.deepcopy(runs[0])
     for run in runs[1:]:
         for key, value in run.items():
             if key.endswith("_s"):
