@@ -25,17 +25,23 @@ Run by hand (slow; one process)::
 A long campaign (the depot's 1,800 episodes take days of one core) goes in chunks that survive being
 stopped: ``--records DIR`` appends each episode, as it ends, to ``DIR/MAP-STRATEGY-cCLUTTER.jsonl``
 with the commit it ran on, and skips the episodes a file already holds; ``--pool FILE...`` prints the
-tables of every record in the files (the last record of an episode counts)::
+tables of every record in the files (the last record of an episode counts). A record keeps the
+episode's actions: ``--replay FILE EPISODE`` sends them to the same episode's robot and prints, step by
+step, the readings, where the robot truly is and what the filter believes -- a confidently wrong
+episode, found once in hundreds, can be taken apart (planning under a time limit does not repeat)::
 
     PYTHONPATH=$PWD python benchmarks/bench_offgrid.py --maps depot --strategies ec2-macros --clutter 0 \\
         --episodes 300 --max-steps 500 --time-limit 0.5 --records benchmarks/results/offgrid-records
     PYTHONPATH=$PWD python benchmarks/bench_offgrid.py --pool benchmarks/results/offgrid-records/*.jsonl
+    PYTHONPATH=$PWD python benchmarks/bench_offgrid.py \\
+        --replay benchmarks/results/offgrid-records/depot-bestfirst-c0.jsonl 15
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import subprocess
 import sys
 import time
@@ -135,6 +141,7 @@ def run_map(
                     **c.as_json(),
                     "seconds": time.perf_counter() - t,
                     "commit": COMMIT,
+                    "actions": [step.action for step in record.trace],
                 }
                 mine.append(row)
                 if args.records is not None:
@@ -146,6 +153,62 @@ def run_map(
                 report(f"{name} {strategy} clutter {clutter:g}", mine)
             rows.extend(mine)
     return rows
+
+
+def replay(path: Path, episode: int, args: argparse.Namespace) -> int:
+    """Episode ``episode`` of the records in ``path`` again, its actions sent to its robot (see the module)."""
+    from beliefloc.robots.localize import Command
+    from beliefloc.simulation.continuous_episode import pose_errors, state_at
+
+    rows = [r for r in read_records([path]) if r["episode"] == episode]
+    if not rows or "actions" not in rows[0]:
+        raise SystemExit(f"{path}: no record of episode {episode} with its actions")
+    row = rows[0]
+    if row.get("recoveries"):
+        raise SystemExit(f"episode {episode} re-spread its belief {row['recoveries']} time(s): a replay cannot")
+    smap = load_map(MAPS / f"{row['map']}.yaml")
+    if args.region:
+        smap = with_region_model(smap)
+    model = compile_model(smap)
+    setup = ContinuousSetup(
+        smap,
+        clutter=float(row["clutter"]),  # type: ignore[arg-type]
+        report_odometry=not args.protocol_1,
+        lattice=args.filter == "lattice",
+        full_scans=args.full_scans,
+        mean_reach=args.mean_reach,
+    )
+    grid = model.grid
+    assert grid is not None
+    robot, reading, _ = setup.robot(model, args.seed, episode)
+    binner = setup.binner(model)
+    tracker = setup.belief_filter(model)
+    assert tracker is not None
+    tracker.start(uniform(model.n_states))
+    print(f"episode {episode}: recorded {row['status']} at p = {row['probability']:.4f}, {len(row['actions'])} actions")  # type: ignore[arg-type]
+    actions: list[str] = list(row["actions"])  # type: ignore[call-overload]
+    for seq, name in enumerate(actions, start=1):
+        action = model.action(name)
+        readings = reading.act(Command(seq, action, None, None))
+        observation = binner.observation(action, readings)
+        report = reading.motion_report()
+        tracker.predict(action, report)
+        tracker.correct(action, observation, readings)
+        declared, p = tracker.declared()
+        truth = state_at(grid, robot.pose)
+        error, yaw = pose_errors(grid, declared, robot.pose)
+        moved = (
+            ""
+            if report is None
+            else f" odometry {tuple(round(v, 3) for v in report.odometry or ())} blocked {report.blocked}"
+        )
+        seen = "" if observation is None else f" -> {action.observation.name(observation)}"
+        print(
+            f"{seq:4d} {name}{seen}{moved} | true {tuple(round(float(v), 2) for v in robot.pose)} "
+            f"({model.states.name(truth) if truth >= 0 else 'no state'}) | declared {model.states.name(declared)} "
+            f"p {p:.4f}, {error:.2f} m / {math.degrees(yaw):.0f} deg off, elsewhere {tracker.elsewhere():.3g}"
+        )
+    return 0
 
 
 def records_file(args: argparse.Namespace, name: str, strategy: str, clutter: float) -> Path:
@@ -268,9 +331,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--pool", type=Path, nargs="+", help="print the tables of these JSON-lines records, run nothing"
     )
+    parser.add_argument(
+        "--replay", nargs=2, metavar=("RECORDS", "EPISODE"), help="send a recorded episode's actions again"
+    )
     args = parser.parse_args(argv)
     if args.pool:
         return pool(args.pool)
+    if args.replay:
+        return replay(Path(args.replay[0]), int(args.replay[1]), args)
     if args.records is not None:
         args.records.mkdir(parents=True, exist_ok=True)
     records: list[dict[str, object]] = []

@@ -140,6 +140,25 @@ class ContinuousSetup:
             self._cache["lattice"] = built
         return built
 
+    def robot(
+        self, model: Model, seed: int, episode: int
+    ) -> tuple[ContinuousRobot, ContinuousReadingRobot, np.random.Generator]:
+        """Episode ``episode``'s robot at its start pose, the robot interface the loop talks to, and the
+        strategy's generator: the same episode's robot draws the same noise for the same actions, so
+        an episode's actions replayed (``benchmarks/bench_offgrid.py --replay``) give its readings again."""
+        start_rng, world_rng, strategy_rng = episode_rngs(seed, episode)
+        start = self.world(start_rng).random_poses(1)[0]
+        robot = ContinuousRobot(self.world(world_rng), start)
+        reading = ContinuousReadingRobot(
+            robot,
+            self.smap,
+            self.binner(model),
+            report_odometry=self.report_odometry,
+            report_blocked=self.report_odometry,
+            full_scans=self.full_scans,
+        )
+        return robot, reading, strategy_rng
+
     def run(
         self,
         model: Model,
@@ -157,19 +176,9 @@ class ContinuousSetup:
         grid = model.grid
         if grid is None:
             raise InvalidValueError(f"model {model.name!r} has no grid: a continuous robot cannot stand on it")
-        start_rng, world_rng, strategy_rng = episode_rngs(seed, episode)
-        start = self.world(start_rng).random_poses(1)[0]
-        world = self.world(world_rng)
-        robot = ContinuousRobot(world, start)
+        robot, reading, strategy_rng = self.robot(model, seed, episode)
+        start = robot.pose.copy()
         binner = self.binner(model)
-        reading = ContinuousReadingRobot(
-            robot,
-            self.smap,
-            binner,
-            report_odometry=self.report_odometry,
-            report_blocked=self.report_odometry,
-            full_scans=self.full_scans,
-        )
         name = StrategyName(strategy)
 
         def make(planner: PlannerSettings) -> Strategy:  # the loop's planning goal (planning_goal)
