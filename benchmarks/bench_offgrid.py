@@ -206,7 +206,8 @@ def replay(path: Path, episode: int, args: argparse.Namespace) -> int:
         print(
             f"{seq:4d} {name}{seen}{moved} | true {tuple(round(float(v), 2) for v in robot.pose)} "
             f"({model.states.name(truth) if truth >= 0 else 'no state'}) | declared {model.states.name(declared)} "
-            f"p {p:.4f}, {error:.2f} m / {math.degrees(yaw):.0f} deg off, elsewhere {tracker.elsewhere():.3g}"
+            f"p {p:.4f}, {error:.2f} m / {math.degrees(yaw):.0f} deg off, elsewhere {tracker.elsewhere():.3g} | "
+            f"the truth's promise holds {1.0 - tracker.core.elsewhere(truth) if truth >= 0 else 0.0:.3g}"
         )
     return 0
 
