@@ -172,3 +172,29 @@ def test_each_ray_stops_at_its_own_reach() -> None:
     got = raycast.cast_rays_within(image, 0.23, 0.55, 0.0, np.array([0.3, 0.48, 0.6, -1.0]))
     assert math.isinf(got[0]) and got[1] == pytest.approx(0.47) and got[2] == pytest.approx(0.47)
     assert math.isinf(got[3])
+
+
+@pytest.mark.parametrize("leap", [1, 10**9])
+def test_rays_cast_in_parts_on_threads_read_the_same_bits(monkeypatch: pytest.MonkeyPatch, leap: int) -> None:
+    """Many rays are cast in parts, one a thread: each ray's walk is its own, so the ranges are the
+    very bits of one cast in one thread, whatever the parts (uneven ones included)."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from beliefloc import threads
+
+    rng = np.random.default_rng(3)
+    image = OccupancyImage(_walls(rng, 37, 53, 0.02), 0.05, MapFrame(0.1, -0.2, 0.3))
+    n = 4001
+    x, y = image.to_map(rng.uniform(-2, 55, n), rng.uniform(-2, 39, n))
+    angles, reach = rng.uniform(-math.pi, math.pi, n), rng.uniform(0.2, 2.0, n)
+    monkeypatch.setattr(threads, "_POOL", None)
+    monkeypatch.setattr(threads, "_POOL_MADE", True)
+    with _leap_from(leap):
+        alone = raycast.cast_rays_within(image, x, y, angles, reach)
+        monkeypatch.setattr(raycast, "THREADED_FROM", 1)
+        for workers in (2, 3):
+            with ThreadPoolExecutor(workers) as pool:
+                monkeypatch.setattr(threads, "_POOL", pool)
+                parts = raycast.cast_rays_within(image, x, y, angles, reach)
+            assert parts.tobytes() == alone.tobytes()
+    assert np.isfinite(alone).sum() > n // 10

@@ -12,7 +12,7 @@ import threading
 import numpy as np
 import pytest
 
-from beliefloc import compile_model, load_map
+from beliefloc import compile_model, load_map, threads
 from beliefloc.belief import entropy, predict
 from beliefloc.planning import best_first, successors
 from beliefloc.planning.successors import SuccessorEvaluator
@@ -211,8 +211,8 @@ def test_expansions_match_the_numpy_passes(tmp_path, monkeypatch, pool):
     model = _world(tmp_path, 4000, 3)
     monkeypatch.setattr(successors, "_LARGE_BYTES", 0)
     if not pool:
-        monkeypatch.setattr(successors, "_POOL", None)
-        monkeypatch.setattr(successors, "_POOL_MADE", True)
+        monkeypatch.setattr(threads, "_POOL", None)
+        monkeypatch.setattr(threads, "_POOL_MADE", True)
     rng = np.random.default_rng(8)
     compiled = SuccessorEvaluator(model)
     monkeypatch.setattr(successors, "fused", None)
@@ -260,7 +260,7 @@ def test_a_forked_child_makes_its_own_threads(tmp_path):
     import multiprocessing
 
     model = _world(tmp_path, 400, 1)
-    pool = successors._pool()
+    pool = threads.pool()
     if pool is None:
         pytest.skip("one core: no pool")
     meeting = threading.Barrier(pool._max_workers)  # every thread of the parent's pool started

@@ -18,21 +18,31 @@ distance transform) has no blocked pixel within ``e - √2`` of any point in it,
 jump ``e - 1.5`` pixels at once and resume the traversal where it lands. The ranges are the same
 (up to rounding, ~1e-12 m); the loop runs a few steps per ray instead of one per pixel crossed.
 
+Many more rays (:data:`THREADED_FROM`) are cast in parts, one per thread of
+:func:`beliefloc.threads.pool`: each ray's walk is its own, so the ranges are the same bits, and
+NumPy's steps release the interpreter's lock. The depot's lattice tables (a million poses) were
+built in 21 s on one thread, 13 s on two.
+
 Pure numpy (scipy's distance transform for the leaps), no I/O.
 """
 
 from __future__ import annotations
 
+import itertools
 import math
 import weakref
 
 import numpy as np
 
+from beliefloc import threads
 from beliefloc.continuous.image import OccupancyImage
 
 LEAP_FROM = 4096
 """Rays cast together from which the traversal leaps through open space (fewer rays do not pay for
 the image's distance transform, which is computed once per image and kept while the image lives)."""
+THREADED_FROM = 50_000
+"""Rays cast together from which they are cast in parts on :func:`beliefloc.threads.pool` (fewer do not
+pay for the threads)."""
 _LEAP_MIN = 1.0
 """Pixels: a ray leaps where it may jump at least this far, else steps to the next pixel."""
 _CORNER = 1e-9
@@ -83,9 +93,17 @@ def cast_rays_within(
     theta = ba.ravel() - image.origin.yaw
     limit = br.ravel() / image.resolution
     clearance = _clearance(image) if u0.size >= LEAP_FROM else None
-    t = _traverse(
-        image.blocked, np.asarray(u0, dtype=np.float64), np.asarray(v0, dtype=np.float64), theta, limit, clearance
-    )
+    u0, v0 = np.asarray(u0, dtype=np.float64), np.asarray(v0, dtype=np.float64)
+    pool = threads.pool() if u0.size >= THREADED_FROM else None
+    if pool is None:
+        t = _traverse(image.blocked, u0, v0, theta, limit, clearance)
+    else:
+        bounds = np.linspace(0, u0.size, threads.size() + 1).astype(np.int64).tolist()
+        parts = [slice(a, b) for a, b in itertools.pairwise(bounds)]
+        others = [pool.submit(_traverse, image.blocked, u0[p], v0[p], theta[p], limit[p], clearance) for p in parts[1:]]
+        first = parts[0]
+        t = np.concatenate([_traverse(image.blocked, u0[first], v0[first], theta[first], limit[first], clearance)]
+                           + [other.result() for other in others])  # fmt: skip
     out: np.ndarray = (t * image.resolution).reshape(shape)
     return out
 

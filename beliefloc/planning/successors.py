@@ -26,14 +26,13 @@ from __future__ import annotations
 
 import itertools
 import math
-import os
 from collections.abc import Callable, Iterator
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from types import ModuleType
 
 import numpy as np
 
+from beliefloc import threads
 from beliefloc.belief import entropy, predict
 from beliefloc.model import Action, Model
 
@@ -284,31 +283,6 @@ def _group_sums(
 _Sums = tuple[np.ndarray, np.ndarray, np.ndarray]
 """Each signature group's ``Σ b``, ``Σ b ln b`` and ``max b``."""
 
-_POOL: ThreadPoolExecutor | None = None
-_POOL_MADE = False
-
-
-def _pool() -> ThreadPoolExecutor | None:
-    """Threads for the compiled passes of an expansion, one per core this process may use (at most
-    four: the passes share the memory bus), made once; None on one core."""
-    global _POOL, _POOL_MADE
-    if not _POOL_MADE:
-        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-        _POOL = ThreadPoolExecutor(min(4, cores), thread_name_prefix="beliefloc-successors") if cores > 1 else None
-        _POOL_MADE = True
-    return _POOL
-
-
-def _forget_pool() -> None:
-    """In a forked child: the parent's threads did not come along, so its pool would never run a task."""
-    global _POOL, _POOL_MADE
-    _POOL, _POOL_MADE = None, False
-
-
-if hasattr(os, "register_at_fork"):
-    os.register_at_fork(after_in_child=_forget_pool)
-
-
 def _combined(first: _Sums, second: _Sums) -> _Sums:
     """The group sums of two parts of a belief's states, as those of their union."""
     return first[0] + second[0], first[1] + second[1], np.maximum(first[2], second[2])
@@ -501,13 +475,13 @@ class SuccessorEvaluator:
 
     def _evaluate_fused(self, belief: np.ndarray, beliefs: dict[int, np.ndarray] | None) -> list[SuccessorStats]:
         """:meth:`evaluate` by the compiled passes, side by side on the cores this process may use
-        (:func:`_pool`; each pass releases the interpreter's lock). At 10^7 states an expansion's four
+        (:func:`beliefloc.threads.pool`; each pass releases the interpreter's lock). At 10^7 states an expansion's four
         moves are ~0.05 s of passes each and a look's group sums ~0.04 s: the look's are taken in two
         halves, last, so that two cores end together (five passes on two cores otherwise wait for the
         fifth)."""
         actions = self.model.actions
         n = self.model.n_states
-        pool = _pool()
+        pool = threads.pool()
         outs = [self._vector() if action.transition is not None else None for action in actions]
         whole = [i for i, a in enumerate(actions) if a.transition is not None or self._groups[i] is None]
         looks = [i for i, a in enumerate(actions) if a.transition is None and self._groups[i] is not None]

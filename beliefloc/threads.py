@@ -1,0 +1,41 @@
+"""One pool of threads per process, for NumPy and compiled passes that release the interpreter's lock.
+
+The planner's successor passes (:mod:`beliefloc.planning.successors`) and the ray casting behind the
+pose lattice's tables (:mod:`beliefloc.continuous.raycast`) split their work over it; a process on one
+core has none, and does the work in its own thread.
+"""
+
+from __future__ import annotations
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+
+_POOL: ThreadPoolExecutor | None = None
+_POOL_MADE = False
+
+
+def pool() -> ThreadPoolExecutor | None:
+    """Threads, one per core this process may use (at most four: the passes share the memory bus),
+    made once; None on one core."""
+    global _POOL, _POOL_MADE
+    if not _POOL_MADE:
+        cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+        _POOL = ThreadPoolExecutor(min(4, cores), thread_name_prefix="beliefloc") if cores > 1 else None
+        _POOL_MADE = True
+    return _POOL
+
+
+def size() -> int:
+    """How many threads :func:`pool` has (1 without one)."""
+    made = pool()
+    return 1 if made is None else made._max_workers
+
+
+def _forget_pool() -> None:
+    """In a forked child: the parent's threads did not come along, so its pool would never run a task."""
+    global _POOL, _POOL_MADE
+    _POOL, _POOL_MADE = None, False
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_pool)
