@@ -180,7 +180,7 @@ def test_rays_cast_in_parts_on_threads_read_the_same_bits(monkeypatch: pytest.Mo
     very bits of one cast in one thread, whatever the parts (uneven ones included)."""
     from concurrent.futures import ThreadPoolExecutor
 
-    from beliefloc import threads
+    from beliefloc.source import threads
 
     rng = np.random.default_rng(3)
     image = OccupancyImage(_walls(rng, 37, 53, 0.02), 0.05, MapFrame(0.1, -0.2, 0.3))

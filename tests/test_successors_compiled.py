@@ -12,11 +12,12 @@ import threading
 import numpy as np
 import pytest
 
-from beliefloc import compile_model, load_map, threads
+from beliefloc import compile_model, load_map
 from beliefloc.belief import entropy, predict
 from beliefloc.planning import best_first, successors
 from beliefloc.planning.successors import SuccessorEvaluator
 from beliefloc.simulation.gridworld import generate_gridworld, gridworld_yaml
+from beliefloc.source import threads
 
 from .conftest import MAPS
 

@@ -19,7 +19,7 @@ jump ``e - 1.5`` pixels at once and resume the traversal where it lands. The ran
 (up to rounding, ~1e-12 m); the loop runs a few steps per ray instead of one per pixel crossed.
 
 Many more rays (:data:`THREADED_FROM`) are cast in parts, one per thread of
-:func:`beliefloc.threads.pool`: each ray's walk is its own, so the ranges are the same bits, and
+:func:`beliefloc.source.threads.pool`: each ray's walk is its own, so the ranges are the same bits, and
 NumPy's steps release the interpreter's lock. The depot's lattice tables (a million poses) were
 built in 21 s on one thread, 13 s on two.
 
@@ -34,14 +34,14 @@ import weakref
 
 import numpy as np
 
-from beliefloc import threads
 from beliefloc.continuous.image import OccupancyImage
+from beliefloc.source import threads
 
 LEAP_FROM = 4096
 """Rays cast together from which the traversal leaps through open space (fewer rays do not pay for
 the image's distance transform, which is computed once per image and kept while the image lives)."""
 THREADED_FROM = 50_000
-"""Rays cast together from which they are cast in parts on :func:`beliefloc.threads.pool` (fewer do not
+"""Rays cast together from which they are cast in parts on :func:`beliefloc.source.threads.pool` (fewer do not
 pay for the threads)."""
 _LEAP_MIN = 1.0
 """Pixels: a ray leaps where it may jump at least this far, else steps to the next pixel."""

@@ -1074,7 +1074,6 @@ class _Search:
                 return found
             self._retrace()  # the reaches anew: then believed as they are
 
-
     def policy(self, root: _Node) -> tuple[PolicyNode, float]:
         """The best policy as a graph of :class:`PolicyNode`, and the probability of ending at a leaf
         that is not a goal (absorption in the policy's Markov chain, solved as a linear system)."""

@@ -32,9 +32,9 @@ from types import ModuleType
 
 import numpy as np
 
-from beliefloc import threads
 from beliefloc.belief import entropy, predict
 from beliefloc.model import Action, Model
+from beliefloc.source import threads
 
 _csr_matvec: Callable[..., None] | None
 _csc_matvec: Callable[..., None] | None
@@ -283,6 +283,7 @@ def _group_sums(
 _Sums = tuple[np.ndarray, np.ndarray, np.ndarray]
 """Each signature group's ``Σ b``, ``Σ b ln b`` and ``max b``."""
 
+
 def _combined(first: _Sums, second: _Sums) -> _Sums:
     """The group sums of two parts of a belief's states, as those of their union."""
     return first[0] + second[0], first[1] + second[1], np.maximum(first[2], second[2])
@@ -475,10 +476,10 @@ class SuccessorEvaluator:
 
     def _evaluate_fused(self, belief: np.ndarray, beliefs: dict[int, np.ndarray] | None) -> list[SuccessorStats]:
         """:meth:`evaluate` by the compiled passes, side by side on the cores this process may use
-        (:func:`beliefloc.threads.pool`; each pass releases the interpreter's lock). At 10^7 states an expansion's four
-        moves are ~0.05 s of passes each and a look's group sums ~0.04 s: the look's are taken in two
-        halves, last, so that two cores end together (five passes on two cores otherwise wait for the
-        fifth)."""
+        (:func:`beliefloc.source.threads.pool`; each pass releases the interpreter's lock). At 10^7
+        states an expansion's four moves are ~0.05 s of passes each and a look's group sums ~0.04 s: the
+        look's are taken in two halves, last, so that two cores end together (five passes on two cores
+        otherwise wait for the fifth)."""
         actions = self.model.actions
         n = self.model.n_states
         pool = threads.pool()

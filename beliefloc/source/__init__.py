@@ -18,6 +18,9 @@ The one way every input file (maps, belief files, domains) is read:
 :mod:`.limits` holds the bounds every reader of an outside file enforces (each raisable by an environment
 variable), :mod:`.file_kinds` tells the kinds of beliefloc file apart ("X is a domain, not a map"), and
 :mod:`.atomic_write` is the one way every output is written: a temporary file renamed into place.
+Beside them, the little machinery every part may share: :func:`.located.gc_paused` (the cycle collector
+paused while many small objects are built) and :mod:`.threads` (one pool of threads a process, for
+passes that release the interpreter's lock).
 """
 
 from beliefloc.source.files import not_regular_file, read_text
