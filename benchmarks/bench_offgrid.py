@@ -202,7 +202,7 @@ def replay(path: Path, episode: int, args: argparse.Namespace) -> int:
             if report is None
             else f" odometry {tuple(round(v, 3) for v in report.odometry or ())} blocked {report.blocked}"
         )
-        seen = "" if observation is None else f" -> {action.observation.name(observation)}"
+        seen = "" if observation is None else f" -> {action.observation.name(observation)} {_raw(readings)}"
         print(
             f"{seq:4d} {name}{seen}{moved} | true {tuple(round(float(v), 2) for v in robot.pose)} "
             f"({model.states.name(truth) if truth >= 0 else 'no state'}) | declared {model.states.name(declared)} "
@@ -210,6 +210,19 @@ def replay(path: Path, episode: int, args: argparse.Namespace) -> int:
             f"the truth's promise holds {1.0 - tracker.core.elsewhere(truth) if truth >= 0 else 0.0:.3g}"
         )
     return 0
+
+
+def _raw(readings: dict[str, object]) -> str:
+    """The raw readings, ranges to the centimetre, as the robot sent them."""
+
+    def short(value: object) -> object:
+        if isinstance(value, float):
+            return round(value, 2)
+        if isinstance(value, list):
+            return [short(v) for v in value]
+        return value
+
+    return " ".join(f"{name}={short(value)}" for name, value in readings.items())
 
 
 def records_file(args: argparse.Namespace, name: str, strategy: str, clutter: float) -> Path:
