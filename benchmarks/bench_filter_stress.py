@@ -11,7 +11,9 @@ the lattice filter ``localize`` uses following it. After each move and its readi
   the best before scoring a measured range, and a truth dropped is never found again except by the
   motion noise's spread);
 * whether the filter would declare a state (its reach at the threshold and at most 1 % beyond its
-  promise, as ``localize`` asks) that is confidently wrong.
+  promise, as ``localize`` asks) that is confidently wrong, and the first action after which it would
+  declare a right one (how fast a change to the filter lets it decide: a filter that keeps the truth
+  alive by saying little is no better).
 
 Printed per episode (one JSON line), then the lowest truth weights. Run by hand::
 
@@ -72,7 +74,7 @@ def main(argv: list[str] | None = None) -> int:
         tracker.start(uniform(model.n_states))
         poses = tracker.lattice.pose_array  # the grid frame's (x, y, yaw)
         draw = np.random.default_rng([args.seed, episode])
-        lowest, lowest_at, wrong = 1.0, 0, []
+        lowest, lowest_at, wrong, right_at = 1.0, 0, [], None
         seq = 0
         for move in range(args.moves):
             for action in [moves[int(draw.integers(len(moves)))], *readings_after]:
@@ -94,6 +96,8 @@ def main(argv: list[str] | None = None) -> int:
                 error, yaw = pose_errors(grid, state, robot.pose)
                 if is_wrong(grid, error, yaw):
                     wrong.append({"action": seq, "p": round(p, 4), "metres_off": round(error, 2)})
+                elif right_at is None:
+                    right_at = seq
         lows.append((lowest, episode, lowest_at))
         print(
             json.dumps(
@@ -102,6 +106,7 @@ def main(argv: list[str] | None = None) -> int:
                     "truth_weight_lowest": lowest,
                     "at_action": lowest_at,
                     "wrong_declarations": wrong[:5],
+                    "first_right_declaration": right_at,
                     "seconds": round(time.perf_counter() - started, 1),
                 }
             ),
