@@ -104,6 +104,31 @@ def test_beams_that_share_rays_read_the_plain_average_over_the_sub_poses(
         np.testing.assert_allclose(table[some], expected, atol=1e-6)
 
 
+def test_scan_tables_built_in_parts_on_threads_are_the_same_bits(
+    tb3: tuple[SemanticMap, PoseLattice, ScanSensor], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The tables' positions are split over threads (uneven parts included); each position's sums are
+    its own, taken in the same order, so the tables are the very bits of one thread's."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from beliefloc.source import threads
+
+    _, lattice, sensor = tb3
+    samples = lattice_sensors.beam_samples(sensor, lattice, lattice.pose_array)
+    monkeypatch.setattr(threads, "_POOL", None)
+    monkeypatch.setattr(threads, "_POOL_MADE", True)
+    alone = lattice_sensors.scan_tables(sensor, lattice, lattice.pose_array, samples)
+    monkeypatch.setattr(lattice_sensors, "THREADED_FROM", 1)
+    for workers in (2, 3):
+        with ThreadPoolExecutor(workers) as pool:
+            monkeypatch.setattr(threads, "_POOL", pool)
+            parts = lattice_sensors.scan_tables(sensor, lattice, lattice.pose_array, samples)
+        assert len(parts) == len(alone) == len(sensor.beams)
+        for got, want in zip(parts, alone, strict=True):
+            assert got.tobytes() == want.tobytes()
+    assert samples.weights.shape[0] % 6 != 0  # the two parts or the three are uneven
+
+
 def _brute_density(z: float, beam: float, poses: np.ndarray, sensor: ScanSensor, lattice: PoseLattice) -> np.ndarray:
     """``p(z | pose)`` of a measured range, pose by pose: a ray cast from every sub-pose, its reading
     ``N(r, σ)``, short readings uniform below ``r`` (or the last edge), random ones uniform over

@@ -1,8 +1,10 @@
 """One pool of threads per process, for NumPy and compiled passes that release the interpreter's lock.
 
-The planner's successor passes (:mod:`beliefloc.planning.successors`) and the ray casting behind the
-pose lattice's tables (:mod:`beliefloc.continuous.raycast`) split their work over it; a process on one
-core has none, and does the work in its own thread.
+The planner's successor passes (:mod:`beliefloc.planning.successors`), the ray casting behind the
+pose lattice's tables (:mod:`beliefloc.continuous.raycast`) and the scan tables' distributions
+(:func:`beliefloc.semantic_map.lattice_sensors.scan_tables`) split their work over it; a process on one
+core has none, and does the work in its own thread. A task on the pool must not wait on another
+task of it (with every thread waiting, none would run).
 """
 
 from __future__ import annotations
