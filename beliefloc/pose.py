@@ -53,7 +53,8 @@ def state_pose(grid: GridLayout, state: int) -> Pose:
 
 @dataclass(frozen=True)
 class PoseEstimate:
-    """A belief as a pose: the pose of the most likely state and the belief's covariance.
+    """A belief as a pose: the pose of the most likely state (or of the declared one, or a filter's
+    finer estimate within it: :func:`grid_frame_estimate`) and the belief's covariance.
 
     ``covariance`` is ROS's ``PoseWithCovariance.covariance``: 36 floats, the 6x6 matrix row-major
     over ``(x, y, z, rot_x, rot_y, rot_z)`` (:data:`ROS_AXES`); beliefloc is planar, so the rows and
@@ -63,7 +64,7 @@ class PoseEstimate:
     pose: Pose
     covariance: tuple[float, ...]
     state: int
-    """The most likely state (its index), whose pose :attr:`pose` is."""
+    """The most likely state (its index), whose pose :attr:`pose` is (or lies in)."""
     probability: float
     """Its probability."""
 
@@ -151,6 +152,34 @@ def belief_pose(model: Model, belief: np.ndarray, mode: int | None = None) -> Po
         covariance=tuple(float(v) + 0.0 for v in cov.ravel()),  # + 0.0: no -0.0 in the output
         state=mode,
         probability=float(normalised[mode]),
+    )
+
+
+def grid_frame_estimate(
+    grid: GridLayout,
+    state: int,
+    probability: float,
+    pose: tuple[float, float, float],
+    covariance: np.ndarray,
+) -> PoseEstimate:
+    """A pose and its ``3 x 3`` covariance over ``(x, y, yaw)`` in the grid's own frame (metres from
+    the grid's lower-left corner, yaw counter-clockwise from its +x: a pose lattice's) as a map-frame
+    :class:`PoseEstimate` of ``state``: the position through the grid's frame, the yaw turned by the
+    frame's yaw (0 with one heading), the covariance's ``x, y`` rows and columns rotated with it."""
+    gx, gy, gyaw = pose
+    x, y = grid.frame.to_map(gx, gy)
+    yaw = float(wrap_angle(grid.frame.yaw + gyaw)) if grid.headings > 1 else 0.0
+    c, s = math.cos(grid.frame.yaw), math.sin(grid.frame.yaw)
+    turn = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    small = turn @ np.asarray(covariance, dtype=np.float64) @ turn.T
+    cov = np.zeros((6, 6))
+    axes = [0, 1, 5]  # x, y, rot_z of ROS's six
+    cov[np.ix_(axes, axes)] = small
+    return PoseEstimate(
+        pose=Pose(float(x) + 0.0, float(y) + 0.0, yaw + 0.0),
+        covariance=tuple(float(v) + 0.0 for v in cov.ravel()),
+        state=int(state),
+        probability=float(probability),
     )
 
 

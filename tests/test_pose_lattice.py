@@ -708,3 +708,105 @@ def test_localize_filter_lattice_on_the_command_line() -> None:
     assert code in (0, 1), beliefloc.stderr.read() if beliefloc.stderr else ""
     assert last["message"] == "result"
     assert (code == 0) == last["localized"]
+
+
+def _map_frame_poses(tracker: LatticeFilter) -> np.ndarray:
+    """Every lattice pose in the map frame, worked out here: the grid frame's position through the
+    frame, its yaw turned by the frame's."""
+    grid = tracker.lattice.layout
+    poses = tracker.lattice.pose_array
+    x, y = grid.frame.to_map(poses[:, 0], poses[:, 1])
+    return np.stack([x, y, poses[:, 2] + grid.frame.yaw], axis=-1)
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), spread=st.floats(0.02, 2.0))
+def test_the_reported_pose_is_the_mean_of_the_declared_place_and_lies_in_its_promise(
+    tb3: LatticeFilter, seed: int, spread: float
+) -> None:
+    """The pose reported for a declared state: the mean position and circular-mean yaw of the lattice
+    mass within the state's promise, in the map frame; so it lies within the promise itself (a
+    disc and a yaw window: the mean of what lies in them does too), and it never names another
+    place than the state declared. Its covariance is the whole belief's, pose by pose here, plus
+    the square and yaw step each pose stands for: symmetric, positive definite."""
+    rng = np.random.default_rng(seed)
+    core = tb3.core
+    lattice = core.lattice
+    grid = lattice.layout
+    core.fine = _bunched(lattice, rng, spread)
+    state, probability = core.declared()
+    estimate = tb3.pose_estimate(state, probability)
+    assert estimate.state == state and estimate.probability == probability
+    where = _map_frame_poses(tb3)
+    inside = _promised_poses(lattice, state)
+    w = core.fine * inside
+    assert w.sum() > 0
+    x, y = float(w @ where[:, 0]) / w.sum(), float(w @ where[:, 1]) / w.sum()
+    yaw = math.atan2(float(w @ np.sin(where[:, 2])), float(w @ np.cos(where[:, 2])))
+    assert (estimate.pose.x, estimate.pose.y) == pytest.approx((x, y), abs=1e-9)
+    assert abs(math.remainder(estimate.pose.yaw - yaw, 2 * math.pi)) < 1e-9
+    position, turn = pose_errors(grid, state, np.array([estimate.pose.x, estimate.pose.y, estimate.pose.yaw]))
+    assert position <= PROMISE_CELLS * grid.cell_size + 1e-9 and turn <= PROMISE_SECTORS * _sector(grid) + 1e-9
+
+    p = core.fine / core.fine.sum()
+    mean = p @ where[:, :2]
+    centre = math.atan2(float(p @ np.sin(where[:, 2])), float(p @ np.cos(where[:, 2])))
+    d = np.stack(
+        [
+            where[:, 0] - mean[0],
+            where[:, 1] - mean[1],
+            np.remainder(where[:, 2] - centre + math.pi, 2 * math.pi) - math.pi,
+        ],
+        axis=-1,
+    )
+    expected = (d * p[:, None]).T @ d + np.diag([lattice.spacing**2 / 12] * 2 + [lattice.yaw_step**2 / 12])
+    got = estimate.matrix[np.ix_([0, 1, 5], [0, 1, 5])]
+    np.testing.assert_allclose(got, expected, rtol=1e-7, atol=1e-12)
+    assert np.all(np.linalg.eigvalsh(got) > 0)
+    others = np.delete(np.arange(36), [0, 1, 5, 6, 7, 11, 30, 31, 35])
+    assert np.all(np.asarray(estimate.covariance)[others] == 0.0)
+
+
+def _promised_poses(lattice: PoseLattice, state: int) -> np.ndarray:
+    """The lattice poses (their own position and yaw) within ``state``'s promise."""
+    grid = lattice.layout
+    poses = lattice.pose_array
+    cx, cy, yaw = _centre(lattice, state)
+    near = np.hypot(poses[:, 0] - cx, poses[:, 1] - cy) <= PROMISE_CELLS * grid.cell_size + 1e-9
+    turn = np.abs(np.remainder(poses[:, 2] - yaw + math.pi, 2 * math.pi) - math.pi)
+    out: np.ndarray = near & (turn <= PROMISE_SECTORS * _sector(grid) + 1e-9)
+    return out
+
+
+def test_a_pose_known_exactly_is_reported_as_it_is_in_a_turned_frame(tmp_path: Path) -> None:
+    """On a map whose occupancy image is turned (origin yaw 0.5 rad) and moved, a belief on one
+    lattice pose reports exactly that pose in the map frame -- not its state's cell centre and
+    heading -- with the covariance of the square and yaw step it stands for, turned with the frame."""
+    (tmp_path / "occupancy").mkdir()
+    source = ROOT / "maps" / "occupancy"
+    (tmp_path / "occupancy" / "tb3_sandbox.pgm").symlink_to(source / "tb3_sandbox.pgm")
+    text = (source / "tb3_sandbox.yaml").read_text()
+    (tmp_path / "occupancy" / "tb3_sandbox.yaml").write_text(
+        text.replace("[-10.000000, -10.000000, 0.000000]", "[-3.0, 2.0, 0.5]")
+    )
+    (tmp_path / "turned.yaml").write_text(TB3.read_text())
+    smap = load_map(tmp_path / "turned.yaml")
+    tracker = LatticeFilter(ReadingBinner(smap, compile_model(smap)))
+    grid = tracker.lattice.layout
+    assert grid.frame.yaw == pytest.approx(0.5)
+    where = _map_frame_poses(tracker)
+    for pose in np.random.default_rng(4).choice(tracker.lattice.n_poses, 5, replace=False):
+        tracker.core.fine = np.zeros(tracker.lattice.n_poses)
+        tracker.core.fine[pose] = 1.0
+        state = int(tracker.lattice.state[pose])
+        estimate = tracker.pose_estimate(state, 1.0)
+        assert (estimate.pose.x, estimate.pose.y) == pytest.approx(tuple(where[pose, :2]), abs=1e-9)
+        assert abs(math.remainder(estimate.pose.yaw - where[pose, 2], 2 * math.pi)) < 1e-9
+        side = tracker.lattice.spacing**2 / 12  # a square's spread turns into itself
+        np.testing.assert_allclose(
+            estimate.matrix[np.ix_([0, 1, 5], [0, 1, 5])],
+            np.diag([side, side, tracker.lattice.yaw_step**2 / 12]),
+            atol=1e-15,
+        )
+        centre = grid.cell_centre(*grid.cell_heading(state)[:2])
+        assert math.hypot(estimate.pose.x - float(centre[0]), estimate.pose.y - float(centre[1])) <= grid.cell_size

@@ -66,6 +66,13 @@ def test_an_episode_against_the_continuous_robot_records_its_true_pose_and_error
     assert run.steps <= 8 and len(run.trace) == run.steps
     final = model.states.index(run.final)
     assert (c.position_error, c.yaw_error) == pytest.approx(pose_errors(grid, final, np.array(c.true_pose)))
+    # the pose reported: the lattice's within the declared state's promise, its errors its own
+    assert run.pose is not None and run.pose.state == final
+    reported = np.array([run.pose.pose.x, run.pose.pose.y, run.pose.pose.yaw])
+    assert c.pose_position_error is not None and c.pose_yaw_error is not None
+    assert (c.pose_position_error, c.pose_yaw_error) == pytest.approx(_apart(reported, np.array(c.true_pose)))
+    off, turned = pose_errors(grid, final, reported)
+    assert off <= 1.5 * grid.cell_size + 1e-9 and turned <= 2 * math.pi / grid.headings + 1e-9
     assert c.confidently_wrong == (
         run.status is EpisodeStatus.LOCALIZED and is_wrong(grid, c.position_error, c.yaw_error)
     )
@@ -78,6 +85,11 @@ def test_an_episode_against_the_continuous_robot_records_its_true_pose_and_error
     assert again.continuous is not None and again.continuous.start_pose == c.start_pose
     if strategy != "contingent":  # the contingent planner's graph is shared and kept between episodes
         assert again.as_json(timings=False) == run.as_json(timings=False)
+
+
+def _apart(a: np.ndarray, b: np.ndarray) -> tuple[float, float]:
+    """Metres and radians between two map-frame poses, worked out here."""
+    return math.hypot(a[0] - b[0], a[1] - b[1]), abs(math.remainder(a[2] - b[2], 2 * math.pi))
 
 
 def test_the_start_pose_is_anywhere_in_free_space_with_any_yaw() -> None:
@@ -111,6 +123,16 @@ def test_records_read_back_whole_and_strictly() -> None:
     data = _record_json()
     back = EpisodeRecord.from_json(json.loads(json.dumps(data)))
     assert back.continuous == ContinuousOutcome((1.0, 2.0, 0.5), (1.5, 2.0, 0.4), 0.25, 0.1, False, 0.8, 1)
+    assert "pose_position_error" not in data["continuous"]  # type: ignore[operator]  # a record made before them
+    reported = json.loads(json.dumps(data))
+    reported["continuous"].update(pose_position_error=0.03, pose_yaw_error=0.05)
+    assert EpisodeRecord.from_json(reported).continuous == ContinuousOutcome(
+        (1.0, 2.0, 0.5), (1.5, 2.0, 0.4), 0.25, 0.1, False, 0.8, 1, 0.03, 0.05
+    )
+    alone = json.loads(json.dumps(reported))
+    del alone["continuous"]["pose_yaw_error"]
+    with pytest.raises(ValueError, match="come together"):
+        EpisodeRecord.from_json(alone)
     plain = {k: v for k, v in data.items() if k != "continuous"}
     assert EpisodeRecord.from_json(plain).continuous is None  # a grid episode's record
     bad: list[tuple[str, object]] = [
@@ -123,15 +145,18 @@ def test_records_read_back_whole_and_strictly() -> None:
         ("model_confidence", 1.5),
         ("recoveries", -1),
         ("surprise", 3),
+        ("pose_position_error", -0.1),
+        ("pose_yaw_error", 4.0),
+        ("pose_yaw_error", "0.1"),
     ]
     for key, value in bad:
-        broken = json.loads(json.dumps(data))
+        broken = json.loads(json.dumps(reported))
         broken["continuous"][key] = value
         with pytest.raises(ValueError, match=key):
             EpisodeRecord.from_json(broken)
     missing = json.loads(json.dumps(data))
     del missing["continuous"]["recoveries"]
-    with pytest.raises(KeyError):
+    with pytest.raises(ValueError, match="no field 'recoveries'"):
         EpisodeRecord.from_json(missing)
     with pytest.raises(ValueError, match="continuous"):
         records_from_results([{"episode": 0, "records": [{**data, "continuous": [1, 2]}]}])

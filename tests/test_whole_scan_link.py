@@ -184,9 +184,16 @@ def test_a_lattice_session_on_the_link_scores_whole_scans_and_localizes(runner: 
         fast = ["--settle", "0.05", "--ros-timeout", "2", "--motion-timeout", "5", "--quiet", "--filter", "lattice"]
         result = runner.invoke(app, [*args, *fast])
         pose = fake.robot.pose
+        [initial] = fake.messages("/initialpose")
     assert result.exit_code == 0, result.output
     outcome = json.loads(result.stdout.strip().splitlines()[-1])
     assert outcome["localized"]
     x, y = model.grid.cell_centre(*(int(v) for v in outcome["state"].split(",")[:2]))
     assert math.hypot(float(x) - pose[0], float(y) - pose[1]) < model.grid.cell_size
     assert set(sizes) == {LASER.beams}
+    # AMCL is given the pose the result reports: the lattice's, within the declared state's cell
+    reported = outcome["pose"]
+    position = initial["pose"]["pose"]["position"]
+    assert (position["x"], position["y"]) == pytest.approx((reported["x"], reported["y"]), abs=1e-12)
+    assert initial["pose"]["covariance"] == pytest.approx(reported["covariance"], abs=1e-12)
+    assert math.hypot(reported["x"] - pose[0], reported["y"] - pose[1]) < model.grid.cell_size

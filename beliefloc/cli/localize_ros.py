@@ -298,8 +298,9 @@ def run(
                     on_step=step,
                     belief_filter=belief_filter,
                 )
-                if outcome.localized:
-                    robot.publish_initial_pose(model, outcome.belief)
+                estimate = outcome.pose_estimate(model) if outcome.localized else None
+                if estimate is not None:
+                    robot.publish_initial_pose(estimate)
         finally:
             link.close()
     sys.stdout.write(json.dumps(result_message(outcome, model), allow_nan=False) + "\n")

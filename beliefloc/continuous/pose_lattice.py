@@ -40,7 +40,7 @@ from scipy import ndimage
 from beliefloc.continuous.image import OccupancyImage
 from beliefloc.continuous.motion import OdometryNoise, grid_yaws, predict_grid
 from beliefloc.errors import ImpossibleObservationError
-from beliefloc.model import GridLayout
+from beliefloc.model import GridLayout, wrap_angle
 
 TARGET_SPACING = 0.1
 """Metres between lattice positions the resolution aims at (a lidar's few centimetres of noise
@@ -179,6 +179,13 @@ def part_groups(
         for i, c in enumerate(codes.tolist())
     ]
     return common, groups
+
+
+def circular_mean(weights: np.ndarray, yaws: np.ndarray, otherwise: float) -> float:
+    """The ``weights``-weighted circular mean of ``yaws`` (radians); ``otherwise`` where they cancel
+    out (a mean resultant below 1e-9 of the weight: no mean direction)."""
+    sin, cos = float(weights @ np.sin(yaws)), float(weights @ np.cos(yaws))
+    return otherwise if math.hypot(sin, cos) < 1e-9 * float(weights.sum()) else math.atan2(sin, cos)
 
 
 def lattice_resolution(
@@ -1030,6 +1037,53 @@ class LatticeFilter:
             PROMISE_SECTORS - lattice.yaw_step / 2 / sector,
         )
         return state, min(1.0, float((box * reach).sum()))
+
+    def pose_estimate(self, state: int) -> tuple[tuple[float, float, float], np.ndarray]:
+        """Where the robot is, finer than ``state``'s cell centre and heading: the mean position and
+        circular-mean yaw of the mass within ``state``'s promise (:data:`PROMISE_CELLS`,
+        :data:`PROMISE_SECTORS`), in the grid frame (metres; yaw counter-clockwise from the grid's
+        +x); and the whole belief's ``3 x 3`` covariance over ``(x, y, yaw)`` about its own mean, by
+        the law of total covariance over the lattice poses as :func:`beliefloc.pose.belief_pose`
+        takes it over states: the spread between poses plus the square (``spacing² / 12`` a side)
+        and yaw step (``step² / 12``) each pose stands for. With one heading the yaw is unknown: 0,
+        its variance that of a uniform yaw, no cross terms.
+
+        The state's own pose is a cell centre and a sector's middle: on the depot's 0.25 m cells
+        and 45° sectors a robot known to 5 cm and 5° is reported up to 18 cm and 22° off, and AMCL
+        starts from that."""
+        lattice, layout = self.lattice, self.lattice.layout
+        poses = lattice.pose_array
+        weight = self.fine / self.fine.sum()
+        turning = layout.headings > 1
+        row, col, heading = (int(v) for v in layout.cell_heading(state))
+        cell, sector = layout.cell_size, 2 * math.pi / layout.headings
+        cx, cy = (col + 0.5) * cell, (layout.rows - row - 0.5) * cell
+        place = np.hypot(poses[:, 0] - cx, poses[:, 1] - cy) <= PROMISE_CELLS * cell + 1e-9
+        if turning:
+            heading_yaw = float(grid_yaws(layout.headings)[heading])
+            place &= np.abs(wrap_angle(poses[:, 2] - heading_yaw)) <= PROMISE_SECTORS * sector + 1e-9
+        held = weight * place
+        yaw = float(grid_yaws(layout.headings)[heading]) if turning else 0.0
+        x, y = cx, cy  # nothing within the promise: the state's own pose
+        if held.sum() > 0:
+            x, y = (float(held @ poses[:, i]) / float(held.sum()) for i in (0, 1))
+            yaw = circular_mean(held, poses[:, 2], yaw) if turning else 0.0
+
+        mean_x, mean_y = float(weight @ poses[:, 0]), float(weight @ poses[:, 1])
+        dx, dy = poses[:, 0] - mean_x, poses[:, 1] - mean_y
+        cov = np.zeros((3, 3))
+        within = lattice.spacing**2 / 12.0
+        cov[0, 0] = float(weight @ (dx * dx)) + within
+        cov[1, 1] = float(weight @ (dy * dy)) + within
+        cov[0, 1] = cov[1, 0] = float(weight @ (dx * dy))
+        if turning:
+            dyaw = wrap_angle(poses[:, 2] - circular_mean(weight, poses[:, 2], yaw))
+            cov[2, 2] = float(weight @ (dyaw * dyaw)) + lattice.yaw_step**2 / 12.0
+            cov[0, 2] = cov[2, 0] = float(weight @ (dx * dyaw))
+            cov[1, 2] = cov[2, 1] = float(weight @ (dy * dyaw))
+        else:
+            cov[2, 2] = math.pi**2 / 3
+        return (x, y, yaw), cov
 
     def peak(self) -> float:
         """The probability compared with the threshold: :meth:`declared`'s."""

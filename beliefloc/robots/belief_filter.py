@@ -38,6 +38,7 @@ from beliefloc.semantic_map.sections import ScanSensor
 
 if TYPE_CHECKING:
     from beliefloc.continuous.lattice_scan import LatticeScanModel
+    from beliefloc.pose import PoseEstimate
     from beliefloc.semantic_map.lattice_sensors import BeamSamples
 
 
@@ -71,6 +72,11 @@ class BeliefFilter(Protocol):
     def peak(self) -> float: ...
 
     def elsewhere(self) -> float: ...
+
+    def pose_estimate(self, state: int, probability: float) -> PoseEstimate | None:
+        """The pose to report for ``state`` declared at ``probability``, when the filter knows it
+        finer than the state's own pose; None: the state's pose (:func:`beliefloc.pose.belief_pose`)."""
+        ...
 
     def peak_after(self, move: Action) -> float: ...
 
@@ -140,6 +146,10 @@ class ModelFilter:
         """0: a state is one exact pose, and the papers' rule -- one state holds the threshold -- is
         the whole of what is declared."""
         return 0.0
+
+    def pose_estimate(self, state: int, probability: float) -> PoseEstimate | None:
+        """None: the model knows no pose finer than a state's."""
+        return None
 
     def peak_after(self, move: Action) -> float:
         """The most likely state's probability were the commanded ``move`` made now (``T_a``)."""
@@ -420,6 +430,14 @@ class LatticeFilter:
         if self._elsewhere is None:
             self._elsewhere = self.core.elsewhere(self.declared()[0])
         return self._elsewhere
+
+    def pose_estimate(self, state: int, probability: float) -> PoseEstimate:
+        """The lattice's mean pose within ``state``'s promise and the lattice belief's covariance, in
+        the map frame (:meth:`beliefloc.continuous.pose_lattice.LatticeFilter.pose_estimate`)."""
+        from beliefloc.pose import grid_frame_estimate
+
+        pose, covariance = self.core.pose_estimate(state)
+        return grid_frame_estimate(self.lattice.layout, state, probability, pose, covariance)
 
     def peak_after(self, move: Action) -> float:
         """The declared probability were the commanded ``move`` made now, nothing read

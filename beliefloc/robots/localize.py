@@ -39,7 +39,7 @@ from beliefloc.model import Action, GridLayout, Model
 from beliefloc.planning.best_first import PlanResult
 from beliefloc.planning.successors import SuccessorEvaluator
 from beliefloc.planning.telling import few_places, needed_evidence, telling_macros, which_place_evidence
-from beliefloc.pose import belief_places, pose_json
+from beliefloc.pose import PoseEstimate, belief_places, belief_pose
 from beliefloc.robots.belief_filter import BeliefFilter, ModelFilter
 from beliefloc.robots.odometry import MotionReport, ReportingRobot, motion
 from beliefloc.robots.readings import RawReading, ReadingBinner
@@ -111,6 +111,10 @@ class Localization:
     state's probability."""
     state: int | None = None
     """The state declared (:meth:`BeliefFilter.declared`); None: the most likely one."""
+    estimate: PoseEstimate | None = None
+    """The pose reported when localized, where the filter knows it finer than the declared state's
+    centre and heading (:meth:`BeliefFilter.pose_estimate`: the pose lattice's); None: the state's
+    pose (:meth:`pose_estimate`)."""
 
     @property
     def localized(self) -> bool:
@@ -126,17 +130,25 @@ class Localization:
             probability = self.peak
         return state, probability
 
+    def pose_estimate(self, model: Model) -> PoseEstimate | None:
+        """The pose to report (what AMCL is given): :attr:`estimate`, else the declared state's pose
+        with the belief's covariance (:func:`beliefloc.pose.belief_pose`); None without a grid."""
+        if self.estimate is not None:
+            return self.estimate
+        return None if model.grid is None else belief_pose(model, self.belief, self.declared[0])
+
     def as_json(self, model: Model) -> dict[str, Any]:
-        """The outcome as plain data: the most likely state, its probability and its pose
-        (:func:`beliefloc.pose.pose_json`) when localized, else null; ``max_belief`` either way."""
+        """The outcome as plain data: the declared state, its probability and the pose to report
+        (:meth:`pose_estimate`) when localized, else null; ``max_belief`` either way."""
         state, probability = self.declared
         done = self.localized
+        estimate = self.pose_estimate(model) if done else None
         return {
             "status": self.status.value,
             "localized": done,
             "state": model.states.name(state) if done else None,
             "probability": probability if done else None,
-            "pose": pose_json(model, self.belief, state) if done else None,
+            "pose": None if estimate is None else estimate.as_json(),
             "max_belief": probability,
             "steps": self.steps,
             "cost": self.cost,
@@ -436,6 +448,7 @@ def localize(
         if on_step is not None:
             on_step(LocalizeStep(command, observation, probability, belief, tracker.peak()))
     declared_state, declared_probability = tracker.declared()
+    localized = status is EpisodeStatus.LOCALIZED and model.grid is not None
     return Localization(
         status,
         belief,
@@ -448,6 +461,7 @@ def localize(
         recovered,
         peak=declared_probability,
         state=declared_state,
+        estimate=tracker.pose_estimate(declared_state, declared_probability) if localized else None,
     )
 
 

@@ -51,6 +51,7 @@ import numpy as np
 from beliefloc.continuous.motion import relative
 from beliefloc.errors import ReplyError, UsageError
 from beliefloc.model import GridLayout, Model
+from beliefloc.pose import PoseEstimate
 from beliefloc.robots.localize import Command
 from beliefloc.robots.odometry import MotionReport, motion
 from beliefloc.robots.readings import RawReading, ReadingBinner
@@ -406,11 +407,9 @@ class RosbridgeRobot:
         body = messages.pose_array(poses, self.settings.map_frame, self.last_stamp_ns)
         self.link.publish(self.settings.belief_topic, body)
 
-    def publish_initial_pose(self, model: Model, belief: np.ndarray) -> None:
-        """The belief as AMCL's initial pose (:func:`beliefloc.pose.belief_pose`) on ``/initialpose``."""
-        from beliefloc.pose import belief_pose
-
-        estimate = belief_pose(model, belief)
+    def publish_initial_pose(self, estimate: PoseEstimate) -> None:
+        """The pose localized (:meth:`beliefloc.robots.localize.Localization.pose_estimate`) as AMCL's
+        initial pose on ``/initialpose``."""
         body = messages.pose_with_covariance_stamped(estimate, self.settings.map_frame, self.last_stamp_ns)
         self.link.publish(self.settings.initial_pose_topic, body)
 

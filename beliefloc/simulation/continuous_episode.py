@@ -32,7 +32,7 @@ import numpy as np
 from beliefloc.continuous.world import Clutter, ContinuousRobot, ContinuousWorld, LaserSpec, MotionError, WorldConfig
 from beliefloc.errors import InvalidValueError
 from beliefloc.model import GridLayout, Model, wrap_angle
-from beliefloc.pose import belief_pose
+from beliefloc.pose import Pose, state_pose
 from beliefloc.robots.belief_filter import LatticeFilter
 from beliefloc.robots.continuous_robot import ContinuousReadingRobot
 from beliefloc.robots.localize import LocalizeStep, localize
@@ -225,8 +225,11 @@ class ContinuousSetup:
         record.replans = outcome.replans
         record.plan_seconds = list(outcome.plan_seconds)
         record.max_belief = probability
-        record.pose = belief_pose(model, outcome.belief, state)
+        estimate = outcome.pose_estimate(model)
+        assert estimate is not None  # the model has a grid
+        record.pose = estimate
         position_error, yaw_error = pose_errors(grid, state, robot.pose)
+        off, turned = reported_errors(grid, estimate.pose, robot.pose)
         record.continuous = ContinuousOutcome(
             start_pose=_triple(start),
             true_pose=_triple(robot.pose),
@@ -235,6 +238,8 @@ class ContinuousSetup:
             confidently_wrong=outcome.localized and is_wrong(grid, position_error, yaw_error),
             model_confidence=outcome.model_confidence,
             recoveries=outcome.recoveries,
+            pose_position_error=off,
+            pose_yaw_error=turned,
         )
         return record
 
@@ -265,12 +270,16 @@ def state_at(grid: GridLayout, pose: np.ndarray) -> int:
 def pose_errors(grid: GridLayout, state: int, pose: np.ndarray) -> tuple[float, float]:
     """Metres from state ``state``'s cell centre to ``pose``, and radians from its heading's yaw
     (0 with one heading: the yaw is not estimated)."""
-    row, col, heading = grid.cell_heading(state)
-    cx, cy = grid.cell_centre(row, col)
-    position = math.hypot(float(cx) - float(pose[0]), float(cy) - float(pose[1]))
+    return reported_errors(grid, state_pose(grid, state), pose)
+
+
+def reported_errors(grid: GridLayout, reported: Pose, pose: np.ndarray) -> tuple[float, float]:
+    """Metres from the ``reported`` pose to ``pose``, and radians between their yaws (0 with one
+    heading: the yaw is not estimated)."""
+    position = math.hypot(reported.x - float(pose[0]), reported.y - float(pose[1]))
     if grid.headings == 1:
         return position, 0.0
-    return position, abs(float(wrap_angle(float(grid.heading_yaw(heading)) - float(pose[2]))))
+    return position, abs(float(wrap_angle(reported.yaw - float(pose[2]))))
 
 
 def is_wrong(grid: GridLayout, position_error: float, yaw_error: float) -> bool:

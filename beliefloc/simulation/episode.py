@@ -60,9 +60,14 @@ class ContinuousOutcome:
     """How well the last readings fit the belief, in [0, 1] (``localize``'s)."""
     recoveries: int
     """How many times the readings stopped fitting and the belief was re-spread."""
+    pose_position_error: float | None = None
+    """Metres from the reported pose (the record's ``pose``: finer than the state's centre where the
+    filter knows it, the pose lattice's) to the true position; None in records made before it."""
+    pose_yaw_error: float | None = None
+    """Radians from the reported pose's yaw to the true yaw (0 with one heading)."""
 
     def as_json(self) -> dict[str, Any]:
-        return {
+        out: dict[str, Any] = {
             "start_pose": list(self.start_pose),
             "true_pose": list(self.true_pose),
             "position_error": self.position_error,
@@ -71,6 +76,10 @@ class ContinuousOutcome:
             "model_confidence": self.model_confidence,
             "recoveries": self.recoveries,
         }
+        if self.pose_position_error is not None and self.pose_yaw_error is not None:
+            out["pose_position_error"] = self.pose_position_error
+            out["pose_yaw_error"] = self.pose_yaw_error
+        return out
 
     @classmethod
     def from_json(cls, data: object) -> ContinuousOutcome:
@@ -86,9 +95,15 @@ class ContinuousOutcome:
             "model_confidence",
             "recoveries",
         )
-        extra = sorted(set(data) - set(fields))
+        optional = ("pose_position_error", "pose_yaw_error")  # both or neither
+        extra = sorted(set(data) - set(fields) - set(optional))
         if extra:
             raise ValueError(f"continuous: unknown field {extra[0][:40]!r}")
+        missing = [k for k in fields if k not in data]
+        if missing:
+            raise ValueError(f"continuous: no field {missing[0]!r}")
+        if (optional[0] in data) != (optional[1] in data):
+            raise ValueError(f"continuous: {optional[0]!r} and {optional[1]!r} come together")
         poses = []
         for key in ("start_pose", "true_pose"):
             value = data[key]
@@ -96,13 +111,13 @@ class ContinuousOutcome:
                 raise ValueError(f"continuous.{key}: {str(value)[:40]!r} is not a list [x, y, yaw]")
             x, y, yaw = (number_field({f"continuous.{key}": v}, f"continuous.{key}") for v in value)
             poses.append((x, y, yaw))
-        errors = [
-            number_field({f"continuous.{k}": data[k]}, f"continuous.{k}") for k in ("position_error", "yaw_error")
-        ]
-        if errors[0] < 0:
-            raise ValueError(f"continuous.position_error: {errors[0]!r} is not a distance >= 0")
-        if not 0 <= errors[1] <= math.pi + 1e-9:
-            raise ValueError(f"continuous.yaw_error: {errors[1]!r} is not an angle from 0 to pi")
+        present = [k for k in ("position_error", "yaw_error", *optional) if k in data]
+        errors = {k: number_field({f"continuous.{k}": data[k]}, f"continuous.{k}") for k in present}
+        for key, value in errors.items():
+            if key.endswith("position_error") and value < 0:
+                raise ValueError(f"continuous.{key}: {value!r} is not a distance >= 0")
+            if key.endswith("yaw_error") and not 0 <= value <= math.pi + 1e-9:
+                raise ValueError(f"continuous.{key}: {value!r} is not an angle from 0 to pi")
         confidence = number_field(
             {"continuous.model_confidence": data["model_confidence"]}, "continuous.model_confidence"
         )
@@ -111,13 +126,15 @@ class ContinuousOutcome:
         return cls(
             start_pose=poses[0],
             true_pose=poses[1],
-            position_error=errors[0],
-            yaw_error=errors[1],
+            position_error=errors["position_error"],
+            yaw_error=errors["yaw_error"],
             confidently_wrong=flag_field(
                 {"continuous.confidently_wrong": data["confidently_wrong"]}, "continuous.confidently_wrong"
             ),
             model_confidence=confidence,
             recoveries=whole_field({"continuous.recoveries": data["recoveries"]}, "continuous.recoveries"),
+            pose_position_error=errors.get("pose_position_error"),
+            pose_yaw_error=errors.get("pose_yaw_error"),
         )
 
 
