@@ -289,6 +289,8 @@ def commit() -> str:
 
 
 COMMIT = commit()
+POSE_KEYS = ("pose_position_error", "pose_yaw_error")
+"""The reported pose's errors, in records made since the pose lattice reports its own estimate."""
 
 
 def report(label: str, rows: list[dict[str, object]]) -> None:
@@ -307,6 +309,16 @@ def report(label: str, rows: list[dict[str, object]]) -> None:
         f"{secs:.2f} s/episode, statuses {statuses}",
         flush=True,
     )
+    for label_of, keys in (("the state's centre", ("position_error", "yaw_error")), ("the pose reported", POSE_KEYS)):
+        off = [(float(r[keys[0]]), float(r[keys[1]])) for r in declared if keys[0] in r]  # type: ignore[arg-type]
+        if off:
+            metres, radians = np.array(off).T
+            print(
+                f"  {label_of} from the true pose ({len(off)} localized): median {np.median(metres):.3f} m, "
+                f"{np.degrees(np.median(radians)):.1f} deg; 95th percentile {np.percentile(metres, 95):.3f} m, "
+                f"{np.degrees(np.percentile(radians, 95)):.1f} deg",
+                flush=True,
+            )
     for low, high in BANDS:
         band = [r for r in declared if low <= float(r["probability"]) < high]  # type: ignore[arg-type]
         if not band:
