@@ -13,7 +13,8 @@ localized, the true pose more than 1.5 cells from the reported state's centre or
 heading sector from its heading).
 
 Printed per map, strategy and clutter: localized %, confidently wrong, mean cost (of the localized
-episodes), statuses, and the calibration table: among the episodes declared localized at p in a
+episodes), statuses, how far the declared state's centre and the pose reported (the lattice's
+estimate) are from the true pose, and the calibration table: among the episodes declared localized at p in a
 band, the fraction wrong with its 95 % Clopper-Pearson interval, beside 1 - p.
 
 Run by hand (slow; one process)::
