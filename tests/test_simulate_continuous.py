@@ -187,6 +187,28 @@ def test_simulate_continuous_on_the_command_line(runner, tmp_path: Path) -> None
     assert resumed.exit_code == 2 and ":2:" in resumed.stderr and "yaw_error" in resumed.stderr
 
 
+def test_the_summary_line_gives_the_median_distance_of_the_pose_reported_when_localized() -> None:
+    """``simulate --continuous``'s last line: per strategy, the confidently wrong episodes and how far
+    the pose reported was from the truth -- the median over the localized episodes only."""
+    from beliefloc.cli.simulate import _continuous_line
+
+    def record(status: EpisodeStatus, metres: float, radians: float) -> EpisodeRecord:
+        r = EpisodeRecord("bestfirst", 0, "1,1,0", "1,2,0", "1,2,0", True, status, 3.0, 3, 0, [0.1], 0.97)
+        r.continuous = ContinuousOutcome((1.0, 2.0, 0.5), (1.5, 2.0, 0.4), 0.25, 0.1, False, 0.8, 0, metres, radians)
+        return r
+
+    line = _continuous_line(
+        [
+            record(EpisodeStatus.LOCALIZED, 0.02, math.radians(1)),
+            record(EpisodeStatus.LOCALIZED, 0.04, math.radians(3)),
+            record(EpisodeStatus.STEP_LIMIT, 9.0, 3.0),
+        ]
+    )
+    assert line == (
+        "continuous robot: bestfirst: confidently wrong 0 of 3, the pose reported 0.03 m and 2° from the truth (median)"
+    )
+
+
 def test_simulate_continuous_full_scans_answers_whole_scans_scored_at_every_lattice_pose(
     runner, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

@@ -151,8 +151,8 @@ def simulate(
             "anywhere in free space with any yaw, motion noise (5 % of a move's length, 2° a turn), ray-cast ranges "
             "(2 cm noise), detections by field of view, range and line of sight; it answers as a robot on "
             "localize's line protocol would (readings, odometry, blocked), and each episode runs localize's loop "
-            "(surprise check, re-spread, 'inconsistent'). Records carry the true pose, the reported state's "
-            "position and yaw error, and whether the episode was confidently wrong.",
+            "(surprise check, re-spread, 'inconsistent'). Records carry the true pose, the position and yaw error "
+            "of the state declared and of the pose reported, and whether the episode was confidently wrong.",
         ),
     ] = False,
     clutter: Annotated[
@@ -485,12 +485,29 @@ def _continuous_robot(
 
 
 def _continuous_line(records: list[EpisodeRecord]) -> str:
-    """Per strategy: how many episodes were confidently wrong, and the mean errors of the localized ones."""
+    """Per strategy: how many episodes were confidently wrong, and how far the pose reported was from
+    the true pose in the localized ones (the median)."""
+    import math
+
+    import numpy as np
+
+    from beliefloc.simulation.strategies import EpisodeStatus
+
     parts = []
     for name in dict.fromkeys(r.strategy for r in records):
         mine = [r.continuous for r in records if r.strategy == name and r.continuous is not None]
         wrong = sum(c.confidently_wrong for c in mine)
-        parts.append(f"{name}: confidently wrong {wrong} of {len(mine)}")
+        line = f"{name}: confidently wrong {wrong} of {len(mine)}"
+        off = [
+            (c.pose_position_error, c.pose_yaw_error)
+            for r in records
+            if r.strategy == name and r.status is EpisodeStatus.LOCALIZED and (c := r.continuous) is not None
+            if c.pose_position_error is not None and c.pose_yaw_error is not None
+        ]
+        if off:
+            metres, radians = np.median(np.array(off), axis=0)
+            line += f", the pose reported {metres:.2f} m and {math.degrees(radians):.0f}° from the truth (median)"
+        parts.append(line)
     return escape("continuous robot: " + "; ".join(parts))
 
 
