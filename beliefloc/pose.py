@@ -13,7 +13,7 @@ layout of ROS's ``geometry_msgs/PoseWithCovariance`` — what Nav2's AMCL takes 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -369,6 +369,13 @@ def nonnegative_covariance(covariance: tuple[float, ...]) -> tuple[float, ...]:
     added = -(negative.sum(axis=0) + negative.sum(axis=1))  # |c| to both ends of every negative pair
     cov = cov - negative - negative.T + np.diag(added)
     return tuple(float(v) + 0.0 for v in cov.ravel())
+
+
+def for_amcl(estimate: PoseEstimate) -> PoseEstimate:
+    """``estimate`` as an ``/initialpose`` every AMCL accepts: its covariance with no negative entry
+    (:func:`nonnegative_covariance`), the pose as it is. ``pose --format ros`` and ``localize
+    --rosbridge`` both publish this."""
+    return replace(estimate, covariance=nonnegative_covariance(estimate.covariance))
 
 
 def _grid_and_weights(model: Model, belief: np.ndarray) -> tuple[GridLayout, np.ndarray]:

@@ -19,7 +19,7 @@ import pytest
 from beliefloc import compile_model, load_map
 from beliefloc.errors import ReplyError, UsageError
 from beliefloc.model import Model
-from beliefloc.pose import state_pose
+from beliefloc.pose import nonnegative_covariance, state_pose
 from beliefloc.robots.readings import ReadingBinner
 from beliefloc.ros.bridge import BridgeSettings, check_map, likely_states
 from beliefloc.ros.motion_control import Goal, MotionLimits, obstacle_ahead, velocity
@@ -284,6 +284,9 @@ def test_a_session_localizes_the_simulated_robot_and_publishes_its_pose(
     assert (got["position"]["x"], got["position"]["y"]) == pytest.approx((expected.x, expected.y))
     assert 2 * math.atan2(got["orientation"]["z"], got["orientation"]["w"]) == pytest.approx(expected.yaw, abs=1e-9)
     assert initial["header"]["frame_id"] == "map" and initial["header"]["stamp"]["sec"] >= 1000  # the robot's clock
+    assert initial["pose"]["covariance"] == pytest.approx(
+        nonnegative_covariance(tuple(outcome["pose"]["covariance"])), abs=1e-12
+    )  # the result's, with no negative entry: Nav2 Rolling's AMCL refuses one
     beliefs = server.messages("/beliefloc/belief")
     assert len(beliefs) == outcome["steps"] + 1  # the start, then one a step
     assert len(beliefs[0]["poses"]) == model.n_states  # uniform: every state is as likely
@@ -504,3 +507,29 @@ def test_a_stop_that_cannot_be_sent_is_said_in_the_error(kitchen: tuple[Model, R
     assert link.published == []  # nothing was sent into a dead connection
     with pytest.raises(ReplyError, match=r"^The robot could not be told to stop"), stopped(robot):
         pass
+
+
+def test_the_initial_pose_published_has_no_negative_covariance_entry(kitchen: tuple[Model, ReadingBinner]) -> None:
+    """A pose whose x and y are anti-correlated (a belief along a diagonal) is published to
+    /initialpose with that pair made non-negative, as `pose --format ros` writes it: Nav2 Rolling's
+    AMCL refuses a negative entry, and the pose would be ignored."""
+    from beliefloc.pose import Pose, PoseEstimate
+    from beliefloc.ros.bridge import RosbridgeRobot
+
+    _, binner = kitchen
+    link = _DeadLink()
+    robot = RosbridgeRobot(binner, link, BridgeSettings(detections_topic="/d", timeout=0.1))
+    cov = np.zeros((6, 6))
+    cov[[0, 1, 5], [0, 1, 5]] = [0.04, 0.05, 0.1]
+    cov[0, 1] = cov[1, 0] = -0.03
+    robot.publish_initial_pose(PoseEstimate(Pose(1.0, 2.0, 0.5), tuple(cov.ravel()), 3, 0.97))
+    [(topic, body)] = link.published
+    assert topic == "/initialpose"
+    sent = np.array(body["pose"]["covariance"]).reshape(6, 6)
+    assert sent.min() >= 0.0
+    expected = cov.copy()
+    expected[0, 1] = expected[1, 0] = 0.0
+    expected[0, 0] += 0.03
+    expected[1, 1] += 0.03
+    np.testing.assert_allclose(sent, expected, atol=1e-12)
+    assert body["pose"]["pose"]["position"]["x"] == pytest.approx(1.0)

@@ -138,7 +138,7 @@ def pose_command(
     """
     import yaml
 
-    from beliefloc.pose import belief_pose, localization, nonnegative_covariance
+    from beliefloc.pose import belief_pose, for_amcl, localization
     from beliefloc.ros.messages import pose_array, pose_with_covariance_stamped, rounded
 
     model = open_model(source)
@@ -153,13 +153,7 @@ def pose_command(
     if output is PoseFormat.ROS:
         if not verdict.localized and not force:
             _refuse(model, verdict, belief, min_probability, second_mode)
-        safe = type(estimate)(
-            pose=estimate.pose,
-            covariance=nonnegative_covariance(estimate.covariance),
-            state=estimate.state,
-            probability=estimate.probability,
-        )
-        body = rounded(pose_with_covariance_stamped(safe, frame_id=frame_id, ns=ns))
+        body = rounded(pose_with_covariance_stamped(for_amcl(estimate), frame_id=frame_id, ns=ns))
         sys.stdout.write(yaml.safe_dump(body, default_flow_style=None, sort_keys=False, width=100))
         return
     print_json(

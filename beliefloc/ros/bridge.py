@@ -51,7 +51,7 @@ import numpy as np
 from beliefloc.continuous.motion import relative
 from beliefloc.errors import ReplyError, UsageError
 from beliefloc.model import GridLayout, Model
-from beliefloc.pose import PoseEstimate
+from beliefloc.pose import PoseEstimate, for_amcl
 from beliefloc.robots.localize import Command
 from beliefloc.robots.odometry import MotionReport, motion
 from beliefloc.robots.readings import RawReading, ReadingBinner
@@ -409,7 +409,9 @@ class RosbridgeRobot:
 
     def publish_initial_pose(self, estimate: PoseEstimate) -> None:
         """The pose localized (:meth:`beliefloc.robots.localize.Localization.pose_estimate`) as AMCL's
-        initial pose on ``/initialpose``."""
+        initial pose on ``/initialpose``, its covariance with no negative entry as every AMCL accepts it
+        (:func:`beliefloc.pose.for_amcl`: Rolling's refuses one)."""
+        estimate = for_amcl(estimate)
         body = messages.pose_with_covariance_stamped(estimate, self.settings.map_frame, self.last_stamp_ns)
         self.link.publish(self.settings.initial_pose_topic, body)
 
