@@ -322,24 +322,37 @@ class Localization:
 
 
 def localization(
-    model: Model, belief: np.ndarray, *, min_probability: float, second_mode_share: float = SECOND_MODE_SHARE
+    model: Model,
+    belief: np.ndarray,
+    *,
+    min_probability: float,
+    second_mode_share: float = SECOND_MODE_SHARE,
+    declared: PoseEstimate | None = None,
 ) -> Localization:
     """Is ``belief`` localized? Yes when its most likely state holds at least ``min_probability``
     (the planners' goal: one state holds the threshold) AND no mode (:func:`belief_modes`) but the
     one around that state holds more than ``second_mode_share`` (:data:`SECOND_MODE_SHARE`) of the
     belief. The second test
     matters when ``min_probability`` is low: a belief 60/40 between two rooms has one state at 0.6
-    and a second place a single Gaussian cannot describe."""
+    and a second place a single Gaussian cannot describe.
+
+    ``declared``: the pose a pose-lattice run declared (its state and the probability that the robot is
+    within one cell and 3/4 of a sector of it), which the first test takes instead of the state's own
+    mass: a robot known to a few centimetres on a cell's border splits the states' mass between two
+    cells, and ``localize`` declared it by the lattice's count."""
     modes = belief_modes(model, belief)
     _, weights = _grid_and_weights(model, belief)
     best = int(np.argmax(weights))
     probability = float(weights[best])
+    if declared is not None:
+        best, probability = declared.state, declared.probability
     own = next((m.probability for m in modes if m.state == best), 0.0)
     rival = max((m.probability for m in modes if m.state != best), default=0.0)
     reasons: list[str] = []
     if probability < min_probability:
+        held = "is within reach of" if declared is not None else "holds"
         reasons.append(
-            f"the most likely state {model.states.name(best)} holds {probability:.3g} of the belief, "
+            f"the most likely state {model.states.name(best)} {held} {probability:.3g} of the belief, "
             f"less than {min_probability:g}"
         )
     if rival > second_mode_share:

@@ -685,26 +685,11 @@ def test_a_robot_on_the_depot_gets_an_initial_pose_for_amcl(tmp_path: Path) -> N
     """The README's path from a SLAM map to AMCL: localize with --belief-out on Nav2's depot (a robot
     in another process answering laser ranges cast over the pixels), then 'pose --format ros'."""
     depot, belief = str(ROOT / "maps" / "depot.yaml"), tmp_path / "belief.json"
-    played = subprocess.run(
-        # the robot stands at cell centres and moves cell by cell: the papers' filter over the states
-        [sys.executable, "-c", ROBOT, depot, "30,60,2", "--belief-out", str(belief), "--quiet", "--filter", "states"],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        cwd=ROOT,
-    )
-    assert played.returncode == 0, played.stderr
-    run = json.loads(played.stdout)
-    assert run["code"] == 0, run["stderr"]
+    # the robot stands at cell centres and moves cell by cell: the papers' filter over the states
+    run = _played(depot, "30,60,2", "--belief-out", str(belief), "--quiet", "--filter", "states")
     result = run["messages"][-1]
     assert result["status"] == "localized" and result["state"] == run["true_state"]
-    ros = subprocess.run(
-        [sys.executable, "-m", "beliefloc", "pose", depot, "--belief", str(belief), "--format", "ros"],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        cwd=ROOT,
-    )
+    ros = _beliefloc("pose", depot, "--belief", str(belief), "--format", "ros")
     assert ros.returncode == 0, ros.stderr
     message = yaml.safe_load(ros.stdout)
     assert message["header"]["frame_id"] == "map"
@@ -714,6 +699,24 @@ def test_a_robot_on_the_depot_gets_an_initial_pose_for_amcl(tmp_path: Path) -> N
     safe = nonnegative_covariance(tuple(result["pose"]["covariance"]))
     assert message["pose"]["covariance"] == pytest.approx(safe, abs=1e-9)
     assert min(message["pose"]["covariance"]) >= 0.0
+
+
+def _played(map_path: str, start: str, *options: str) -> dict[str, Any]:
+    """``localize`` on ``map_path`` with ROBOT answering from ``start`` (a robot at cell centres, in
+    another process); the run, checked to have ended with exit 0."""
+    played = subprocess.run(
+        [sys.executable, "-c", ROBOT, map_path, start, *options], capture_output=True, text=True, timeout=300, cwd=ROOT
+    )
+    assert played.returncode == 0, played.stderr
+    run: dict[str, Any] = json.loads(played.stdout)
+    assert run["code"] == 0, run["stderr"]
+    return run
+
+
+def _beliefloc(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "beliefloc", *args], capture_output=True, text=True, timeout=60, cwd=ROOT
+    )
 
 
 def _localize(stdin: str) -> subprocess.CompletedProcess[str]:
@@ -744,3 +747,25 @@ def test_a_bad_or_missing_reply_ends_the_process_with_exit_2(stdin: str, message
     first, last = _lines(result.stdout)
     assert first["message"] == "action" and first["seq"] == 1
     assert last["message"] == "error"
+
+
+def test_a_lattice_run_s_pose_travels_with_its_belief_file_to_amcl(tmp_path: Path) -> None:
+    """The README's path with the pose lattice: ``localize --belief-out`` writes the lattice's pose and
+    the probability it was declared at beside the belief, and ``pose --belief`` reports that pose -- the
+    result line's, not the state's cell centre -- in its JSON and in the message for /initialpose,
+    judged localized by that probability (before, a robot declared at 0.976 on the depot was refused:
+    its most likely state alone held 0.907, its place 0.994)."""
+    depot, belief = str(ROOT / "maps" / "depot.yaml"), tmp_path / "belief.json"
+    run = _played(depot, "30,60,2", "--belief-out", str(belief), "--quiet", "--filter", "lattice")
+    result = run["messages"][-1]
+    assert result["status"] == "localized"
+    written = json.loads(belief.read_text())
+    assert written["pose"] == {"state": result["state"], "probability": result["probability"], **result["pose"]}
+    shown = _beliefloc("pose", depot, "--belief", str(belief))
+    assert shown.returncode == 0, shown.stderr
+    pose = json.loads(shown.stdout)
+    assert pose["state"] == result["state"] and pose["pose"] == result["pose"]
+    ros = _beliefloc("pose", depot, "--belief", str(belief), "--format", "ros")
+    assert ros.returncode == 0, ros.stderr
+    position = yaml.safe_load(ros.stdout)["pose"]["pose"]["position"]
+    assert (position["x"], position["y"]) == pytest.approx((result["pose"]["x"], result["pose"]["y"]), abs=1e-9)

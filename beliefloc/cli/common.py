@@ -30,6 +30,7 @@ if TYPE_CHECKING:
 
     from beliefloc.files.results_file import ResultsContent
     from beliefloc.model import GridLayout, Model
+    from beliefloc.pose import PoseEstimate
     from beliefloc.semantic_map import SemanticMap
 
 P = ParamSpec("P")
@@ -237,6 +238,17 @@ def initial_belief(model: Model, spec: str, smap: SemanticMap | None = None) -> 
     for message in warnings:
         warn(message)
     return belief
+
+
+def written_pose(model: Model, spec: str, belief: np.ndarray) -> PoseEstimate | None:
+    """``--belief FILE``: the pose a ``localize --belief-out`` run wrote beside the belief (the pose
+    lattice's estimate, :func:`beliefloc.files.belief_file.load_belief_pose`), checked against the
+    model and ``belief``; None for ``uniform``, ``prior:DOMAIN`` and a file without one."""
+    from beliefloc.files.belief_file import load_belief_pose
+
+    if spec == "uniform" or spec.startswith(PRIOR_PREFIX):
+        return None
+    return load_belief_pose(model, Path(spec), belief)
 
 
 def open_model(path: Path) -> Model:

@@ -60,6 +60,7 @@ if TYPE_CHECKING:
     import numpy as np
 
     from beliefloc.model import Model
+    from beliefloc.pose import PoseEstimate
     from beliefloc.robots.line_protocol import LineRobot
     from beliefloc.robots.localize import LocalizeStep
     from beliefloc.semantic_map import SemanticMap
@@ -312,7 +313,7 @@ def localize(
             raise
         robot.finish(outcome)
     if belief_out is not None:
-        _write_belief(belief_out, model, outcome.belief)
+        _write_belief(belief_out, model, outcome.belief, outcome.estimate if outcome.localized else None)
     if outcome.localized:
         if not quiet:
             data = outcome.as_json(model)
@@ -328,12 +329,20 @@ def localize(
     raise typer.Exit(EXIT_NEGATIVE)
 
 
-def _write_belief(path: Path, model: Model, belief: np.ndarray) -> None:
-    """The final belief as a belief file, written whole or not at all."""
+def _write_belief(path: Path, model: Model, belief: np.ndarray, estimate: PoseEstimate | None) -> None:
+    """The final belief as a belief file, written whole or not at all; with the pose lattice's
+    estimate beside it (``"pose"``: ``beliefloc pose --belief`` reports it instead of the state's centre)."""
     from beliefloc.belief import by_state_name
     from beliefloc.source.atomic_write import write_atomically
 
-    text = json.dumps({"belief": by_state_name(model, belief)}, indent=2, allow_nan=False) + "\n"
+    content: dict[str, object] = {"belief": by_state_name(model, belief)}
+    if estimate is not None:
+        content["pose"] = {
+            "state": model.states.name(estimate.state),
+            "probability": estimate.probability,
+            **estimate.as_json(),
+        }
+    text = json.dumps(content, indent=2, allow_nan=False) + "\n"
     write_atomically(path, lambda handle: handle.write(text.encode()))
 
 

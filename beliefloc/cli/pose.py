@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Annotated, Literal
 
 import typer
 
-from beliefloc.cli.common import boundary, initial_belief, open_model, print_json
+from beliefloc.cli.common import boundary, initial_belief, open_model, print_json, written_pose
 from beliefloc.cli.options import BeliefOption, ModelArgument, number
 from beliefloc.errors import EXIT_NEGATIVE
 from beliefloc.planning.settings import DEFAULT_THRESHOLD
@@ -112,6 +112,11 @@ def pose_command(
     a cell and within a heading sector, so it is never singular. A model without a grid (an
     imported .pomdp) has no poses: exit 2.
 
+    A belief file that localize --belief-out wrote with the pose lattice carries the finer pose
+    beside the belief (a few centimetres and degrees off, not a cell centre) and the probability it
+    was declared at: that pose is printed, and that probability is what --min-probability is
+    compared with. It is checked against the belief (exit 2 naming the field when it does not fit).
+
     --format ros is an initial pose for Nav2's AMCL (Humble, Jazzy, Kilted and Rolling accept it):
     frame_id map, stamp now unless --stamp, every number rounded to 9 decimals, and no negative
     covariance entry (Rolling refuses one: a negative correlation c is set to 0 and |c| added to both
@@ -143,8 +148,11 @@ def pose_command(
 
     model = open_model(source)
     start = initial_belief(model, belief)
-    estimate = belief_pose(model, start)
-    verdict = localization(model, start, min_probability=min_probability, second_mode_share=second_mode)
+    written = written_pose(model, belief, start)  # a localize run's own, beside its belief
+    estimate = written if written is not None else belief_pose(model, start)
+    verdict = localization(
+        model, start, min_probability=min_probability, second_mode_share=second_mode, declared=written
+    )
     ns = stamp_ns(stamp)
     if output is PoseFormat.POSEARRAY:
         body = rounded(pose_array([m.pose for m in verdict.modes], frame_id=frame_id, ns=ns))

@@ -13,14 +13,17 @@ from __future__ import annotations
 import math
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import numpy as np
-from pydantic import Field, RootModel
+from pydantic import BaseModel, ConfigDict, Field, RootModel
 
 from beliefloc.errors import BeliefFileError, InvalidValueError
 from beliefloc.model import Model
 from beliefloc.source import Source, read_source, validate_source
+
+if TYPE_CHECKING:
+    from beliefloc.pose import PoseEstimate
 
 _SUM_TOLERANCE = 1e-6
 
@@ -82,3 +85,100 @@ def _strip(
         return marks
     n = len(prefix)
     return {key[n:]: mark for key, mark in marks.items() if key[:n] == prefix}
+
+
+# --- the pose a localize run wrote beside its belief ---------------------------------------------
+
+PROMISE_CELLS = 1.5
+"""Cells: how far from its state's cell centre a pose written beside a belief may lie (the pose
+lattice's promise: :data:`beliefloc.continuous.pose_lattice.PROMISE_CELLS`)."""
+
+
+class _ReportedPose(BaseModel):
+    model_config = ConfigDict(extra="forbid", strict=True)
+
+    state: str
+    x: Annotated[float, Field(allow_inf_nan=False)]
+    y: Annotated[float, Field(allow_inf_nan=False)]
+    yaw: Annotated[float, Field(allow_inf_nan=False)]
+    covariance: Annotated[list[Annotated[float, Field(allow_inf_nan=False)]], Field(min_length=36, max_length=36)]
+    probability: Annotated[float, Field(gt=0.0, le=1.0, allow_inf_nan=False)] | None = None
+
+
+class _PoseBeside(BaseModel):
+    model_config = ConfigDict(extra="ignore")
+
+    pose: _ReportedPose | None = None
+
+
+def load_belief_pose(model: Model, path: str | Path, belief: np.ndarray) -> PoseEstimate | None:
+    """The pose ``localize --belief-out`` wrote beside the belief in ``path`` (``"pose"``: the pose
+    lattice's estimate, finer than a state's centre, and the probability it was declared at: that the
+    robot is within one cell and 3/4 of a sector of the state), checked against ``model`` and
+    ``belief`` (the file's, as :func:`load_belief` read it); None when the file has none. Refused,
+    naming the line and field: a state that is not the belief's most likely one (the belief was
+    edited, or the pose copied from another run), a pose more than :data:`PROMISE_CELLS` cells from
+    that state's centre or more than one heading sector from its heading, a probability above the
+    belief's mass in the state's place (:func:`beliefloc.pose.belief_modes`), a covariance that is
+    not symmetric or has a negative variance."""
+    from beliefloc.pose import Pose, PoseEstimate, belief_modes, state_pose
+
+    source = read_source(path, BeliefFileError)
+    data = source.data
+    if not isinstance(data, dict) or "pose" not in data:
+        return None
+    reported = validate_source(source, _PoseBeside, BeliefFileError).pose
+    if reported is None:
+        return None
+    grid = model.grid
+    if grid is None:
+        raise source.error(("pose",), f"model {model.name} has no grid, so its states have no pose", BeliefFileError)
+    try:
+        state = model.states.index(reported.state)
+    except InvalidValueError as exc:
+        raise source.error(("pose", "state"), str(exc), BeliefFileError) from None
+    likeliest = int(np.argmax(belief))
+    if state != likeliest:
+        raise source.error(
+            ("pose", "state"),
+            f"{reported.state!r} is not the belief's most likely state {model.states.name(likeliest)!r}: the pose "
+            "was written with another belief (localize --belief-out writes both; drop the pose to use the "
+            "belief alone)",
+            BeliefFileError,
+        )
+    centre = state_pose(grid, state)
+    apart = math.hypot(reported.x - centre.x, reported.y - centre.y)
+    if apart > PROMISE_CELLS * grid.cell_size + 1e-9:
+        raise source.error(
+            ("pose", "x"),
+            f"({reported.x:g}, {reported.y:g}) is {apart:.3g} m from state {reported.state}'s cell centre "
+            f"({centre.x:g}, {centre.y:g}), more than {PROMISE_CELLS} cells",
+            BeliefFileError,
+        )
+    sector = 2 * math.pi / grid.headings
+    if grid.headings > 1 and abs(math.remainder(reported.yaw - centre.yaw, 2 * math.pi)) > sector + 1e-9:
+        raise source.error(
+            ("pose", "yaw"),
+            f"{reported.yaw:g} rad is more than one heading sector from state {reported.state}'s heading "
+            f"({centre.yaw:g} rad)",
+            BeliefFileError,
+        )
+    probability = float(belief[state]) if reported.probability is None else reported.probability
+    place = next((m.probability for m in belief_modes(model, belief) if m.state == state), 0.0)
+    if probability > place + 1e-9:
+        raise source.error(
+            ("pose", "probability"),
+            f"{probability:g} is more than the belief holds around state {reported.state} ({place:.6g}, its place "
+            "within 1.5 cells): the pose was written with another belief",
+            BeliefFileError,
+        )
+    cov = np.array(reported.covariance).reshape(6, 6)
+    scale = max(1.0, float(np.abs(cov).max()))
+    if not np.allclose(cov, cov.T, rtol=0.0, atol=1e-9 * scale) or np.diag(cov).min() < 0.0:
+        raise source.error(
+            ("pose", "covariance"),
+            "not a covariance: 36 numbers row-major over (x, y, z, rot_x, rot_y, rot_z), symmetric, no negative "
+            "variance on the diagonal",
+            BeliefFileError,
+        )
+    return PoseEstimate(Pose(reported.x, reported.y, reported.yaw), tuple(reported.covariance), state, probability)
