@@ -96,7 +96,7 @@ def _with_pose(model, tmp_path: Path, **changes: object) -> Path:
     }
     pose.update(changes)
     path = tmp_path / "belief.json"
-    path.write_text(json.dumps({"belief": {"0,1,1": 0.97, "2,1,2": 0.03}, "pose": pose}, indent=2) + "\n")
+    path.write_text(json.dumps({"belief": {"0,1,1": 0.97, "2,1,2": 0.03}, "localized_pose": pose}, indent=2) + "\n")
     return path
 
 
@@ -110,25 +110,25 @@ def test_the_pose_written_beside_a_belief_is_read_back_whole(kitchen, tmp_path: 
     assert estimate.probability == 0.96
     assert (estimate.pose.x, estimate.pose.y) == pytest.approx((1.85, 2.96))
     assert estimate.covariance[1] == -0.004  # as written: `pose --format ros` makes it non-negative
-    plain = tmp_path / "plain.json"
-    plain.write_text(json.dumps({"belief": {"0,1,1": 1.0}}))
+    plain = tmp_path / "plain.json"  # track --json's output has a "pose" of its own: not this one
+    plain.write_text(json.dumps({"belief": {"0,1,1": 1.0}, "pose": {"x": 1.0}}))
     assert load_belief_pose(kitchen, plain, load_belief(kitchen, plain)[0]) is None
 
 
 @pytest.mark.parametrize(
     ("changes", "says"),
     [
-        ({"state": "2,1,2"}, r"pose\.state: '2,1,2' is not the belief's most likely state '0,1,1'"),
-        ({"state": "9,9,0"}, r"pose\.state: unknown state '9,9,0'"),
-        ({"x": 4.0}, r"pose\.x: \(4, 2\.96\) is 2\.\d+ m from state 0,1,1's cell centre"),
-        ({"yaw": 2.0}, r"pose\.yaw: 2 rad is more than one heading sector"),
-        ({"x": "1.8"}, r"pose\.x: "),
-        ({"probability": 1.5}, r"pose\.probability: "),
-        ({"probability": 0.99}, r"pose\.probability: 0\.99 is more than the belief holds around state 0,1,1"),
-        ({"covariance": [0.0] * 35}, r"pose\.covariance: "),
-        ({"covariance": [0.1] + [0.0] * 34 + [-0.1]}, r"pose\.covariance: not a covariance"),
-        ({"covariance": [0.1, 0.2] + [0.0] * 34}, r"pose\.covariance: not a covariance"),
-        ({"z": 0.0}, r"pose\.z: "),
+        ({"state": "2,1,2"}, r"localized_pose\.state: '2,1,2' is not the belief's most likely state '0,1,1'"),
+        ({"state": "9,9,0"}, r"localized_pose\.state: unknown state '9,9,0'"),
+        ({"x": 4.0}, r"localized_pose\.x: \(4, 2\.96\) is 2\.\d+ m from state 0,1,1's cell centre"),
+        ({"yaw": 2.0}, r"localized_pose\.yaw: 2 rad is more than one heading sector"),
+        ({"x": "1.8"}, r"localized_pose\.x: "),
+        ({"probability": 1.5}, r"localized_pose\.probability: "),
+        ({"probability": 0.99}, r"localized_pose\.probability: 0\.99 is more than the belief holds around state 0,1,1"),
+        ({"covariance": [0.0] * 35}, r"localized_pose\.covariance: "),
+        ({"covariance": [0.1] + [0.0] * 34 + [-0.1]}, r"localized_pose\.covariance: not a covariance"),
+        ({"covariance": [0.1, 0.2] + [0.0] * 34}, r"localized_pose\.covariance: not a covariance"),
+        ({"z": 0.0}, r"localized_pose\.z: "),
     ],
 )
 def test_a_pose_that_does_not_fit_its_belief_is_refused_naming_the_line(

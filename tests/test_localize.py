@@ -760,7 +760,11 @@ def test_a_lattice_run_s_pose_travels_with_its_belief_file_to_amcl(tmp_path: Pat
     result = run["messages"][-1]
     assert result["status"] == "localized"
     written = json.loads(belief.read_text())
-    assert written["pose"] == {"state": result["state"], "probability": result["probability"], **result["pose"]}
+    assert written["localized_pose"] == {
+        "state": result["state"],
+        "probability": result["probability"],
+        **result["pose"],
+    }
     shown = _beliefloc("pose", depot, "--belief", str(belief))
     assert shown.returncode == 0, shown.stderr
     pose = json.loads(shown.stdout)

@@ -331,13 +331,14 @@ def localize(
 
 def _write_belief(path: Path, model: Model, belief: np.ndarray, estimate: PoseEstimate | None) -> None:
     """The final belief as a belief file, written whole or not at all; with the pose lattice's
-    estimate beside it (``"pose"``: ``beliefloc pose --belief`` reports it instead of the state's centre)."""
+    estimate beside it (``"localized_pose"``: ``beliefloc pose --belief`` reports it instead of the state's centre)."""
     from beliefloc.belief import by_state_name
+    from beliefloc.files.belief_file import POSE_KEY
     from beliefloc.source.atomic_write import write_atomically
 
     content: dict[str, object] = {"belief": by_state_name(model, belief)}
     if estimate is not None:
-        content["pose"] = {
+        content[POSE_KEY] = {
             "state": model.states.name(estimate.state),
             "probability": estimate.probability,
             **estimate.as_json(),

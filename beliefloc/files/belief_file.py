@@ -89,6 +89,9 @@ def _strip(
 
 # --- the pose a localize run wrote beside its belief ---------------------------------------------
 
+POSE_KEY = "localized_pose"
+"""The key of the pose ``localize --belief-out`` writes beside the belief (``track``'s output has a
+``"pose"`` of its own, read by nobody here)."""
 PROMISE_CELLS = 1.5
 """Cells: how far from its state's cell centre a pose written beside a belief may lie (the pose
 lattice's promise: :data:`beliefloc.continuous.pose_lattice.PROMISE_CELLS`)."""
@@ -108,13 +111,13 @@ class _ReportedPose(BaseModel):
 class _PoseBeside(BaseModel):
     model_config = ConfigDict(extra="ignore")
 
-    pose: _ReportedPose | None = None
+    localized_pose: _ReportedPose | None = None
 
 
 def load_belief_pose(model: Model, path: str | Path, belief: np.ndarray) -> PoseEstimate | None:
-    """The pose ``localize --belief-out`` wrote beside the belief in ``path`` (``"pose"``: the pose
-    lattice's estimate, finer than a state's centre, and the probability it was declared at: that the
-    robot is within one cell and 3/4 of a sector of the state), checked against ``model`` and
+    """The pose ``localize --belief-out`` wrote beside the belief in ``path`` (under :data:`POSE_KEY`:
+    the pose lattice's estimate, finer than a state's centre, and the probability it was declared at:
+    that the robot is within one cell and 3/4 of a sector of the state), checked against ``model`` and
     ``belief`` (the file's, as :func:`load_belief` read it); None when the file has none. Refused,
     naming the line and field: a state that is not the belief's most likely one (the belief was
     edited, or the pose copied from another run), a pose more than :data:`PROMISE_CELLS` cells from
@@ -125,22 +128,22 @@ def load_belief_pose(model: Model, path: str | Path, belief: np.ndarray) -> Pose
 
     source = read_source(path, BeliefFileError)
     data = source.data
-    if not isinstance(data, dict) or "pose" not in data:
+    if not isinstance(data, dict) or POSE_KEY not in data:
         return None
-    reported = validate_source(source, _PoseBeside, BeliefFileError).pose
+    reported = validate_source(source, _PoseBeside, BeliefFileError).localized_pose
     if reported is None:
         return None
     grid = model.grid
     if grid is None:
-        raise source.error(("pose",), f"model {model.name} has no grid, so its states have no pose", BeliefFileError)
+        raise source.error((POSE_KEY,), f"model {model.name} has no grid, so its states have no pose", BeliefFileError)
     try:
         state = model.states.index(reported.state)
     except InvalidValueError as exc:
-        raise source.error(("pose", "state"), str(exc), BeliefFileError) from None
+        raise source.error((POSE_KEY, "state"), str(exc), BeliefFileError) from None
     likeliest = int(np.argmax(belief))
     if state != likeliest:
         raise source.error(
-            ("pose", "state"),
+            (POSE_KEY, "state"),
             f"{reported.state!r} is not the belief's most likely state {model.states.name(likeliest)!r}: the pose "
             "was written with another belief (localize --belief-out writes both; drop the pose to use the "
             "belief alone)",
@@ -150,7 +153,7 @@ def load_belief_pose(model: Model, path: str | Path, belief: np.ndarray) -> Pose
     apart = math.hypot(reported.x - centre.x, reported.y - centre.y)
     if apart > PROMISE_CELLS * grid.cell_size + 1e-9:
         raise source.error(
-            ("pose", "x"),
+            (POSE_KEY, "x"),
             f"({reported.x:g}, {reported.y:g}) is {apart:.3g} m from state {reported.state}'s cell centre "
             f"({centre.x:g}, {centre.y:g}), more than {PROMISE_CELLS} cells",
             BeliefFileError,
@@ -158,7 +161,7 @@ def load_belief_pose(model: Model, path: str | Path, belief: np.ndarray) -> Pose
     sector = 2 * math.pi / grid.headings
     if grid.headings > 1 and abs(math.remainder(reported.yaw - centre.yaw, 2 * math.pi)) > sector + 1e-9:
         raise source.error(
-            ("pose", "yaw"),
+            (POSE_KEY, "yaw"),
             f"{reported.yaw:g} rad is more than one heading sector from state {reported.state}'s heading "
             f"({centre.yaw:g} rad)",
             BeliefFileError,
@@ -167,7 +170,7 @@ def load_belief_pose(model: Model, path: str | Path, belief: np.ndarray) -> Pose
     place = next((m.probability for m in belief_modes(model, belief) if m.state == state), 0.0)
     if probability > place + 1e-9:
         raise source.error(
-            ("pose", "probability"),
+            (POSE_KEY, "probability"),
             f"{probability:g} is more than the belief holds around state {reported.state} ({place:.6g}, its place "
             "within 1.5 cells): the pose was written with another belief",
             BeliefFileError,
@@ -176,7 +179,7 @@ def load_belief_pose(model: Model, path: str | Path, belief: np.ndarray) -> Pose
     scale = max(1.0, float(np.abs(cov).max()))
     if not np.allclose(cov, cov.T, rtol=0.0, atol=1e-9 * scale) or np.diag(cov).min() < 0.0:
         raise source.error(
-            ("pose", "covariance"),
+            (POSE_KEY, "covariance"),
             "not a covariance: 36 numbers row-major over (x, y, z, rot_x, rot_y, rot_z), symmetric, no negative "
             "variance on the diagonal",
             BeliefFileError,
