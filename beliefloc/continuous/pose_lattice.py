@@ -1012,11 +1012,7 @@ class LatticeFilter:
             )
             return out
 
-        def centre(s: int) -> tuple[float, float, float]:
-            s_row, s_col, s_heading = (int(v) for v in layout.cell_heading(s))
-            yaw = float(lattice.yaws()[s_heading * lattice.m])
-            return (s_col + 0.5) * cell, (layout.rows - s_row - 0.5) * cell, yaw
-
+        centre = self._centre
         around = box * within(*centre(mode), PROMISE_CELLS, PROMISE_SECTORS)
         total = float(around.sum())
         if not total > 0:
@@ -1038,6 +1034,13 @@ class LatticeFilter:
         )
         return state, min(1.0, float((box * reach).sum()))
 
+    def _centre(self, state: int) -> tuple[float, float, float]:
+        """``state``'s cell centre and heading yaw in the grid frame (the lattice yaw at its sector's middle)."""
+        layout = self.lattice.layout
+        row, col, heading = (int(v) for v in layout.cell_heading(state))
+        yaw = float(self.lattice.yaws()[heading * self.lattice.m])
+        return (col + 0.5) * layout.cell_size, (layout.rows - row - 0.5) * layout.cell_size, yaw
+
     def pose_estimate(self, state: int) -> tuple[tuple[float, float, float], np.ndarray]:
         """Where the robot is, finer than ``state``'s cell centre and heading: the mean position and
         circular-mean yaw of the mass within ``state``'s promise (:data:`PROMISE_CELLS`,
@@ -1055,15 +1058,13 @@ class LatticeFilter:
         poses = lattice.pose_array
         weight = self.fine / self.fine.sum()
         turning = layout.headings > 1
-        row, col, heading = (int(v) for v in layout.cell_heading(state))
         cell, sector = layout.cell_size, 2 * math.pi / layout.headings
-        cx, cy = (col + 0.5) * cell, (layout.rows - row - 0.5) * cell
+        cx, cy, heading_yaw = self._centre(state)
         place = np.hypot(poses[:, 0] - cx, poses[:, 1] - cy) <= PROMISE_CELLS * cell + 1e-9
         if turning:
-            heading_yaw = float(grid_yaws(layout.headings)[heading])
             place &= np.abs(wrap_angle(poses[:, 2] - heading_yaw)) <= PROMISE_SECTORS * sector + 1e-9
         held = weight * place
-        yaw = float(grid_yaws(layout.headings)[heading]) if turning else 0.0
+        yaw = heading_yaw if turning else 0.0
         x, y = cx, cy  # nothing within the promise: the state's own pose
         if held.sum() > 0:
             x, y = (float(held @ poses[:, i]) / float(held.sum()) for i in (0, 1))

@@ -448,7 +448,6 @@ def localize(
         if on_step is not None:
             on_step(LocalizeStep(command, observation, probability, belief, tracker.peak()))
     declared_state, declared_probability = tracker.declared()
-    localized = status is EpisodeStatus.LOCALIZED and model.grid is not None
     return Localization(
         status,
         belief,
@@ -461,7 +460,9 @@ def localize(
         recovered,
         peak=declared_probability,
         state=declared_state,
-        estimate=tracker.pose_estimate(declared_state, declared_probability) if localized else None,
+        estimate=tracker.pose_estimate(declared_state, declared_probability)
+        if status is EpisodeStatus.LOCALIZED
+        else None,
     )
 
 
