@@ -4,7 +4,8 @@ confident wrong answers.
 Each episode is ``simulate --continuous``'s (:mod:`beliefloc.simulation.continuous_episode`): a true
 pose uniform over the continuous free space (where the robot's disc fits) with a uniform yaw; motion
 noise 5 % of the distance and 2° per turn, range noise 2 cm; optional clutter (a share of beams
-reading a random range). The robot answers through
+reading a random range) and unmapped obstacles (``--obstacles N``: discs of 0.1-0.3 m, people or boxes,
+placed afresh each episode; rays and the robot stop on them). The robot answers through
 :class:`beliefloc.robots.continuous_robot.ContinuousReadingRobot` -- the robot interface of the line
 protocol -- with odometry and the blocked flag (``--protocol-1``: readings only), and the episode is
 ``localize``'s loop with the strategy named. The record of each episode: status, steps, cost, the true
@@ -107,6 +108,7 @@ def run_map(
             lattice=args.filter == "lattice",
             full_scans=args.full_scans,
             mean_reach=args.mean_reach,
+            obstacles=args.obstacles,
         )
         for strategy in strategies:
             try:  # ec2-macros builds its macro table first: a region model on an occupancy map has none
@@ -133,6 +135,7 @@ def run_map(
                     "map": name,
                     "strategy": strategy,
                     "clutter": clutter,
+                    **({"obstacles": args.obstacles} if args.obstacles else {}),
                     "episode": e,
                     "status": record.status.value,
                     "localized": record.status.value == "localized",
@@ -151,7 +154,8 @@ def run_map(
                 if args.verbose and row["confidently_wrong"]:
                     print(f"  WRONG: episode {e}: {json.dumps(row)}", flush=True)
             if mine:
-                report(f"{name} {strategy} clutter {clutter:g}", mine)
+                obstacles = f" obstacles {args.obstacles}" if args.obstacles else ""
+                report(f"{name} {strategy} clutter {clutter:g}{obstacles}", mine)
             rows.extend(mine)
     return rows
 
@@ -178,6 +182,7 @@ def replay(path: Path, episode: int, args: argparse.Namespace) -> int:
         lattice=args.filter == "lattice",
         full_scans=args.full_scans,
         mean_reach=args.mean_reach,
+        obstacles=int(row.get("obstacles", 0)),  # type: ignore[call-overload]
     )
     grid = model.grid
     assert grid is not None
@@ -227,7 +232,8 @@ def _raw(readings: dict[str, object]) -> str:
 
 
 def records_file(args: argparse.Namespace, name: str, strategy: str, clutter: float) -> Path:
-    return Path(args.records) / f"{name}-{strategy}-c{clutter:g}.jsonl"
+    obstacles = f"-o{args.obstacles}" if args.obstacles else ""
+    return Path(args.records) / f"{name}-{strategy}-c{clutter:g}{obstacles}.jsonl"
 
 
 def done(args: argparse.Namespace, name: str, strategy: str, clutter: float) -> set[int]:
@@ -238,7 +244,8 @@ def done(args: argparse.Namespace, name: str, strategy: str, clutter: float) -> 
 
 
 def read_records(paths: list[Path]) -> list[dict[str, object]]:
-    """Every episode record in the JSON-lines files, the last one of each (map, strategy, clutter, episode)."""
+    """Every episode record in the JSON-lines files, the last one of each (map, strategy, clutter, obstacles,
+    episode)."""
     latest: dict[tuple[object, ...], dict[str, object]] = {}
     for path in paths:
         for line in path.read_text(encoding="utf-8").splitlines():
@@ -247,20 +254,22 @@ def read_records(paths: list[Path]) -> list[dict[str, object]]:
                     r = json.loads(line)
                 except json.JSONDecodeError:
                     continue
-                latest[(r["map"], r["strategy"], r["clutter"], r["episode"])] = r
+                latest[(r["map"], r["strategy"], r["clutter"], r.get("obstacles", 0), r["episode"])] = r
     return list(latest.values())
 
 
 def pool(paths: list[Path]) -> int:
     records = read_records(paths)
-    cells: dict[tuple[str, str, float], list[dict[str, object]]] = {}
+    cells: dict[tuple[str, str, float, int], list[dict[str, object]]] = {}
     for r in records:
-        cells.setdefault((str(r["map"]), str(r["strategy"]), float(r["clutter"])), []).append(r)  # type: ignore[arg-type]
-    for (name, strategy, clutter), rows in sorted(cells.items()):
+        cell = (str(r["map"]), str(r["strategy"]), float(r["clutter"]), int(r.get("obstacles", 0)))  # type: ignore[arg-type, call-overload]
+        cells.setdefault(cell, []).append(r)
+    for (name, strategy, clutter, obstacles), rows in sorted(cells.items()):
         numbers = sorted(int(r["episode"]) for r in rows)  # type: ignore[call-overload]
         commits = sorted({str(r.get("commit", "?")) for r in rows})
-        print(f"{name} {strategy} clutter {clutter:g}: episodes {ranges(numbers)}, commits {', '.join(commits)}")
-        report(f"{name} {strategy} clutter {clutter:g}", rows)
+        label = f"{name} {strategy} clutter {clutter:g}" + (f" obstacles {obstacles}" if obstacles else "")
+        print(f"{label}: episodes {ranges(numbers)}, commits {', '.join(commits)}")
+        report(label, rows)
     report("every record", records)
     return 0
 
@@ -345,6 +354,9 @@ def main(argv: list[str] | None = None) -> int:
         "--filter", choices=["lattice", "states"], default="lattice", help="localize's belief: pose lattice or states"
     )
     parser.add_argument("--full-scans", type=int, default=0, help="scans answered whole, with this many beams")
+    parser.add_argument(
+        "--obstacles", type=int, default=0, help="unmapped discs (people, boxes) placed afresh each episode"
+    )
     parser.add_argument(
         "--mean-reach", action="store_true", help="the lattice filter declares by the mean pose's reach too"
     )

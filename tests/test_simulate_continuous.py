@@ -13,6 +13,7 @@ from beliefloc import compile_model, load_map
 from beliefloc.belief import uniform
 from beliefloc.cli.app import app
 from beliefloc.continuous.likelihood_field import Scan
+from beliefloc.errors import InvalidValueError
 from beliefloc.model import Model
 from beliefloc.robots.localize import Command, Places, SimulatedReadingRobot, localize, moved
 from beliefloc.robots.odometry import MotionReport
@@ -247,6 +248,9 @@ def test_simulate_continuous_full_scans_answers_whole_scans_scored_at_every_latt
         (["--continuous", "--world", KITCHEN], "--world"),
         (["--continuous", "--start", "1,1,0"], "--start"),
         (["--continuous", "--clutter", "1.5"], "--clutter"),
+        (["--obstacles", "3"], "--continuous"),
+        (["--continuous", "--obstacles", "-1"], "--obstacles"),
+        (["--continuous", "--obstacles", "1001"], "--obstacles"),
     ],
 )
 def test_continuous_options_out_of_place_are_refused(runner, extra: list[str], says: str) -> None:
@@ -261,6 +265,53 @@ def test_full_scans_on_a_map_without_a_scan_sensor_is_refused(runner) -> None:
     )
     assert result.exit_code == 2 and "--full-scans" in result.stderr and "no scan sensor" in result.stderr
     assert "Traceback" not in result.output
+
+
+def test_unmapped_obstacles_stop_rays_and_the_robot_and_leave_the_start_alone() -> None:
+    """``obstacles``: discs the map does not show, drawn afresh for each episode from its own generator,
+    away from the start; the start itself is the episode's start without them (paired episodes)."""
+    from beliefloc.continuous.raycast import cast_rays
+
+    smap = load_map(MAPS / "tb3-sandbox.yaml")
+    model = compile_model(smap)
+    plain, cluttered = ContinuousSetup(smap), ContinuousSetup(smap, obstacles=6)
+    stopped = 0
+    for episode in range(3):
+        robot, _, _ = cluttered.robot(model, 5, episode)
+        world = robot.world
+        discs = world.clutter_discs.copy()
+        assert discs.shape == (6, 3)
+        assert np.all((discs[:, 2] >= 0.1) & (discs[:, 2] <= 0.3))
+        x, y = float(robot.pose[0]), float(robot.pose[1])
+        assert np.all(np.hypot(discs[:, 0] - x, discs[:, 1] - y) >= 0.5)
+        alone, _, _ = plain.robot(model, 5, episode)
+        assert np.array_equal(alone.pose, robot.pose) and len(alone.world.clutter_discs) == 0
+        pixel = world.image.resolution
+        for dx, dy, radius in discs:
+            # the robot cannot stand on one, and a ray from beside it stops at its edge (or nearer)
+            assert not world.can_stand(np.array([dx]), np.array([dy]))[0]
+            hit = float(cast_rays(world.image, dx - radius - 0.3, dy, 0.0, 5.0))
+            assert hit <= 0.3 + 2 * pixel
+            alone_disc = np.sum(np.hypot(discs[:, 0] - dx, discs[:, 1] - dy) < discs[:, 2] + radius + 0.7) == 1
+            if alone_disc and float(cast_rays(alone.world.image, dx - radius - 0.3, dy, 0.0, 5.0)) > 0.3 + 4 * pixel:
+                assert hit >= 0.3 - 2 * pixel  # the map has nothing there: the disc stopped it
+                stopped += 1
+        again, _, _ = cluttered.robot(model, 5, episode)
+        assert np.array_equal(again.world.clutter_discs, discs)
+    assert stopped >= 3
+    with pytest.raises(InvalidValueError, match="obstacles"):
+        ContinuousSetup(smap, obstacles=-1)
+
+
+@pytest.mark.slow
+def test_simulate_continuous_with_unmapped_obstacles_on_the_command_line(runner, tmp_path: Path) -> None:
+    out = tmp_path / "k.jsonl"
+    args = ["simulate", KITCHEN, "-n", "1", "--continuous", "--obstacles", "4", "--max-steps", "5", "--no-timings"]
+    result = runner.invoke(app, [*args, "--json", "--out", str(out)])
+    assert result.exit_code in (0, 1), result.output
+    (episode,) = json.loads(result.stdout)["episodes"]
+    assert "true_pose" in episode["continuous"]
+    assert json.loads(out.read_text().splitlines()[0])["settings"]["continuous"] == {"clutter": 0.0, "obstacles": 4}
 
 
 # --- one reading per place (localize) ------------------------------------------------------------

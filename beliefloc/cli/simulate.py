@@ -60,7 +60,7 @@ from beliefloc.planning.settings import (
     Planner,
 )
 from beliefloc.render import stderr_console, stdout_console
-from beliefloc.simulation.settings import DEFAULT_MAX_STEPS, StrategyName
+from beliefloc.simulation.settings import DEFAULT_MAX_STEPS, MAX_OBSTACLES, StrategyName
 
 if TYPE_CHECKING:
     import numpy as np
@@ -165,6 +165,17 @@ def simulate(
             help="With --continuous: the share of Scan beams that read a random range (unmapped obstacles).",
         ),
     ] = 0.0,
+    obstacles: Annotated[
+        int,
+        typer.Option(
+            "--obstacles",
+            parser=whole(low=0, high=MAX_OBSTACLES),
+            metavar="N",
+            help="With --continuous: N unmapped obstacles, discs of 0.1-0.3 m radius (people, boxes) placed "
+            "anywhere in free space afresh each episode, away from the start; they stop rays and the robot.",
+            show_default=False,
+        ),
+    ] = 0,
     full_scans: Annotated[
         int,
         typer.Option(
@@ -254,10 +265,10 @@ def simulate(
     _check_in_process(show, record, resume, workers, scheduler)
     check_sweep_options(workers, scheduler, out_file, resume, tuple(inputs))
     recording = _recording(record, record_episode, record_frames, episodes, inputs)
-    _check_continuous(continuous, clutter, world, start, full_scans)
+    _check_continuous(continuous, clutter, world, start, full_scans, obstacles)
     wants_map = recording is not None or continuous
     model, smap = open_with_map(map_file) if wants_map else (open_model(map_file), None)
-    robot = _continuous_robot(map_file, model, smap, clutter, full_scans) if continuous else None
+    robot = _continuous_robot(map_file, model, smap, clutter, full_scans, obstacles) if continuous else None
     start_belief = initial_belief(model, belief, smap)
     refuse_unreachable(model, start_belief, threshold, json_output)
     start_state = None if start in ("random", "prior") else model.states.index(start)
@@ -353,7 +364,7 @@ def simulate(
             "simulate",
             "episode",
             episodes,
-            _settings(map_file, world, macros, belief, start, sweep, continuous, clutter, full_scans),
+            _settings(map_file, world, macros, belief, start, sweep, continuous, clutter, full_scans, obstacles),
         ),
         serial_start=((lambda: sweep.runner(on_step=on_any_step, on_episode=on_episode)) if hooked else None),
         progress=not show,
@@ -422,10 +433,11 @@ def _settings(
     continuous: bool = False,
     clutter: float = 0.0,
     full_scans: int = 0,
+    obstacles: int = 0,
 ) -> dict[str, object]:
     """What decides a run's results, for the header of its --out file: the inputs (and their bytes'
     digests), the strategies and every planner setting (and, for a continuous robot only, its
-    clutter and whole scans: the header of a grid run is as before)."""
+    clutter, whole scans and unmapped obstacles: the header of a grid run is as before)."""
     from beliefloc.files.results_file import digest
 
     settings = sweep.settings
@@ -449,20 +461,30 @@ def _settings(
         "max_steps": sweep.max_steps,
         "timings": sweep.timings,
         **(
-            {"continuous": {"clutter": clutter, **({"full_scans": full_scans} if full_scans else {})}}
+            {
+                "continuous": {
+                    "clutter": clutter,
+                    **({"full_scans": full_scans} if full_scans else {}),
+                    **({"obstacles": obstacles} if obstacles else {}),
+                }
+            }
             if continuous
             else {}
         ),
     }
 
 
-def _check_continuous(continuous: bool, clutter: float, world: Path | None, start: str, full_scans: int = 0) -> None:
-    """--continuous's company: its own robot and starts; --clutter and --full-scans only with it."""
+def _check_continuous(
+    continuous: bool, clutter: float, world: Path | None, start: str, full_scans: int = 0, obstacles: int = 0
+) -> None:
+    """--continuous's company: its own robot and starts; --clutter, --full-scans and --obstacles only with it."""
     if not continuous:
         if clutter:
             raise UsageError(f"--clutter {clutter:g}: is for the continuous robot; add --continuous")
         if full_scans:
             raise UsageError(f"--full-scans {full_scans}: is for the continuous robot; add --continuous")
+        if obstacles:
+            raise UsageError(f"--obstacles {obstacles}: is for the continuous robot; add --continuous")
         return
     if world is not None:
         raise UsageError(f"--world {world}: --continuous simulates its own robot on the map; leave out one of them")
@@ -473,7 +495,7 @@ def _check_continuous(continuous: bool, clutter: float, world: Path | None, star
 
 
 def _continuous_robot(
-    map_file: Path, model: Model, smap: SemanticMap | None, clutter: float, full_scans: int = 0
+    map_file: Path, model: Model, smap: SemanticMap | None, clutter: float, full_scans: int = 0, obstacles: int = 0
 ) -> ContinuousSetup:
     from beliefloc.simulation.continuous_episode import ContinuousSetup
 
@@ -481,7 +503,7 @@ def _continuous_robot(
         raise UsageError(f"--continuous: {map_file} is a model without its map; give the map file (.yaml)")
     if full_scans and not any(sensor.type == "scan" for sensor in smap.sensors.values()):
         raise UsageError(f"--full-scans {full_scans}: {map_file} has no scan sensor to answer with whole scans")
-    return ContinuousSetup(smap, clutter=clutter, full_scans=full_scans)
+    return ContinuousSetup(smap, clutter=clutter, full_scans=full_scans, obstacles=obstacles)
 
 
 def _continuous_line(records: list[EpisodeRecord]) -> str:

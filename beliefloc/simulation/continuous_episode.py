@@ -41,7 +41,7 @@ from beliefloc.semantic_map import regions
 from beliefloc.semantic_map.lattice_sensors import robot_radius
 from beliefloc.semantic_map.schema import SemanticMap
 from beliefloc.simulation.episode import ContinuousOutcome, EpisodeRecord, OnStep, StepRecord, episode_rngs
-from beliefloc.simulation.settings import StrategyName
+from beliefloc.simulation.settings import MAX_OBSTACLES, StrategyName
 from beliefloc.simulation.strategies import EpisodeStatus, PlannerSettings, SharedWork, Strategy, make_strategy
 
 WRONG_CELLS = 1.5
@@ -61,6 +61,10 @@ class ContinuousSetup:
     smap: SemanticMap
     clutter: float = 0.0
     """Share of Scan beams that read a uniformly random range instead of the true one."""
+    obstacles: int = 0
+    """Unmapped obstacles: discs of 0.1-0.3 m radius (people, boxes, a chair) placed anywhere in free space
+    afresh each episode, their centres at least half a metre from the start; rays stop on them and so does the
+    robot, and the map does not show them."""
     translation_noise: float = 0.05
     """Standard deviation of a move's length error, relative (0.05: 5 % of the distance)."""
     turn_noise: float = math.radians(2.0)
@@ -92,6 +96,9 @@ class ContinuousSetup:
             value = getattr(self, name)
             if not (math.isfinite(value) and 0.0 <= value <= 1.0):
                 raise InvalidValueError(f"{name}: {value!r} is not a number from 0 to 1")
+        whole = isinstance(self.obstacles, int) and not isinstance(self.obstacles, bool)
+        if not (whole and 0 <= self.obstacles <= MAX_OBSTACLES):
+            raise InvalidValueError(f"obstacles: {self.obstacles!r} is not a whole number from 0 to {MAX_OBSTACLES}")
         if self.smap.grid is None:
             raise InvalidValueError(f"map {self.smap.name!r}: a continuous robot needs a map with a grid")
 
@@ -110,7 +117,7 @@ class ContinuousSetup:
             motion_error=MotionError(
                 translation=self.translation_noise, rotation=0.0, per_turn=self.turn_noise, per_metre=0.0
             ),
-            clutter=Clutter(spurious=self.clutter),
+            clutter=Clutter(count=self.obstacles, spurious=self.clutter),
             robot_radius=robot_radius(self.smap),
         )
 
@@ -148,7 +155,10 @@ class ContinuousSetup:
         an episode's actions replayed (``benchmarks/bench_offgrid.py --replay``) give its readings again."""
         start_rng, world_rng, strategy_rng = episode_rngs(seed, episode)
         start = self.world(start_rng).random_poses(1)[0]
-        robot = ContinuousRobot(self.world(world_rng), start)
+        world = self.world(world_rng)
+        if self.obstacles:  # this episode's own, drawn before the robot's noise (none drawn without them)
+            world.place_clutter(keep_clear=[(float(start[0]), float(start[1]))])
+        robot = ContinuousRobot(world, start)
         reading = ContinuousReadingRobot(
             robot,
             self.smap,

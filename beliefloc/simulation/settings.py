@@ -24,6 +24,9 @@ class SeenModel(str, enum.Enum):
     STATES = "states"
 
 
+MAX_OBSTACLES = 1000
+"""A continuous robot's world holds at most this many unmapped obstacles (each a disc drawn into its image)."""
+
 DEFAULT_MAX_STEPS = 200
 """An episode stops after this many actions."""
 
