@@ -260,7 +260,9 @@ def localize(
     is declared only if the belief still holds the threshold (and the declaration check passes)
     after it. One reading that only a wrong state explains -- an off-grid pose read as another
     cell's, a landmark where the map has none -- lifts a belief over the threshold; a second one,
-    from another place, rarely agrees with the same wrong state.
+    from another place, rarely agrees with the same wrong state. Nor is a belief declared while the
+    last readings fit it poorly (:attr:`~beliefloc.robots.surprise.SurpriseCheck.confident`): the robot
+    moves and reads on until they fit again.
 
     **The belief** between actions is ``belief_filter``'s (:mod:`beliefloc.robots.belief_filter`):
     None is the model's own (``T_a`` and ``O_a`` over its states); a
@@ -305,9 +307,14 @@ def localize(
     def at_threshold() -> bool:
         return tracker.peak() >= settings.threshold and tracker.elsewhere() <= risk
 
-    while not (at_threshold() and declaration.explains(tracker.peak()) and confirmed):
+    while not (at_threshold() and declaration.explains(tracker.peak()) and confirmed and check.confident):
         if steps >= max_steps:
             status, reason = EpisodeStatus.STEP_LIMIT, f"{steps} actions done, the most allowed"
+            if at_threshold() and confirmed and not check.confident:
+                reason += (
+                    f"; the belief held the threshold, but the last readings fit it too poorly to declare it "
+                    f"(confidence {check.confidence:.2f}, below {check.declare_at:g})"
+                )
             break
         read_here = places.here()
         untried = [m for m in moves if m.name not in read_here]
