@@ -198,3 +198,47 @@ def test_rays_cast_in_parts_on_threads_read_the_same_bits(monkeypatch: pytest.Mo
                 parts = raycast.cast_rays_within(image, x, y, angles, reach)
             assert parts.tobytes() == alone.tobytes()
     assert np.isfinite(alone).sum() > n // 10
+
+
+# --- discs met exactly ----------------------------------------------------------------------------
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    count=st.integers(1, 5),
+)
+def test_a_ray_meets_a_disc_where_marching_along_it_first_enters_one(seed: int, count: int) -> None:
+    """:func:`raycast.ray_disc_distances` against a plain march along each ray in steps of 1 mm."""
+    rng = np.random.default_rng(seed)
+    discs = np.column_stack([rng.uniform(-3, 3, count), rng.uniform(-3, 3, count), rng.uniform(0.05, 0.5, count)])
+    x, y, angle = rng.uniform(-4, 4, 20), rng.uniform(-4, 4, 20), rng.uniform(-math.pi, math.pi, 20)
+    got = raycast.ray_disc_distances(x, y, angle, discs, 6.0)
+    t = np.arange(0.0, 6.0, 1e-3)
+    px = x[:, None, None] + t[None, :, None] * np.cos(angle)[:, None, None]
+    py = y[:, None, None] + t[None, :, None] * np.sin(angle)[:, None, None]
+    inside = (np.hypot(px - discs[:, 0], py - discs[:, 1]) <= discs[:, 2]).any(axis=2)
+    for i in range(len(x)):
+        hits = np.flatnonzero(inside[i])
+        if hits.size:
+            assert got[i] == pytest.approx(t[hits[0]], abs=1.5e-3)
+        else:
+            assert got[i] == math.inf or got[i] > 6.0 - 1e-3
+
+
+def test_a_small_disc_on_a_hand_drawn_grid_blocks_itself_not_its_cell() -> None:
+    """A hand-drawn grid's world has one pixel a cell (the hallway's 1.5 m): a disc of 0.19 m drawn into
+    that image blocked its whole cell and cut the hallway in two (a confident mirror answer followed).
+    Rays meet the disc itself."""
+    from beliefloc import load_map
+    from beliefloc.continuous.world import WorldConfig
+    from beliefloc.simulation.continuous_episode import world_of
+
+    from .conftest import MAPS
+
+    world = world_of(load_map(MAPS / "hallway.yaml"), WorldConfig(), np.random.default_rng(0))
+    world.clutter_discs = np.array([[3.66, 0.6, 0.19]])
+    # along the hallway, past the disc: the east end wall, 6 m from the west end
+    assert float(world.cast(2.78, 1.14, 0.0, 12.0)) == pytest.approx(6.0 - 2.78, abs=1e-9)
+    # straight at it: its edge
+    assert float(world.cast(2.78, 0.6, 0.0, 12.0)) == pytest.approx(3.66 - 0.19 - 2.78, abs=1e-9)

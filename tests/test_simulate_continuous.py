@@ -270,8 +270,6 @@ def test_full_scans_on_a_map_without_a_scan_sensor_is_refused(runner) -> None:
 def test_unmapped_obstacles_stop_rays_and_the_robot_and_leave_the_start_alone() -> None:
     """``obstacles``: discs the map does not show, drawn afresh for each episode from its own generator,
     away from the start; the start itself is the episode's start without them (paired episodes)."""
-    from beliefloc.continuous.raycast import cast_rays
-
     smap = load_map(MAPS / "tb3-sandbox.yaml")
     model = compile_model(smap)
     plain, cluttered = ContinuousSetup(smap), ContinuousSetup(smap, obstacles=6)
@@ -286,15 +284,14 @@ def test_unmapped_obstacles_stop_rays_and_the_robot_and_leave_the_start_alone() 
         assert np.all(np.hypot(discs[:, 0] - x, discs[:, 1] - y) >= 0.5)
         alone, _, _ = plain.robot(model, 5, episode)
         assert np.array_equal(alone.pose, robot.pose) and len(alone.world.clutter_discs) == 0
-        pixel = world.image.resolution
         for dx, dy, radius in discs:
             # the robot cannot stand on one, and a ray from beside it stops at its edge (or nearer)
             assert not world.can_stand(np.array([dx]), np.array([dy]))[0]
-            hit = float(cast_rays(world.image, dx - radius - 0.3, dy, 0.0, 5.0))
-            assert hit <= 0.3 + 2 * pixel
+            hit = float(world.cast(dx - radius - 0.3, dy, 0.0, 5.0))
+            assert hit <= 0.3 + 1e-9
             alone_disc = np.sum(np.hypot(discs[:, 0] - dx, discs[:, 1] - dy) < discs[:, 2] + radius + 0.7) == 1
-            if alone_disc and float(cast_rays(alone.world.image, dx - radius - 0.3, dy, 0.0, 5.0)) > 0.3 + 4 * pixel:
-                assert hit >= 0.3 - 2 * pixel  # the map has nothing there: the disc stopped it
+            if alone_disc and float(alone.world.cast(dx - radius - 0.3, dy, 0.0, 5.0)) > 0.3:
+                assert hit == pytest.approx(0.3, abs=1e-9)  # the map has nothing there: the disc stopped it
                 stopped += 1
         again, _, _ = cluttered.robot(model, 5, episode)
         assert np.array_equal(again.world.clutter_discs, discs)

@@ -29,7 +29,7 @@ from scipy import ndimage
 
 from beliefloc.continuous.image import OccupancyImage
 from beliefloc.continuous.motion import compose, relative
-from beliefloc.continuous.raycast import cast_rays
+from beliefloc.continuous.raycast import cast_rays, ray_disc_distances
 from beliefloc.model import wrap_angle
 from beliefloc.semantic_map.occupancy_map import Occupancy, OccupancyMap
 
@@ -190,13 +190,13 @@ class ContinuousWorld:
         self.clutter_discs = np.zeros((0, 3))
         """``(x, y, radius)`` of each clutter disc, map frame."""
         self.image = occupied
+        """What rays stop on besides the clutter discs (:meth:`cast`): the map's occupied and unknown pixels."""
 
     def place_clutter(self, keep_clear: Sequence[tuple[float, float]] = ()) -> None:
         """Draw :attr:`WorldConfig.clutter` discs in free space (not within ``keep_clear`` metres of
-        the given points) and add them to the obstacles rays hit. Replaces earlier clutter."""
+        the given points) and add them to the obstacles rays (:meth:`cast`) and the robot
+        (:meth:`can_stand`) meet. Replaces earlier clutter."""
         spec = self.config.clutter
-        image = self.map_image
-        blocked = np.array(image.blocked)
         discs: list[tuple[float, float, float]] = []
         if spec.count:
             centres = self.random_poses(spec.count * 4)
@@ -207,12 +207,18 @@ class ContinuousWorld:
                     continue
                 discs.append((x, y, float(self.rng.uniform(*spec.radius))))
         self.clutter_discs = np.array(discs, dtype=np.float64).reshape(-1, 3)
-        if discs:
-            rows, cols = np.mgrid[0 : image.height, 0 : image.width]
-            px, py = image.to_map(cols + 0.5, image.height - rows - 0.5)
-            for x, y, radius in discs:
-                blocked |= np.hypot(px - x, py - y) <= radius
-        self.image = image.with_blocked(blocked)
+
+    def cast(
+        self, x: np.ndarray | float, y: np.ndarray | float, angle: np.ndarray | float, max_range: float
+    ) -> np.ndarray:
+        """The distance along each ray to the first thing it meets -- a blocked pixel of :attr:`image` or a
+        clutter disc -- or ``+inf`` when nothing is within ``max_range``. The discs are met exactly
+        (:func:`ray_disc_distances`), not drawn into the image: a hand-drawn grid's image has one pixel a
+        cell, and a disc of 0.2 m drawn there blocks the whole cell."""
+        ranges = cast_rays(self.image, x, y, angle, max_range)
+        if len(self.clutter_discs):
+            ranges = np.minimum(ranges, ray_disc_distances(x, y, angle, self.clutter_discs, max_range))
+        return ranges
 
     def random_poses(self, count: int) -> np.ndarray:
         """``(count, 3)`` poses uniform over the standable space (a random standable pixel, a
@@ -248,7 +254,7 @@ class ContinuousWorld:
         ``range_min``, spurious returns and dropouts by :attr:`WorldConfig.clutter`. Shape ``(beams,)``."""
         laser = self.config.laser
         p = np.asarray(laser_poses, dtype=np.float64).reshape(-1, 3)
-        true = cast_rays(self.image, p[:, 0], p[:, 1], p[:, 2] + angles, laser.range_max)
+        true = self.cast(p[:, 0], p[:, 1], p[:, 2] + angles, laser.range_max)
         n = true.size
         ranges = true + self.rng.normal(0.0, laser.range_sd, n)
         ranges[~np.isfinite(true)] = np.inf

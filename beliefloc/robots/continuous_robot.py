@@ -26,7 +26,6 @@ from typing import Any
 
 import numpy as np
 
-from beliefloc.continuous.raycast import cast_rays
 from beliefloc.continuous.world import ContinuousRobot
 from beliefloc.errors import InvalidValueError
 from beliefloc.model import GridLayout
@@ -159,7 +158,7 @@ class ContinuousReadingRobot:
             if angle > fov + 1e-9 or (spec.range is not None and d > spec.range):
                 continue
             if spec.occlusion and d > 1e-9:
-                free = float(cast_rays(self.robot.world.image, x, y, math.atan2(ly - y, lx - x), d + 1.0))
+                free = float(self.robot.world.cast(x, y, math.atan2(ly - y, lx - x), d + 1.0))
                 if free < d - self.robot.world.image.resolution:
                     continue
             seen[landmark.class_] = min(seen.get(landmark.class_, math.inf), angle)
