@@ -442,3 +442,29 @@ def test_localize_progress_lines_show_the_probability_compared_with_the_threshol
     lines = [line for line in result.stderr.splitlines() if line[:1].isdigit()]
     assert len(lines) == 2 and all("max p = " in line for line in lines)
     assert lines[-1].endswith("max p = 1.000")
+
+
+def test_a_laser_mounted_turned_reads_as_the_base_turned_would() -> None:
+    """The continuous robot's laser may sit turned on its base (``LaserSpec.mount``; a robot whose map knows
+    nothing of it): its beams are read from the laser's pose, as a mount-less robot turned that much reads them."""
+    from beliefloc.continuous.world import ContinuousRobot, ContinuousWorld, LaserSpec, WorldConfig
+    from beliefloc.robots.continuous_robot import ContinuousReadingRobot
+    from beliefloc.semantic_map.occupancy_map import load_occupancy
+
+    smap = load_map(MAPS / "tb3-sandbox.yaml")
+    model = compile_model(smap)
+    binner = ReadingBinner(smap, model)
+    occupancy = load_occupancy(MAPS / "occupancy" / "tb3_sandbox.yaml")
+    (spec,) = [s for s in smap.sensors.values() if s.type == "scan"]
+
+    def reads(mount: tuple[float, float, float], pose: tuple[float, float, float]) -> list[float | None]:
+        laser = LaserSpec(range_sd=0.0, range_min=0.01, mount=mount)
+        world = ContinuousWorld(occupancy, WorldConfig(laser=laser), np.random.default_rng(0))
+        robot = ContinuousReadingRobot(ContinuousRobot(world, pose), smap, binner)
+        out = robot._scan(spec)
+        assert isinstance(out, list)
+        return out
+
+    turned = reads((0.0, 0.0, 0.3), (0.2, -0.4, 1.0))
+    assert turned == pytest.approx(reads((0.0, 0.0, 0.0), (0.2, -0.4, 1.3)), abs=1e-9)
+    assert turned != pytest.approx(reads((0.0, 0.0, 0.0), (0.2, -0.4, 1.0)), abs=1e-3)

@@ -26,7 +26,7 @@ from typing import Any
 
 import numpy as np
 
-from beliefloc.continuous.world import ContinuousRobot
+from beliefloc.continuous.world import ContinuousRobot, laser_pose
 from beliefloc.errors import InvalidValueError
 from beliefloc.model import GridLayout
 from beliefloc.robots.localize import Command
@@ -125,6 +125,9 @@ class ContinuousReadingRobot:
 
     def _scan(self, spec: Any) -> list[float | None] | dict[str, Any]:
         pose = self.robot.pose
+        mount = self.robot.world.config.laser.mount
+        if any(mount):  # a laser off the base's centre or turned on it (unknown to the map): it reads from there
+            pose = laser_pose(pose.reshape(1, 3), mount)[0]
         if self.full_scans:
             n = self.full_scans
             laser = self.robot.world.config.laser
