@@ -213,8 +213,13 @@ def localize(
     a detector's classes as readings, the belief published as a PoseArray and /initialpose when
     localized; the result line goes to stdout. Whatever ends the session, the robot is told to stop.
 
-    Exit code 0 localized; 1 not localized (no plan, gave up, step limit, an impossible observation);
-    2 a bad map or option, or a reply that is not valid (the message names the line).
+    "Localized" is declared only while the last readings fit the belief: each, on the geometric mean, at
+    least half as likely as the model expects (model confidence 0.5 or more). Readings that fit much
+    worse re-spread the belief once, then end the run "inconsistent" (docs/localize-protocol.md, Surprise).
+
+    Exit code 0 localized; 1 not localized (no plan, gave up, step limit, an impossible observation, the
+    readings stopped fitting the map: inconsistent); 2 a bad map or option, or a reply that is not valid
+    (the message names the line).
 
     Examples:
 
