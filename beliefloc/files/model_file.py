@@ -54,12 +54,7 @@ from beliefloc.model import (
 from beliefloc.source import limits
 from beliefloc.source.atomic_write import write_atomically
 from beliefloc.source.located import gc_paused
-
-_csr_matvec: Callable[..., None] | None
-try:  # SciPy's kernel behind ``csr @ vector``, for the transitions' row sums (see _ModelReader._row_sums)
-    from scipy.sparse._sparsetools import csr_matvec as _csr_matvec
-except ImportError:  # pragma: no cover - a SciPy that moved it: np.add.reduceat instead
-    _csr_matvec = None
+from beliefloc.sparse_kernels import csr_matvec as _csr_matvec
 
 FORMAT = "beliefloc-model"
 VERSION = 2

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass
 from types import ModuleType
 
@@ -35,14 +35,8 @@ import numpy as np
 from beliefloc.belief import entropy, predict
 from beliefloc.model import Action, Model
 from beliefloc.source import threads
-
-_csr_matvec: Callable[..., None] | None
-_csc_matvec: Callable[..., None] | None
-try:  # the kernels behind ``sparse @ vector``, called with an output of our own (see _predict)
-    from scipy.sparse._sparsetools import csc_matvec as _csc_matvec
-    from scipy.sparse._sparsetools import csr_matvec as _csr_matvec
-except ImportError:  # pragma: no cover - a SciPy that moved them: the public product instead
-    _csr_matvec = _csc_matvec = None
+from beliefloc.sparse_kernels import csc_matvec as _csc_matvec
+from beliefloc.sparse_kernels import csr_matvec as _csr_matvec
 
 fused: ModuleType | None
 """The compiled passes for large beliefs (``_fused.c``; setup.py builds them where a C compiler is found),
