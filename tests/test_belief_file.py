@@ -115,6 +115,22 @@ def test_the_pose_written_beside_a_belief_is_read_back_whole(kitchen, tmp_path: 
     assert load_belief_pose(kitchen, plain, load_belief(kitchen, plain)[0]) is None
 
 
+def test_the_belief_and_its_pose_come_from_one_reading_of_the_file(kitchen, tmp_path: Path, monkeypatch) -> None:
+    """`pose --belief FILE` reads the file once: a file replaced between two readings (a localize run
+    writing its next belief) would pair one run's belief with another's pose."""
+    import beliefloc.files.belief_file as belief_file
+
+    path = _with_pose(kitchen, tmp_path)
+    belief, _ = load_belief(kitchen, path)
+    alone = belief_file.load_belief_pose(kitchen, path, belief)
+    reads: list[object] = []
+    real = belief_file.read_source
+    monkeypatch.setattr(belief_file, "read_source", lambda *a, **k: reads.append(a) or real(*a, **k))
+    both, warnings, estimate = belief_file.load_belief_and_pose(kitchen, path)
+    assert len(reads) == 1 and warnings == []
+    assert np.array_equal(both, belief) and estimate == alone
+
+
 @pytest.mark.parametrize(
     ("changes", "says"),
     [

@@ -240,15 +240,19 @@ def initial_belief(model: Model, spec: str, smap: SemanticMap | None = None) -> 
     return belief
 
 
-def written_pose(model: Model, spec: str, belief: np.ndarray) -> PoseEstimate | None:
-    """``--belief FILE``: the pose a ``localize --belief-out`` run wrote beside the belief (the pose
-    lattice's estimate, :func:`beliefloc.files.belief_file.load_belief_pose`), checked against the
-    model and ``belief``; None for ``uniform``, ``prior:DOMAIN`` and a file without one."""
-    from beliefloc.files.belief_file import load_belief_pose
+def initial_belief_and_pose(model: Model, spec: str) -> tuple[np.ndarray, PoseEstimate | None]:
+    """``--belief`` as :func:`initial_belief` reads it, and the pose a ``localize --belief-out`` run
+    wrote beside a belief file (the pose lattice's estimate,
+    :func:`beliefloc.files.belief_file.load_belief_and_pose`), checked against the model and the
+    belief, both from one reading of the file; None for ``uniform``, ``prior:DOMAIN`` and a file without one."""
+    from beliefloc.files.belief_file import load_belief_and_pose
 
     if spec == "uniform" or spec.startswith(PRIOR_PREFIX):
-        return None
-    return load_belief_pose(model, Path(spec), belief)
+        return initial_belief(model, spec), None
+    belief, warnings, pose = load_belief_and_pose(model, Path(spec))
+    for message in warnings:
+        warn(message)
+    return belief, pose
 
 
 def open_model(path: Path) -> Model:

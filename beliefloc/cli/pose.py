@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING, Annotated, Literal
 
 import typer
 
-from beliefloc.cli.common import boundary, initial_belief, open_model, print_json, written_pose
+from beliefloc.cli.common import boundary, initial_belief_and_pose, open_model, print_json
 from beliefloc.cli.options import BeliefOption, ModelArgument, number
 from beliefloc.errors import EXIT_NEGATIVE
 from beliefloc.planning.settings import DEFAULT_THRESHOLD
@@ -147,8 +147,7 @@ def pose_command(
     from beliefloc.ros.messages import pose_array, pose_with_covariance_stamped, rounded
 
     model = open_model(source)
-    start = initial_belief(model, belief)
-    written = written_pose(model, belief, start)  # a localize run's own, beside its belief
+    start, written = initial_belief_and_pose(model, belief)  # written: a localize run's own pose, beside its belief
     estimate = written if written is not None else belief_pose(model, start)
     verdict = localization(
         model, start, min_probability=min_probability, second_mode_share=second_mode, declared=written

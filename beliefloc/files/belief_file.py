@@ -34,12 +34,29 @@ class _BeliefMapping(RootModel[dict[str, Annotated[float, Field(ge=0.0, allow_in
 
 def load_belief(model: Model, path: str | Path) -> tuple[np.ndarray, list[str]]:
     """The belief in ``path`` as a vector over ``model``'s states, and any warnings."""
+    return _belief_in(model, _read_belief_file(path))
+
+
+def load_belief_and_pose(model: Model, path: str | Path) -> tuple[np.ndarray, list[str], PoseEstimate | None]:
+    """:func:`load_belief` and :func:`load_belief_pose` from one reading of the file."""
+    source = _read_belief_file(path)
+    belief, warnings = _belief_in(model, source)
+    return belief, warnings, _pose_in(model, source, belief)
+
+
+def _read_belief_file(path: str | Path) -> Source:
     from beliefloc.source import file_kinds
 
     by_suffix = file_kinds.kind_of_path(path)
     if by_suffix is not None:
         raise BeliefFileError(file_kinds.not_a(path, by_suffix, file_kinds.BELIEF))
-    source = read_source(path, BeliefFileError)
+    return read_source(path, BeliefFileError)
+
+
+def _belief_in(model: Model, source: Source) -> tuple[np.ndarray, list[str]]:
+    from beliefloc.source import file_kinds
+
+    path = source.path
     data = source.data
     found = file_kinds.kind_of_data(data)
     if found is not None and found != file_kinds.BELIEF:
@@ -124,9 +141,12 @@ def load_belief_pose(model: Model, path: str | Path, belief: np.ndarray) -> Pose
     that state's centre or more than one heading sector from its heading, a probability above the
     belief's mass in the state's place (:func:`beliefloc.pose.belief_modes`), a covariance that is
     not symmetric or has a negative variance."""
+    return _pose_in(model, read_source(path, BeliefFileError), belief)
+
+
+def _pose_in(model: Model, source: Source, belief: np.ndarray) -> PoseEstimate | None:
     from beliefloc.pose import Pose, PoseEstimate, belief_modes, state_pose
 
-    source = read_source(path, BeliefFileError)
     data = source.data
     if not isinstance(data, dict) or POSE_KEY not in data:
         return None
