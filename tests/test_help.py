@@ -131,3 +131,50 @@ def test_number_options_refuse_nan_and_infinity(runner, tmp_path: Path, monkeypa
     assert result.exit_code == 2, result.output
     assert option in result.output + result.stderr and "Traceback" not in result.output
     assert not (tmp_path / "w.yaml").exists()
+
+
+def test_the_command_table_names_every_command_and_its_module():
+    """`beliefloc CMD` registers CMD's module alone (beliefloc.cli.app.COMMANDS): the table must name
+    every command the full app has, in its order, each with the module that registers it."""
+    from beliefloc.cli.app import COMMANDS as TABLE
+    from beliefloc.cli.app import make_app
+
+    full = typer.main.get_command(app)
+    assert sorted(full.commands) == sorted(TABLE)  # type: ignore[attr-defined]
+    for name, module in TABLE.items():
+        lean = typer.main.get_command(make_app(name))
+        alone = {n for n, m in TABLE.items() if m == module}
+        assert set(lean.commands) == alone, (name, module)  # type: ignore[attr-defined]
+
+
+@pytest.mark.parametrize("path", [p for p, _ in COMMANDS if p], ids=lambda p: " ".join(p))
+def test_a_command_alone_has_the_help_it_has_among_all(runner, path):
+    from beliefloc.cli.app import command_word, make_app
+
+    word = command_word(path)
+    assert word == path[0]
+    lean = runner.invoke(make_app(word), [*path, "--help"], env={"COLUMNS": "80"})
+    assert lean.exit_code == 0 and lean.stdout == _help(runner, path)
+
+
+@pytest.mark.parametrize(
+    ("args", "word"),
+    [
+        (["plan", "maps/kitchen.yaml"], "plan"),
+        (["--version"], None),
+        (["--help", "macros", "build"], "macros"),
+        (["plna", "maps/kitchen.yaml"], None),  # the whole app says there is no such command
+        ([], None),
+    ],
+)
+def test_the_command_word_is_the_first_that_is_not_an_option(args, word):
+    from beliefloc.cli.app import command_word
+
+    assert command_word(args) == word
+
+
+def test_a_mistyped_command_is_told_apart_from_the_others(tmp_path: Path):
+    result = subprocess.run(
+        [sys.executable, "-m", "beliefloc", "plna", "maps/kitchen.yaml"], cwd=ROOT, capture_output=True, text=True
+    )
+    assert result.returncode == 2 and "plna" in result.stderr and "Traceback" not in result.stderr
