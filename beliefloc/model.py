@@ -325,6 +325,13 @@ class GridLayout:
         """Flat indices ``r * cols + c`` of the free cells, sorted."""
         return np.flatnonzero(self.free.ravel())
 
+    @cached_property
+    def free_cell_centres(self) -> tuple[np.ndarray, np.ndarray]:
+        """Map-frame ``(x, y)`` of every free cell's centre, in :attr:`free_cells`' order (a state's
+        cell is ``state // headings``)."""
+        row, col = np.divmod(self.free_cells, self.cols)
+        return self.cell_centre(row, col)
+
     @property
     def n_states(self) -> int:
         return len(self.free_cells) * self.headings

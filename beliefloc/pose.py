@@ -121,32 +121,34 @@ def belief_pose(model: Model, belief: np.ndarray, mode: int | None = None) -> Po
     """
     grid, normalised = _grid_and_weights(model, belief)
     mode = int(np.argmax(normalised)) if mode is None else int(mode)
-    support = np.flatnonzero(normalised > 0.0)
-    weight = normalised[support]
-    row, col, heading = grid.cell_heading(support)
-    x, y = grid.cell_centre(row, col)
-    mean_x, mean_y = float(weight @ x), float(weight @ y)
     mode_pose = state_pose(grid, mode)
+    # A state is a free cell times a heading (cell-major), and a state's position is its cell's, its
+    # yaw its heading's: every sum below is over cells or over headings of the belief as a (cells x
+    # headings) matrix, never a gather per state (10^7 states: 0.76 -> 0.07 s)
+    by_cell = normalised.reshape(-1, grid.headings)
+    cell_weight = by_cell @ np.ones(grid.headings)
+    x, y = grid.free_cell_centres
+    mean_x, mean_y = float(cell_weight @ x), float(cell_weight @ y)
 
     cov = np.zeros((6, 6))
     dx, dy = x - mean_x, y - mean_y
     cell_variance = grid.cell_size**2 / 12.0
-    cov[0, 0] = float(weight @ (dx * dx)) + cell_variance
-    cov[1, 1] = float(weight @ (dy * dy)) + cell_variance
-    cov[0, 1] = cov[1, 0] = float(weight @ (dx * dy))
+    cov[0, 0] = float(cell_weight @ (dx * dx)) + cell_variance
+    cov[1, 1] = float(cell_weight @ (dy * dy)) + cell_variance
+    cov[0, 1] = cov[1, 0] = float(cell_weight @ (dx * dy))
     if grid.headings == 1:
         cov[5, 5] = UNIFORM_YAW_VARIANCE
     else:
-        # the yaw, its sine and cosine and its deviation are functions of the heading alone: each is
-        # computed for the few headings and gathered per state (the same values, bit for bit)
+        heading_weight = np.ones(len(by_cell)) @ by_cell
         yaw_of = grid.heading_yaw(np.arange(grid.headings))
-        sin_sum, cos_sum = float(weight @ np.sin(yaw_of)[heading]), float(weight @ np.cos(yaw_of)[heading])
+        sin_sum, cos_sum = float(heading_weight @ np.sin(yaw_of)), float(heading_weight @ np.cos(yaw_of))
         cancelled = math.hypot(sin_sum, cos_sum) < DEGENERATE_RESULTANT
         centre = mode_pose.yaw if cancelled else math.atan2(sin_sum, cos_sum)
-        dyaw = wrap_angle(yaw_of - centre)[heading]
-        cov[5, 5] = float(weight @ (dyaw * dyaw)) + (2 * math.pi / grid.headings) ** 2 / 12.0
-        cov[0, 5] = cov[5, 0] = float(weight @ (dx * dyaw))
-        cov[1, 5] = cov[5, 1] = float(weight @ (dy * dyaw))
+        dyaw = wrap_angle(yaw_of - centre)
+        cov[5, 5] = float(heading_weight @ (dyaw * dyaw)) + (2 * math.pi / grid.headings) ** 2 / 12.0
+        turned = by_cell @ dyaw  # each cell's mass times its headings' deviations
+        cov[0, 5] = cov[5, 0] = float(dx @ turned)
+        cov[1, 5] = cov[5, 1] = float(dy @ turned)
     return PoseEstimate(
         pose=mode_pose,
         covariance=tuple(float(v) + 0.0 for v in cov.ravel()),  # + 0.0: no -0.0 in the output
