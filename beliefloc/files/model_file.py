@@ -30,7 +30,7 @@ import hashlib
 import json
 import math
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, Literal
 
@@ -44,6 +44,8 @@ from beliefloc.model import (
     Action,
     ActionKind,
     GridLayout,
+    Landmark,
+    LandmarkTable,
     MapFrame,
     Model,
     ObservationModel,
@@ -53,7 +55,6 @@ from beliefloc.model import (
 )
 from beliefloc.source import limits
 from beliefloc.source.atomic_write import write_atomically
-from beliefloc.source.located import gc_paused
 from beliefloc.sparse_kernels import csr_matvec as _csr_matvec
 
 FORMAT = "beliefloc-model"
@@ -402,7 +403,7 @@ class _ModelReader:
         landmarks = tuple(g.landmarks) if self.header.version == 1 else self._landmarks(g)
         return GridLayout(g.rows, g.cols, g.headings, g.cell_size, free, landmarks, frame)
 
-    def _landmarks(self, g: _GridHeader) -> tuple[tuple[str, int, int], ...]:
+    def _landmarks(self, g: _GridHeader) -> Sequence[Landmark]:
         """Version 2's landmarks: array ``grid_landmarks`` (class index, row, column per object),
         checked against the header's classes and the grid."""
         table = self.archive.integers("grid_landmarks", (None, 3))
@@ -423,9 +424,7 @@ class _ModelReader:
                 f"array grid_landmarks[{k}]: {g.landmark_classes[int(kinds[k])]} at [{int(rows[k])}, {int(cols[k])}] "
                 f"is outside the {g.rows}x{g.cols} grid"
             )
-        with gc_paused():  # a million tuples that live on (the collector walked them: 0.25 s at 10^7)
-            names = np.array(g.landmark_classes, dtype=object)[kinds].tolist()
-            return tuple(zip(names, rows.tolist(), cols.tolist(), strict=True))
+        return LandmarkTable(g.landmark_classes, table)
 
     def _part(self, j: int, meta: _PartHeader) -> ObservationPart:
         values = len(meta.values)
