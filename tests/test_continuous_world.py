@@ -114,22 +114,37 @@ def test_too_close_reads_minus_inf() -> None:
 def test_clutter_is_unmapped_and_shortens_beams() -> None:
     occupancy = load_occupancy(SANDBOX)
     config = WorldConfig(clutter=Clutter(count=12, radius=(0.15, 0.25)))
-    world = ContinuousWorld(occupancy, config, np.random.default_rng(3))
-    start = world.random_poses(1)[0]
-    world.place_clutter(keep_clear=[(start[0], start[1])])
-    assert world.clutter_discs.shape == (12, 3)
-    assert np.hypot(world.clutter_discs[:, 0] - start[0], world.clutter_discs[:, 1] - start[1]).min() >= 0.5
-    # a ray aimed at a disc's centre from the start meets it at its edge, or something nearer first
     shortened = 0
-    for x, y, radius in world.clutter_discs:
-        aim = math.atan2(y - start[1], x - start[0])
-        distance = math.hypot(x - start[0], y - start[1])
-        with_clutter = float(world.cast(start[0], start[1], aim, 20.0))
-        assert with_clutter <= distance - radius + 1e-9
-        mapped = float(cast_rays(world.image, start[0], start[1], aim, 20.0))
-        assert with_clutter <= mapped
-        shortened += with_clutter < mapped
-    assert shortened >= 3
+    for seed in range(5):
+        world = ContinuousWorld(occupancy, config, np.random.default_rng(seed))
+        start = world.random_poses(1)[0]
+        world.place_clutter(keep_clear=[(start[0], start[1])])
+        assert world.clutter_discs.shape == (12, 3)
+        apart = np.hypot(world.clutter_discs[:, 0] - start[0], world.clutter_discs[:, 1] - start[1])
+        assert apart.min() >= 0.5  # keep_clear, from the start to each centre
+        # a ray aimed at a disc's centre from the start meets it at its edge, or something nearer first
+        for x, y, radius in world.clutter_discs:
+            aim = math.atan2(y - start[1], x - start[0])
+            distance = math.hypot(x - start[0], y - start[1])
+            with_clutter = float(world.cast(start[0], start[1], aim, 20.0))
+            assert with_clutter <= distance - radius + 1e-9
+            mapped = float(cast_rays(world.image, start[0], start[1], aim, 20.0))
+            assert with_clutter <= mapped
+            shortened += with_clutter < mapped
+    assert shortened >= 15  # of 60 discs, those not behind a wall from the start
+
+
+def test_no_disc_stands_where_the_robot_does() -> None:
+    """A wide robot with a small keep_clear still starts free of every disc."""
+    occupancy = load_occupancy(SANDBOX)
+    config = WorldConfig(robot_radius=0.3, clutter=Clutter(count=40, radius=(0.25, 0.3), keep_clear=0.05))
+    for seed in range(5):
+        world = ContinuousWorld(occupancy, config, np.random.default_rng(seed))
+        start = world.random_poses(1)[0]
+        world.place_clutter(keep_clear=[(start[0], start[1])])
+        apart = np.hypot(world.clutter_discs[:, 0] - start[0], world.clutter_discs[:, 1] - start[1])
+        assert (apart - world.clutter_discs[:, 2]).min() >= 0.3
+        assert world.can_stand(start[0], start[1])
 
 
 def test_a_sweep_while_turning_is_skewed() -> None:

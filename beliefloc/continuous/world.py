@@ -91,7 +91,8 @@ class Clutter:
     dropout: float = 0.0
     """Probability that a beam that hit something reads ``+inf`` anyway (a dark or glancing surface)."""
     keep_clear: float = 0.5
-    """Metres: no disc within this of the robot's start."""
+    """Metres: no disc's centre within this of the robot's start (nor so near that the largest disc
+    would touch the robot there: a disc never stands where the robot does)."""
 
 
 @dataclass(frozen=True)
@@ -193,17 +194,20 @@ class ContinuousWorld:
         """What rays stop on besides the clutter discs (:meth:`cast`): the map's occupied and unknown pixels."""
 
     def place_clutter(self, keep_clear: Sequence[tuple[float, float]] = ()) -> None:
-        """Draw :attr:`WorldConfig.clutter` discs in free space (not within ``keep_clear`` metres of
-        the given points) and add them to the obstacles rays (:meth:`cast`) and the robot
-        (:meth:`can_stand`) meet. Replaces earlier clutter."""
+        """Draw :attr:`WorldConfig.clutter` discs in free space (centres at least
+        :attr:`Clutter.keep_clear` metres from the given points, and far enough that the largest disc
+        does not touch the robot standing there) and add them to the obstacles rays (:meth:`cast`) and
+        the robot (:meth:`can_stand`) meet. Replaces earlier clutter."""
         spec = self.config.clutter
+        # a radius is drawn for a kept centre alone, so the test takes the largest disc
+        clear = max(spec.keep_clear, self.config.robot_radius + spec.radius[1])
         discs: list[tuple[float, float, float]] = []
         if spec.count:
             centres = self.random_poses(spec.count * 4)
             for x, y, _ in centres:
                 if len(discs) == spec.count:
                     break
-                if any(math.hypot(x - px, y - py) < spec.keep_clear for px, py in keep_clear):
+                if any(math.hypot(x - px, y - py) < clear for px, py in keep_clear):
                     continue
                 discs.append((x, y, float(self.rng.uniform(*spec.radius))))
         self.clutter_discs = np.array(discs, dtype=np.float64).reshape(-1, 3)
