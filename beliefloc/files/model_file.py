@@ -55,7 +55,7 @@ from beliefloc.model import (
 )
 from beliefloc.source import limits
 from beliefloc.source.atomic_write import write_atomically
-from beliefloc.sparse_kernels import csr_matvec as _csr_matvec
+from beliefloc.source.sparse_kernels import csr_matvec as _csr_matvec
 
 FORMAT = "beliefloc-model"
 VERSION = 2

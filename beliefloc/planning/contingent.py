@@ -89,7 +89,7 @@ from beliefloc.planning.settings import (
 )
 from beliefloc.planning.successors import SuccessorEvaluator, reading_keys
 from beliefloc.source.located import gc_paused
-from beliefloc.sparse_kernels import csr_matvec as _csr_matvec
+from beliefloc.source.sparse_kernels import csr_matvec as _csr_matvec
 
 lao: ModuleType | None
 """LAO*'s bookkeeping compiled (``_lao.c``: :meth:`_Search._revise`'s and :meth:`_Search._flow`'s loops,

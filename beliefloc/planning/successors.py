@@ -35,8 +35,8 @@ import numpy as np
 from beliefloc.belief import entropy, predict
 from beliefloc.model import Action, Model
 from beliefloc.source import threads
-from beliefloc.sparse_kernels import csc_matvec as _csc_matvec
-from beliefloc.sparse_kernels import csr_matvec as _csr_matvec
+from beliefloc.source.sparse_kernels import csc_matvec as _csc_matvec
+from beliefloc.source.sparse_kernels import csr_matvec as _csr_matvec
 
 fused: ModuleType | None
 """The compiled passes for large beliefs (``_fused.c``; setup.py builds them where a C compiler is found),

@@ -19,8 +19,9 @@ The one way every input file (maps, belief files, domains) is read:
 variable), :mod:`.file_kinds` tells the kinds of beliefloc file apart ("X is a domain, not a map"), and
 :mod:`.atomic_write` is the one way every output is written: a temporary file renamed into place.
 Beside them, the little machinery every part may share: :func:`.located.gc_paused` (the cycle collector
-paused while many small objects are built) and :mod:`.threads` (one pool of threads a process, for
-passes that release the interpreter's lock).
+paused while many small objects are built), :mod:`.threads` (one pool of threads a process, for
+passes that release the interpreter's lock) and :mod:`.sparse_kernels` (SciPy's sparse products with an
+output vector of our own).
 """
 
 from beliefloc.source.files import not_regular_file, read_text
