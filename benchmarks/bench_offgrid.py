@@ -237,8 +237,8 @@ def records_file(args: argparse.Namespace, name: str, strategy: str, clutter: fl
 
 
 def done(args: argparse.Namespace, name: str, strategy: str, clutter: float) -> set[int]:
-    """The episodes ``--records`` already holds for this map, strategy and clutter."""
-    if args.records is None or not records_file(args, name, strategy, clutter).exists():
+    """The episodes ``--records`` already holds for this map, strategy and clutter (none with ``--again``)."""
+    if args.again or args.records is None or not records_file(args, name, strategy, clutter).exists():
         return set()
     return {int(r["episode"]) for r in read_records([records_file(args, name, strategy, clutter)])}  # type: ignore[call-overload]
 
@@ -367,6 +367,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--verbose", action="store_true", help="print every confidently wrong episode")
     parser.add_argument("--json", type=Path, help="write the episode records here")
     parser.add_argument("--records", type=Path, help="append each episode to a JSON-lines file per cell here; resume")
+    parser.add_argument(
+        "--again",
+        action="store_true",
+        help="with --records: run the episodes even where the records hold them (on newer code, say); the new "
+        "records are appended and --pool counts the last record of each episode",
+    )
     parser.add_argument(
         "--pool", type=Path, nargs="+", help="print the tables of these JSON-lines records, run nothing"
     )
