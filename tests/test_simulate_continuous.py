@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 
 import numpy as np
@@ -468,3 +469,18 @@ def test_a_laser_mounted_turned_reads_as_the_base_turned_would() -> None:
     turned = reads((0.0, 0.0, 0.3), (0.2, -0.4, 1.0))
     assert turned == pytest.approx(reads((0.0, 0.0, 0.0), (0.2, -0.4, 1.3)), abs=1e-9)
     assert turned != pytest.approx(reads((0.0, 0.0, 0.0), (0.2, -0.4, 1.0)), abs=1e-3)
+
+
+def test_localize_says_what_the_pose_lattice_s_wait_is_unless_quiet(runner) -> None:
+    """Building a floor's pose lattice takes seconds (the depot's million poses: ~10 s before the first
+    action): stderr says so before, and how large it is and how long it took after; ``--quiet`` keeps it
+    silent. stdout carries only protocol lines either way."""
+    loud = runner.invoke(app, ["localize", str(MAPS / "tb3-sandbox.yaml"), "--max-steps", "1"], input="")
+    lines = [line for line in loud.stderr.splitlines() if line.startswith("pose lattice:")]
+    assert len(lines) == 2 and "casting its rays" in lines[0]
+    assert re.search(
+        r"pose lattice: [\d,]+ poses \(\d+ x \d+ a cell, \d+ yaws a sector\), ready in [\d.]+ s$", lines[1]
+    )
+    assert all(json.loads(line)["message"] in ("action", "error") for line in loud.stdout.splitlines())
+    quiet = runner.invoke(app, ["localize", str(MAPS / "tb3-sandbox.yaml"), "--max-steps", "1", "-q"], input="")
+    assert "pose lattice" not in quiet.stderr

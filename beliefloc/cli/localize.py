@@ -261,15 +261,27 @@ def localize(
     smap, model = _open_map(map_file)
     binner = ReadingBinner(smap, model)
     tracker = None
+    err = stderr_console()
     if belief_filter is BeliefFilterKind.AUTO:
         belief_filter = BeliefFilterKind.LATTICE if smap.occupancy_map is not None else BeliefFilterKind.STATES
     if belief_filter is BeliefFilterKind.LATTICE and model.grid is not None:
         from beliefloc.robots.belief_filter import LatticeFilter
 
+        # a large floor's tables take seconds (the depot's million poses: ~10 s): say what the wait is
+        if not quiet:
+            err.print("pose lattice: casting its rays and reading tables...", highlight=False, soft_wrap=True)
+        began = time.perf_counter()
         tracker = LatticeFilter(binner)
+        if not quiet:
+            lattice = tracker.lattice
+            err.print(
+                f"pose lattice: {lattice.n_poses:,} poses ({lattice.k} x {lattice.k} a cell, {lattice.m} yaws a "
+                f"sector), ready in {time.perf_counter() - began:.1f} s",
+                highlight=False,
+                soft_wrap=True,
+            )
     start = initial_belief(model, belief, smap)
     settings = PlannerSettings(threshold, chosen, max_expansions, time_limit, weight=h_weight)
-    err = stderr_console()
 
     def on_step(step: LocalizeStep) -> None:
         if quiet:
