@@ -1,7 +1,8 @@
-"""The two compiled parts: ``beliefloc.planning._fused`` and ``beliefloc.planning._lao`` (see their
-sources). Everything else is in pyproject.toml. Both are optional: without a C compiler the install goes
-on, the search takes its NumPy passes and LAO* its Python bookkeeping (the same plans, slower on beliefs
-of 10^6 states and more, and on policies of thousands of expansions)."""
+"""The three compiled parts: ``beliefloc.planning._fused``, ``beliefloc.planning._lao`` and
+``beliefloc.continuous._raycast`` (see their sources). Everything else is in pyproject.toml. All are
+optional: without a C compiler the install goes on, the search takes its NumPy passes, LAO* its Python
+bookkeeping and ray casting its NumPy traversal (the same plans and ranges, slower on beliefs of 10^6
+states and more, on policies of thousands of expansions, and on the pose lattices of large floors)."""
 
 import platform
 import sys
@@ -29,6 +30,13 @@ setup(
             "beliefloc.planning._lao",
             sources=["beliefloc/planning/_lao.c"],
             extra_compile_args=compile_args,
+            optional=True,
+        ),
+        Extension(
+            "beliefloc.continuous._raycast",
+            sources=["beliefloc/continuous/_raycast.c"],
+            extra_compile_args=compile_args,
+            libraries=["m"],
             optional=True,
         ),
     ]

@@ -113,6 +113,20 @@ def _walls(rng: np.random.Generator, height: int, width: int, density: float) ->
     return blocked
 
 
+def _awkward_rays(
+    rng: np.random.Generator, image: OccupancyImage, n: int, yaw: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``n`` rays (map-frame starts and angles) from two pixels around the image and within it, half of
+    them starting on half or whole pixels (pixel edges and corners), two thirds at angles in steps of
+    15 degrees from the frame's yaw (along pixel edges, through corners)."""
+    u, v = rng.uniform(-2, image.width + 2, n), rng.uniform(-2, image.height + 2, n)
+    u[: n // 2], v[: n // 2] = np.round(u[: n // 2] * 2) / 2, np.round(v[: n // 2] * 2) / 2
+    x, y = image.to_map(u, v)
+    angles = rng.uniform(-math.pi, math.pi, n)
+    angles[: 2 * n // 3] = rng.integers(0, 24, 2 * n // 3) * math.pi / 12 + yaw
+    return x, y, angles
+
+
 @settings(max_examples=15, deadline=None)
 @given(seed=st.integers(0, 2**31), density=st.sampled_from([0.0, 0.01, 0.06]), yaw=st.sampled_from([0.0, 0.3]))
 def test_leaping_through_open_space_reads_the_ranges_of_the_step_by_step_traversal(
@@ -124,11 +138,7 @@ def test_leaping_through_open_space_reads_the_ranges_of_the_step_by_step_travers
     rng = np.random.default_rng(seed)
     image = OccupancyImage(_walls(rng, 37, 53, density), 0.05, MapFrame(-0.3, 0.2, yaw))
     n = 3000
-    u, v = rng.uniform(-2, 55, n), rng.uniform(-2, 39, n)
-    u[: n // 2], v[: n // 2] = np.round(u[: n // 2] * 2) / 2, np.round(v[: n // 2] * 2) / 2
-    x, y = image.to_map(u, v)
-    angles = rng.uniform(-math.pi, math.pi, n)
-    angles[: 2 * n // 3] = rng.integers(0, 24, 2 * n // 3) * math.pi / 12 + yaw
+    x, y, angles = _awkward_rays(rng, image, n, yaw)
     reach = rng.uniform(0.2, 2.0, n)
     with _leap_from(1):
         leaping = raycast.cast_rays_within(image, x, y, angles, reach)
@@ -198,6 +208,69 @@ def test_rays_cast_in_parts_on_threads_read_the_same_bits(monkeypatch: pytest.Mo
                 parts = raycast.cast_rays_within(image, x, y, angles, reach)
             assert parts.tobytes() == alone.tobytes()
     assert np.isfinite(alone).sum() > n // 10
+
+
+@pytest.mark.skipif(raycast.compiled is None, reason="the compiled walk is not built")
+@settings(max_examples=20, deadline=None)
+@given(
+    seed=st.integers(0, 2**31),
+    density=st.sampled_from([0.0, 0.01, 0.06, 0.3]),
+    yaw=st.sampled_from([0.0, 0.3, -math.pi / 2]),
+)
+def test_the_compiled_walk_reads_the_numpy_walk_s_very_bits(seed: int, density: float, yaw: float) -> None:
+    """``_raycast.c`` walks each ray alone through the same steps and leaps: every range is NumPy's
+    bit for bit -- rays from blocked pixels, from outside the image, along pixel edges and through
+    corners (starts on half and whole pixels, angles in steps of 15 degrees), past their reach."""
+    rng = np.random.default_rng(seed)
+    image = OccupancyImage(_walls(rng, 41, 47, density), 0.05, MapFrame(-0.3, 0.2, yaw))
+    n = 5000
+    x, y, angles = _awkward_rays(rng, image, n, yaw)
+    reach = rng.uniform(0.05, 3.0, n)
+    saved = raycast.compiled
+    with _leap_from(1):
+        compiled = raycast.cast_rays_within(image, x, y, angles, reach)
+        try:
+            raycast.compiled = None
+            numpy_walk = raycast.cast_rays_within(image, x, y, angles, reach)
+        finally:
+            raycast.compiled = saved
+    assert compiled.tobytes() == numpy_walk.tobytes()
+    assert np.isfinite(compiled).sum() > n // 20
+
+
+@pytest.mark.skipif(raycast.compiled is None, reason="the compiled walk is not built")
+def test_the_compiled_walk_refuses_arrays_that_do_not_fit() -> None:
+    """Nothing past a buffer is read: a ray index out of range, a ray outside the image, arrays of
+    other lengths or types are a ValueError or TypeError, not a crash."""
+    assert raycast.compiled is not None
+    blocked = np.zeros((4, 5), dtype=bool)
+    clearance = np.zeros((4, 5))
+    floats = [np.zeros(2) for _ in range(7)]
+    ints = [np.ones(2, dtype=np.int64), np.ones(2, dtype=np.int64)]
+    edges = [np.zeros(2, dtype=bool), np.zeros(2, dtype=bool)]
+    state = [
+        np.ones(2, dtype=np.int64),
+        np.ones(2, dtype=np.int64),
+        *(np.zeros(2) for _ in range(3)),
+        np.full(2, np.inf),
+    ]
+
+    def walk(walking: np.ndarray, *, col: np.ndarray | None = None, image: np.ndarray = clearance) -> None:
+        cols = state[0] if col is None else col
+        assert raycast.compiled is not None
+        raycast.compiled.walk(blocked, image, *floats, *ints, *edges, cols, *state[1:], walking)
+
+    walk(np.array([0, 1]))  # fits: a walk in an empty image runs off its edge
+    with pytest.raises(ValueError, match="walking ray"):
+        walk(np.array([2]))
+    with pytest.raises(ValueError, match="walking ray"):
+        walk(np.array([0]), col=np.array([7, 1]))
+    with pytest.raises(ValueError, match="one shape"):
+        walk(np.array([0]), image=np.zeros((5, 4)))
+    with pytest.raises(ValueError, match="col"):
+        walk(np.array([0]), col=np.ones(3, dtype=np.int64))
+    with pytest.raises(TypeError, match="walking"):
+        walk(np.array([0.0]))
 
 
 # --- discs met exactly ----------------------------------------------------------------------------
