@@ -167,6 +167,37 @@ def test_search_keys_round_as_numpy_does():
 
 
 @needs_fused
+@pytest.mark.parametrize("n", [2**20 + 1, 2**20 + 13, 3 * 2**19 + 7])
+def test_bayes_updates_and_keys_taken_in_two_halves_are_the_whole_s_bits(monkeypatch, n):
+    """Past SPLIT_FROM entries a Bayes update's product and pairwise sum, and a search key's rounding,
+    run as two halves on two threads: the same bits as one pass (the pairwise tree's own top split;
+    each entry rounded alone), whatever the length's remainder."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    rng = np.random.default_rng(n)
+    belief = rng.random(n)
+    belief /= belief.sum()
+    column = rng.random(7)
+    label = rng.integers(0, 7, n).astype(np.int64)
+    one_out, one_whole = np.empty(n), np.empty(n, dtype=np.int32)
+    one_total = fused.weighted_sum(belief, column, label, one_out)
+    one_peak, one_fits = fused.round_key(belief, float(best_first.KEY_RESOLUTION), one_whole)
+    assert one_total == float(np.add.reduce(belief * column[label]))  # NumPy's pairwise sum, bit for bit
+    with ThreadPoolExecutor(2) as pool:
+        monkeypatch.setattr(threads, "_POOL", pool)
+        monkeypatch.setattr(threads, "_POOL_MADE", True)
+        out, whole = np.empty(n), np.empty(n, dtype=np.int32)
+        total = successors.fused_weighted_sum(fused, belief, column, label, out)
+        peak, fits = best_first._fused_round_key(fused, belief, whole)
+    assert total == one_total and out.tobytes() == one_out.tobytes()
+    assert (peak, fits) == (one_peak, one_fits) and whole.tobytes() == one_whole.tobytes()
+    belief[n - 3] = np.nan  # the second half's NaN: the key does not fit
+    with ThreadPoolExecutor(2) as pool:
+        monkeypatch.setattr(threads, "_POOL", pool)
+        assert best_first._fused_round_key(fused, belief, whole)[1] is False
+
+
+@needs_fused
 def test_bad_arguments_raise_and_touch_nothing_outside():
     """Indices past the vectors, rows that run backwards or past the entries, vectors of other lengths or
     types: an exception, never a read or write outside a buffer."""
