@@ -44,6 +44,7 @@ import time
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from types import ModuleType
 from typing import Any
 
 import numpy as np
@@ -182,7 +183,7 @@ def key_and_peak(belief: np.ndarray, work: KeyWork) -> tuple[bytes, float]:
     return _digest(work.whole.data), peak
 
 
-def _fused_round_key(compiled: Any, belief: np.ndarray, whole: np.ndarray) -> tuple[float, bool]:
+def _fused_round_key(compiled: ModuleType, belief: np.ndarray, whole: np.ndarray) -> tuple[float, bool]:
     """``compiled.round_key`` (each entry rounded on its own), the two halves side by side on
     :func:`beliefloc.source.threads.pool`: the same entries, the larger maximum (at 10^7 states 12 ms a key
     on one core)."""
