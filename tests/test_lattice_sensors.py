@@ -107,8 +107,9 @@ def test_beams_that_share_rays_read_the_plain_average_over_the_sub_poses(
 def test_scan_tables_built_in_parts_on_threads_are_the_same_bits(
     tb3: tuple[SemanticMap, PoseLattice, ScanSensor], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """The tables' positions are split over threads (uneven parts included); each position's sums are
-    its own, taken in the same order, so the tables are the very bits of one thread's."""
+    """The tables' positions are split over threads (uneven parts included) and into blocks (any size);
+    each position's sums are its own, taken in the same order, so the tables are the very bits of one
+    thread's."""
     from concurrent.futures import ThreadPoolExecutor
 
     from beliefloc.source import threads
@@ -127,6 +128,11 @@ def test_scan_tables_built_in_parts_on_threads_are_the_same_bits(
         for got, want in zip(parts, alone, strict=True):
             assert got.tobytes() == want.tobytes()
     assert samples.weights.shape[0] % 6 != 0  # the two parts or the three are uneven
+    monkeypatch.setattr(threads, "_POOL", None)
+    for block in (7, 10**9):
+        monkeypatch.setattr(lattice_sensors, "FILL_BLOCK", block)
+        blocks = lattice_sensors.scan_tables(sensor, lattice, lattice.pose_array, samples)
+        assert [t.tobytes() for t in blocks] == [t.tobytes() for t in alone]
 
 
 def _brute_density(z: float, beam: float, poses: np.ndarray, sensor: ScanSensor, lattice: PoseLattice) -> np.ndarray:
