@@ -472,7 +472,7 @@ def test_a_laser_mounted_turned_reads_as_the_base_turned_would() -> None:
 
 
 def test_localize_says_what_the_pose_lattice_s_wait_is_unless_quiet(runner) -> None:
-    """Building a floor's pose lattice takes seconds (the depot's million poses: ~10 s before the first
+    """Building a floor's pose lattice takes seconds (the depot's million poses: ~5 s before the first
     action): stderr says so before, and how large it is and how long it took after; ``--quiet`` keeps it
     silent. stdout carries only protocol lines either way."""
     loud = runner.invoke(app, ["localize", str(MAPS / "tb3-sandbox.yaml"), "--max-steps", "1"], input="")
