@@ -187,15 +187,15 @@ def _fused_round_key(compiled: ModuleType, belief: np.ndarray, whole: np.ndarray
     """``compiled.round_key`` (each entry rounded on its own), the two halves side by side on
     :func:`beliefloc.source.threads.pool`: the same entries, the larger maximum (at 10^7 states 12 ms a key
     on one core)."""
-    pool = threads.pool()
     n = belief.size
-    if pool is None or n <= successors.SPLIT_FROM:
+    if n <= successors.SPLIT_FROM:
         peak, fits = compiled.round_key(belief, KEY_RESOLUTION, whole)
         return float(peak), bool(fits)
     half = n // 2
-    high = pool.submit(compiled.round_key, belief[half:], KEY_RESOLUTION, whole[half:])
-    peak, fits = compiled.round_key(belief[:half], KEY_RESOLUTION, whole[:half])
-    peak_high, fits_high = high.result()
+    (peak, fits), (peak_high, fits_high) = threads.side_by_side(
+        lambda: compiled.round_key(belief[:half], KEY_RESOLUTION, whole[:half]),
+        lambda: compiled.round_key(belief[half:], KEY_RESOLUTION, whole[half:]),
+    )
     return max(float(peak), float(peak_high)), bool(fits) and bool(fits_high)
 
 

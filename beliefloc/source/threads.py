@@ -10,7 +10,12 @@ task of it (with every thread waiting, none would run).
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
+from typing import TypeVar
+
+T = TypeVar("T")
+U = TypeVar("U")
 
 _POOL: ThreadPoolExecutor | None = None
 _POOL_MADE = False
@@ -25,6 +30,16 @@ def pool() -> ThreadPoolExecutor | None:
         _POOL = ThreadPoolExecutor(min(4, cores), thread_name_prefix="beliefloc") if cores > 1 else None
         _POOL_MADE = True
     return _POOL
+
+
+def side_by_side(first: Callable[[], T], second: Callable[[], U]) -> tuple[T, U]:
+    """``(first(), second())``, ``second`` on :func:`pool` while ``first`` runs in this thread (one
+    after the other without a pool): two halves of a pass, each writing its own part."""
+    made = pool()
+    if made is None:
+        return first(), second()
+    later = made.submit(second)
+    return first(), later.result()
 
 
 def size() -> int:
