@@ -227,7 +227,7 @@ def test_uncompressed_model_reads_the_same(tmp_path: Path, monkeypatch: pytest.M
     direct: list[str] = []
     original = npz_archive.Archive._stored
 
-    def counted(self: npz_archive.Archive, key: str, *args: Any) -> np.ndarray:
+    def counted(self: npz_archive.Archive, key: str, *args: Any) -> tuple[np.ndarray, memoryview | None]:
         direct.append(key)
         return original(self, key, *args)
 
@@ -330,9 +330,9 @@ def test_transition_row_sums_by_scipys_kernel_are_reduceats(index_type, monkeypa
 
     def sums() -> np.ndarray:
         reader = model_file._ModelReader.__new__(model_file._ModelReader)
-        reader.n, reader._ones, reader._sums = n, None, None
-        first = reader._row_sums(indptr, indices, data, steps).copy()
-        again = reader._row_sums(indptr, indices, data * 0.5, steps)  # the vectors reused: zeroed again
+        reader.n, reader._ones, out = n, np.ones(n), np.full(n, np.nan)
+        first = reader._row_sums(indptr, indices, data, steps, out).copy()
+        again = reader._row_sums(indptr, indices, data * 0.5, steps, out)  # the vector reused: zeroed again
         np.testing.assert_allclose(again, first * 0.5, rtol=1e-15)
         return first
 

@@ -293,6 +293,32 @@ def test_every_corruption_is_named(tmp_path: Path, kitchen_arrays: Any, name: st
     assert "rebuild it with 'beliefloc build" in message
 
 
+@pytest.mark.parametrize("side_by_side", [False, True])
+def test_moves_checked_side_by_side_name_the_first_broken_one(
+    tmp_path: Path, kitchen_arrays: Any, kitchen: Model, monkeypatch: pytest.MonkeyPatch, side_by_side: bool
+) -> None:
+    """A large model's moves are read and checked on the thread pool; a file whose later moves are broken
+    in two ways is refused naming the first of them, as when they are checked one after the other, and a
+    sound file reads into the same model either way (stored and mapped, so the checksums run there too)."""
+    from beliefloc.files import model_file
+
+    monkeypatch.setattr(model_file, "_THREADED_FROM", 0 if side_by_side else 10**12)
+    moves = [i for i, action in enumerate(kitchen.actions) if action.transition is not None]
+    assert len(moves) >= 3
+    first, second = moves[1], moves[2]
+
+    def break_two(header: dict[str, Any], arrays: Arrays) -> None:
+        arrays[f"action{first}_data"] = arrays[f"action{first}_data"] * 0.97
+        arrays[f"action{second}_indices"] = np.full_like(arrays[f"action{second}_indices"], 1_000_000)
+
+    named = rf"array action{first}_data \(\w+\): the probabilities .* sum to 0\.97, not 1"
+    with pytest.raises(ModelError, match=named):
+        load_model(_crafted(tmp_path, kitchen_arrays, break_two))
+    sound = tmp_path / "sound.npz"
+    save_model(kitchen, sound, compress=False)
+    assert load_model(sound, check_source=False).fingerprint() == kitchen.fingerprint()
+
+
 def test_the_corruptions_exit_2_through_the_cli(runner: CliRunner, tmp_path: Path, kitchen_arrays: Any) -> None:
     for name, (change, fragment) in CORRUPTIONS.items():
         path = _crafted(tmp_path, kitchen_arrays, change)

@@ -30,6 +30,7 @@ import hashlib
 import json
 import math
 import os
+import queue
 from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any, Literal
@@ -53,7 +54,7 @@ from beliefloc.model import (
     SourceInfo,
     StateSpace,
 )
-from beliefloc.source import limits
+from beliefloc.source import limits, threads
 from beliefloc.source.atomic_write import write_atomically
 from beliefloc.source.sparse_kernels import csr_matvec as _csr_matvec
 
@@ -64,6 +65,8 @@ FILE_LABEL = "beliefloc model file"
 """What a file that is not even an archive is said not to be."""
 TOLERANCE = 1e-6
 """How far from 1 a row of a transition or confusion table may sum."""
+_THREADED_FROM = 2**18
+"""States from which a model's moves are read side by side (fewer take milliseconds)."""
 
 Warn = Callable[[str], None]
 
@@ -299,8 +302,9 @@ class _ModelReader:
         self.states: StateSpace | None = None
         """Once the grid is read: for naming states in messages."""
         self._ones: np.ndarray | None = None
-        self._sums: np.ndarray | None = None
-        """Vectors of ``n`` floats for every transition's row sums (:meth:`_row_sums`)."""
+        """A vector of ``n`` ones for every transition's row sums (:meth:`_row_sums`), made by :meth:`model`."""
+        self._scratch: queue.SimpleQueue[np.ndarray] = queue.SimpleQueue()
+        """Vectors of ``n`` floats for row sums, one a thread that checks transitions (:meth:`model` makes them)."""
 
     def state(self, i: int) -> str:
         """State ``i`` for a message: its name when known."""
@@ -316,9 +320,22 @@ class _ModelReader:
         grid = self._grid()
         states = self.states = StateSpace(self.n, grid=grid, names=h.state_names)
         parts = [self._part(j, meta) for j, meta in enumerate(h.parts)]
+        # each move's arrays read and checked on the cores this process may use (the checks' passes and the
+        # CRC-32 release the interpreter's lock: a 10^7-state world's four moves 1.0-1.5 s on one core); a
+        # broken file names the first broken move, as one after the other would
+        moves = [(i, meta.name) for i, meta in enumerate(h.actions) if meta.transition]
+        pool = threads.pool() if self.n >= _THREADED_FROM else None
+        if moves:
+            # made in this thread: freed, their memory is what a search's first beliefs are cut from (made in
+            # the pool's threads, it went back to the kernel, and at 10^7 states 240 MB were fresh pages again)
+            self._ones = np.ones(self.n)
+            for _ in range(min(len(moves), threads.size()) if pool is not None else 1):
+                self._scratch.put(np.empty(self.n))
+        checked = (pool.map if pool is not None else map)(lambda move: self._transition(*move), moves)
+        transitions = dict(zip([i for i, _ in moves], checked, strict=True))
         actions = []
         for i, meta in enumerate(h.actions):
-            transition = self._transition(i, meta.name) if meta.transition else None
+            transition = transitions.get(i)
             observation = ObservationModel(self.n, tuple(parts[j] for j in meta.parts))
             actions.append(Action(meta.name, ActionKind(meta.kind), float(meta.cost), transition, observation))
         source = None if h.source is None else SourceInfo(h.source.path, h.source.sha256)
@@ -467,25 +484,32 @@ class _ModelReader:
             )
         data = archive.array(f"action{i}_data", "f", (nnz,)).astype(np.float64, copy=False)
         _check_probabilities(self, f"action{i}_data ({name})", data)
-        sums = self._row_sums(indptr, indices, data, steps)
-        wrong = np.flatnonzero(np.abs(sums - 1.0) > TOLERANCE)
-        if len(wrong):
-            row = int(wrong[0])
-            raise self.broken(
-                f"array action{i}_data ({name}): the probabilities of the next states from state "
-                f"{self.state(row)} sum to {sums[row]:.9g}, not 1"
-            )
+        sums = self._scratch.get()
+        try:
+            # each row's sum less 1, in place (|s - 1| > TOLERANCE, without two temporaries of n floats)
+            deviation = np.subtract(self._row_sums(indptr, indices, data, steps, sums), 1.0, out=sums)
+            wrong = np.flatnonzero((deviation > TOLERANCE) | (deviation < -TOLERANCE))
+            if len(wrong):
+                row = int(wrong[0])
+                raise self.broken(
+                    f"array action{i}_data ({name}): the probabilities of the next states from state "
+                    f"{self.state(row)} sum to {1.0 + deviation[row]:.9g}, not 1"
+                )
+        finally:
+            self._scratch.put(sums)
         return sp.csr_matrix((data, indices, indptr), shape=(n, n))
 
-    def _row_sums(self, indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, steps: np.ndarray) -> np.ndarray:
-        """Each row's sum of a transition whose ``indptr`` starts at 0 and never decreases, whose last
+    def _row_sums(
+        self, indptr: np.ndarray, indices: np.ndarray, data: np.ndarray, steps: np.ndarray, out: np.ndarray
+    ) -> np.ndarray:
+        """``out``: each row's sum of a transition whose ``indptr`` starts at 0 and never decreases, whose last
         entry is the length of ``indices`` and ``data``, and whose ``indices`` are states (checked before).
 
         SciPy's row-by-row product kernel against a vector of ones: each row's entries added from 0 in
         their order (``1.0 * p`` is ``p``), one pass over the arrays; the sums of reduceat within an ulp
         (it adds a row's first entry last), the same for rows of up to two entries. ``np.add.reduceat`` paid per row:
-        69 against 21 ms a move at 10^7 states (0.2 s of reading that model). The ones and the sums are
-        one pair of vectors for every move, not fresh memory for each. Without the kernel (another SciPy)
+        69 against 21 ms a move at 10^7 states (0.2 s of reading that model). The ones, and ``out``, are
+        vectors for every move, not fresh memory for each. Without the kernel (another SciPy)
         or for other types: reduceat over the rows that start before the end (those after are empty; the
         last row before them ends at the end), every empty row's sum then set to 0; the end searched for
         as a value of the index type (a Python int converted the whole index array first: 0.1 s at 10^7)."""
@@ -499,18 +523,17 @@ class _ModelReader:
             and indices.flags.c_contiguous
             and data.flags.c_contiguous
         ):
-            if self._ones is None or self._sums is None:
-                self._ones, self._sums = np.ones(n), np.empty(n)
-            self._sums.fill(0.0)
-            _csr_matvec(n, n, indptr, indices, data, self._ones, self._sums)
-            return self._sums
+            assert self._ones is not None  # made with the scratch vectors
+            out.fill(0.0)
+            _csr_matvec(n, n, indptr, indices, data, self._ones, out)
+            return out
         nnz = len(data)
-        sums = np.zeros(n)
+        out.fill(0.0)
         starting = int(np.searchsorted(indptr[:-1], indptr.dtype.type(nnz)))
         if starting:
-            sums[:starting] = np.add.reduceat(data, indptr[:starting])
-        sums[steps == 0] = 0.0
-        return sums
+            out[:starting] = np.add.reduceat(data, indptr[:starting])
+        out[steps == 0] = 0.0
+        return out
 
 
 _CSR = ("indptr", "indices", "data")
