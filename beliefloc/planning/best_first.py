@@ -414,15 +414,17 @@ def _search(
         expanded += 1
         if progress is not None and expanded % _PROGRESS_EVERY == 0:
             progress(expanded, len(parent) - 1, time.perf_counter() - start)
+        # the last expansion's children that were not popped, handed back before this one's are made:
+        # its predictions are written into them (at 10^7 states three 80 MB vectors fewer of fresh memory)
+        for old in fresh.values() if recycling else ():
+            if not cache.holds(old):
+                evaluator.recycle(old)
+        fresh = {}
         successors = memory.successors.get(key)
         whole: dict[int, np.ndarray] = {}
         if successors is None:
             successors = evaluator.evaluate(current, whole)
             memory.remember(key, successors)
-        for old in fresh.values() if recycling else ():
-            if not cache.holds(old):
-                evaluator.recycle(old)
-        fresh = {}
         for stats in successors:
             child = len(parent)
             if stats.observation is None and stats.action in whole:
