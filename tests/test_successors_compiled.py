@@ -134,19 +134,36 @@ def test_group_sums_whole_and_in_parts(tmp_path):
 
 
 @needs_fused
-def test_bayes_updates_bit_for_bit():
-    """``b * column[label]`` and its sum, as NumPy's product and ``np.add.reduce`` (its pairwise tree)."""
+@pytest.mark.parametrize("label_type", [np.uint8, np.uint16, np.intp])
+def test_bayes_updates_bit_for_bit(label_type):
+    """``b * column[label]`` and its sum, as NumPy's product and ``np.add.reduce`` (its pairwise tree), with
+    labels of a byte, two bytes or eight (a large model's evaluator keeps the narrowest)."""
     rng = np.random.default_rng(6)
     for n in (1, 7, 8, 9, 127, 128, 129, 136, 1000, 4097, 65_537):
-        column = rng.random(5)
+        column = rng.random(300 if label_type is np.uint16 else 5)
         column[1] = 0.0
-        label = rng.integers(0, 5, n).astype(np.intp)
+        label = rng.integers(0, len(column), n).astype(label_type)
         for belief in _beliefs(n, rng):
             out = np.empty(n)
             total = fused.weighted_sum(belief, column, label, out)
             expected = belief * column[label]
             assert out.tobytes() == expected.tobytes()
             assert total.hex() == float(np.add.reduce(expected)).hex()
+
+
+@needs_fused
+def test_group_sums_read_labels_of_any_width_alike():
+    """The same groups' sums, to the bit, from labels of one, two or eight bytes."""
+    rng = np.random.default_rng(9)
+    for n in (1, 1023, 1025, 5000):
+        label = rng.integers(0, 200, n)
+        for belief in _beliefs(n, rng):
+            found = []
+            for label_type in (np.uint8, np.uint16, np.intp):
+                sums = np.empty(200), np.empty(200), np.empty(200)
+                assert fused.group_stats(belief, label.astype(label_type), *sums) == 0
+                found.append(b"".join(part.tobytes() for part in sums))
+            assert found[0] == found[1] == found[2]
 
 
 @needs_fused
@@ -223,11 +240,14 @@ def test_bad_arguments_raise_and_touch_nothing_outside():
         fused.predict_stats(indptr, np.array([0, 1], dtype=np.int32), data, belief.astype(np.float32), out, True, True)
     with pytest.raises((TypeError, ValueError, BufferError)):
         fused.belief_stats(np.zeros((4, 4))[:, 0])  # not contiguous
-    with pytest.raises(ValueError, match="not a group"):
-        fused.weighted_sum(belief, np.array([1.0]), np.array([0, 1], dtype=np.intp), out)
     groups = np.zeros(1)
-    with pytest.raises(ValueError, match="not a group"):
-        fused.group_stats(belief, np.array([0, 3], dtype=np.intp), groups, groups.copy(), groups.copy())
+    for label_type in (np.uint8, np.uint16, np.intp):
+        with pytest.raises(ValueError, match="not a group"):
+            fused.group_stats(belief, np.array([0, 3], dtype=label_type), groups, groups.copy(), groups.copy())
+        with pytest.raises(ValueError, match="not a group"):
+            fused.weighted_sum(belief, np.array([1.0]), np.array([0, 1], dtype=label_type), out)
+    with pytest.raises(TypeError):  # labels of another type are not read as one of these
+        fused.group_stats(belief, np.array([0, 0], dtype=np.int32), groups, groups.copy(), groups.copy())
     with pytest.raises((TypeError, ValueError, BufferError)):
         fused.weighted_sum(belief, np.array([1.0]), np.array([0, 0], dtype=np.intp), np.zeros(4)[::2])
     with pytest.raises(ValueError, match="do not fit"):
@@ -260,6 +280,12 @@ def test_expansions_match_the_numpy_passes(tmp_path, monkeypatch, pool):
         for index, action in enumerate(model.actions):
             if action.transition is not None:
                 assert compiled.successor(belief, index, None).tobytes() == predict(action, belief).tobytes()
+        # a look's Bayes updates: the compiled evaluator's narrow labels, NumPy's intp ones, the same bits
+        looks = [(s.action, s.observation) for s in expected if s.observation is not None]
+        assert looks and any(g is not None and g.label is not None and g.label.itemsize == 1 for g in compiled._groups)
+        for index, observation in looks[:6]:
+            by_compiled = compiled.successor(belief, index, observation)
+            assert by_compiled.tobytes() == plain.successor(belief, index, observation).tobytes()
 
 
 @needs_fused

@@ -240,10 +240,41 @@ static PyObject *belief_stats(PyObject *self, PyObject *arg) {
 
 /* --- per-group statistics ------------------------------------------------------------------------ */
 
+/* The labels are bytes, 16-bit or 64-bit integers (a look of a few signature groups: a byte a state, not eight).
+ * Returns 1 when a label is not a group. */
+#define DEFINE_GROUP_LOOP(NAME, LABEL)                                                                     \
+    static int NAME(const double *x, const LABEL *g, Py_ssize_t n, double *m, double *ml, double *pk,     \
+                    Py_ssize_t groups, Stats *st) {                                                         \
+        for (Py_ssize_t k = 0; k < groups; k++) {                                                           \
+            m[k] = 0.0;                                                                                     \
+            ml[k] = 0.0;                                                                                    \
+            pk[k] = -INFINITY;                                                                              \
+        }                                                                                                   \
+        double terms[CHUNK];                                                                                \
+        for (Py_ssize_t start = 0; start < n; start += CHUNK) {                                             \
+            Py_ssize_t count = n - start < CHUNK ? n - start : CHUNK;                                       \
+            xlogx(x + start, terms, count, st);                                                             \
+            for (Py_ssize_t i = 0; i < count; i++) {                                                        \
+                int64_t k = (int64_t)g[start + i];                                                          \
+                if (k < 0 || k >= groups) return 1;                                                         \
+                double v = x[start + i];                                                                    \
+                m[k] += v;                                                                                  \
+                ml[k] += terms[i];                                                                          \
+                if (v > pk[k]) pk[k] = v;                                                                   \
+            }                                                                                               \
+        }                                                                                                   \
+        return 0;                                                                                           \
+    }
+
+DEFINE_GROUP_LOOP(group_loop_u8, uint8_t)
+DEFINE_GROUP_LOOP(group_loop_u16, uint16_t)
+DEFINE_GROUP_LOOP(group_loop_i64, int64_t)
+
 PyDoc_STRVAR(group_doc,
              "group_stats(belief, label, mass, mass_log_mass, peak) -> NaN seen\n\n"
              "For every group g (label[j] = g): mass[g] = sum b_j, mass_log_mass[g] = sum b_j ln b_j (b_j > 0),\n"
-             "peak[g] = max b_j, over its states j, in one pass. The three outputs have one entry per group.");
+             "peak[g] = max b_j, over its states j, in one pass. The three outputs have one entry per group;\n"
+             "label: uint8, uint16 or int64.");
 
 static PyObject *group_stats(PyObject *self, PyObject *args) {
     PyObject *o_belief, *o_label, *o_mass, *o_mlm, *o_peak;
@@ -253,7 +284,7 @@ static PyObject *group_stats(PyObject *self, PyObject *args) {
     Stats st = {0.0, -INFINITY, 0};
     if (get_vector(o_belief, &belief, 0, "d", "belief") < 0) goto done;
     got = 1;
-    if (get_vector(o_label, &label, 0, "lq", "label") < 0) goto done;
+    if (get_vector(o_label, &label, 0, "BHlq", "label") < 0) goto done;
     got = 2;
     if (get_vector(o_mass, &mass, 1, "d", "mass") < 0) goto done;
     got = 3;
@@ -262,35 +293,18 @@ static PyObject *group_stats(PyObject *self, PyObject *args) {
     if (get_vector(o_peak, &peak, 1, "d", "peak") < 0) goto done;
     got = 5;
     Py_ssize_t n = length(&belief), groups = length(&mass);
-    if (label.itemsize != 8 || length(&label) != n || length(&mlm) != groups || length(&peak) != groups) {
+    if ((label.itemsize != 1 && label.itemsize != 2 && label.itemsize != 8) || length(&label) != n ||
+        length(&mlm) != groups || length(&peak) != groups) {
         PyErr_SetString(PyExc_ValueError, "group_stats: the vectors' lengths do not fit each other");
         goto done;
     }
-    const double *x = belief.buf;
-    const int64_t *g = label.buf;
-    double *m = mass.buf, *ml = mlm.buf, *pk = peak.buf;
     Py_BEGIN_ALLOW_THREADS;
-    for (Py_ssize_t k = 0; k < groups; k++) {
-        m[k] = 0.0;
-        ml[k] = 0.0;
-        pk[k] = -INFINITY;
-    }
-    double terms[CHUNK];
-    for (Py_ssize_t start = 0; start < n && !failed; start += CHUNK) {
-        Py_ssize_t count = n - start < CHUNK ? n - start : CHUNK;
-        xlogx(x + start, terms, count, &st);
-        for (Py_ssize_t i = 0; i < count; i++) {
-            int64_t k = g[start + i];
-            if (k < 0 || k >= groups) {
-                failed = 1;
-                break;
-            }
-            double v = x[start + i];
-            m[k] += v;
-            ml[k] += terms[i];
-            if (v > pk[k]) pk[k] = v;
-        }
-    }
+    if (label.itemsize == 1)
+        failed = group_loop_u8(belief.buf, label.buf, n, mass.buf, mlm.buf, peak.buf, groups, &st);
+    else if (label.itemsize == 2)
+        failed = group_loop_u16(belief.buf, label.buf, n, mass.buf, mlm.buf, peak.buf, groups, &st);
+    else
+        failed = group_loop_i64(belief.buf, label.buf, n, mass.buf, mlm.buf, peak.buf, groups, &st);
     Py_END_ALLOW_THREADS;
     if (failed) PyErr_SetString(PyExc_ValueError, "group_stats: a label is not a group");
 done:
@@ -308,23 +322,29 @@ done:
 /* NumPy's pairwise sum of doubles (numpy/_core/src/umath/loops_utils.h.src), leaf for leaf: np.add.reduce
  * over a contiguous vector adds its entries in exactly this tree. Here each leaf's entries are computed
  * (out = belief * column[label]) just before they are summed, while they are in the cache. */
-static double weighted_pairwise(const double *belief, const double *column, Py_ssize_t groups, const int64_t *label,
-                                double *out, Py_ssize_t n, int *bad) {
-    if (n > 128) {
-        Py_ssize_t half = n / 2;
-        half -= half % 8;
-        double low = weighted_pairwise(belief, column, groups, label, out, half, bad);
-        return low + weighted_pairwise(belief + half, column, groups, label + half, out + half, n - half, bad);
+#define DEFINE_WEIGHTED(NAME, LABEL)                                                                       \
+    static double NAME(const double *belief, const double *column, Py_ssize_t groups, const LABEL *label,   \
+                       double *out, Py_ssize_t n, int *bad) {                                              \
+        if (n > 128) {                                                                                      \
+            Py_ssize_t half = n / 2;                                                                        \
+            half -= half % 8;                                                                               \
+            double low = NAME(belief, column, groups, label, out, half, bad);                               \
+            return low + NAME(belief + half, column, groups, label + half, out + half, n - half, bad);      \
+        }                                                                                                   \
+        for (Py_ssize_t i = 0; i < n; i++) {                                                                \
+            int64_t g = (int64_t)label[i];                                                                  \
+            if (g < 0 || g >= groups) {                                                                     \
+                *bad = 1;                                                                                   \
+                out[i] = 0.0;                                                                               \
+            } else {                                                                                        \
+                out[i] = belief[i] * column[g];                                                             \
+            }                                                                                               \
+        }                                                                                                   \
+        return leaf_sum(out, n);                                                                            \
     }
-    for (Py_ssize_t i = 0; i < n; i++) {
-        int64_t g = label[i];
-        if (g < 0 || g >= groups) {
-            *bad = 1;
-            out[i] = 0.0;
-        } else {
-            out[i] = belief[i] * column[g];
-        }
-    }
+
+/* A leaf of NumPy's pairwise sum: fewer than 8 entries in order, else eight running sums combined as NumPy does. */
+static double leaf_sum(const double *out, Py_ssize_t n) {
     if (n < 8) {
         double sum = 0.0;
         for (Py_ssize_t i = 0; i < n; i++) sum += out[i];
@@ -340,10 +360,15 @@ static double weighted_pairwise(const double *belief, const double *column, Py_s
     return sum;
 }
 
+DEFINE_WEIGHTED(weighted_u8, uint8_t)
+DEFINE_WEIGHTED(weighted_u16, uint16_t)
+DEFINE_WEIGHTED(weighted_i64, int64_t)
+
 PyDoc_STRVAR(weighted_doc,
              "weighted_sum(belief, column, label, out) -> sum of out\n\n"
              "out = belief * column[label] (an unnormalised Bayes update: column holds one observation's\n"
-             "likelihood per signature group), and its sum, bit for bit as NumPy's product and np.add.reduce.");
+             "likelihood per signature group; label uint8, uint16 or int64), and its sum, bit for bit as NumPy's\n"
+             "product and np.add.reduce.");
 
 static PyObject *weighted_sum(PyObject *self, PyObject *args) {
     PyObject *o_belief, *o_column, *o_label, *o_out;
@@ -355,17 +380,23 @@ static PyObject *weighted_sum(PyObject *self, PyObject *args) {
     got = 1;
     if (get_vector(o_column, &column, 0, "d", "column") < 0) goto done;
     got = 2;
-    if (get_vector(o_label, &label, 0, "lq", "label") < 0) goto done;
+    if (get_vector(o_label, &label, 0, "BHlq", "label") < 0) goto done;
     got = 3;
     if (get_vector(o_out, &out, 1, "d", "out") < 0) goto done;
     got = 4;
     Py_ssize_t n = length(&belief);
-    if (label.itemsize != 8 || length(&label) != n || length(&out) != n) {
+    if ((label.itemsize != 1 && label.itemsize != 2 && label.itemsize != 8) || length(&label) != n ||
+        length(&out) != n) {
         PyErr_SetString(PyExc_ValueError, "weighted_sum: the vectors' lengths do not fit each other");
         goto done;
     }
     Py_BEGIN_ALLOW_THREADS;
-    total = weighted_pairwise(belief.buf, column.buf, length(&column), label.buf, out.buf, n, &bad);
+    if (label.itemsize == 1)
+        total = weighted_u8(belief.buf, column.buf, length(&column), label.buf, out.buf, n, &bad);
+    else if (label.itemsize == 2)
+        total = weighted_u16(belief.buf, column.buf, length(&column), label.buf, out.buf, n, &bad);
+    else
+        total = weighted_i64(belief.buf, column.buf, length(&column), label.buf, out.buf, n, &bad);
     Py_END_ALLOW_THREADS;
     if (bad) PyErr_SetString(PyExc_ValueError, "weighted_sum: a label is not a group");
 done:

@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from types import ModuleType
 
@@ -94,11 +94,10 @@ class SuccessorStats:
     """``max_j b'_j``."""
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(eq=False)
 class _Groups:
     """States of one observation model sorted by signature, with the group boundaries."""
 
-    order: np.ndarray
     starts: np.ndarray
     label: np.ndarray | None
     """Each state's group (its position in ``starts``), or None when :meth:`likelihood` must be
@@ -107,6 +106,17 @@ class _Groups:
     """``C[g, o]``: likelihood of every observation in each group (groups × observations)."""
     log_likelihood: np.ndarray
     """``C ln C`` is written ``C * log_likelihood`` with 0 where C = 0."""
+    sort: Callable[[], np.ndarray]
+    """The states in signature order, stably (:attr:`order` computes it once, when asked)."""
+    _order: np.ndarray | None = None
+
+    @property
+    def order(self) -> np.ndarray:
+        """The states in signature order: only NumPy's passes read it (the compiled ones read :attr:`label`),
+        so a large model's evaluator does not keep it (80 MB at 10^7 states) unless one of them runs."""
+        if self._order is None:
+            self._order = self.sort()
+        return self._order
 
 
 def reading_keys(action: Action, n_states: int) -> np.ndarray:
@@ -118,7 +128,10 @@ def reading_keys(action: Action, n_states: int) -> np.ndarray:
     return key
 
 
-def _groups(action: Action, n_states: int) -> _Groups | None:
+def _groups(action: Action, n_states: int, compact: bool = False) -> _Groups | None:
+    """The signature groups of ``action``'s observations. ``compact``: the labels in the narrowest unsigned
+    type that holds them (for the compiled passes: a byte a state where NumPy's gathers want ``intp``), and
+    the signature order not kept (:attr:`_Groups.order` sorts again if a NumPy pass asks for it)."""
     parts = action.observation.parts
     if not parts:
         return None
@@ -134,9 +147,15 @@ def _groups(action: Action, n_states: int) -> _Groups | None:
         present = np.flatnonzero(counts)
         starts = np.r_[0, np.cumsum(counts[present])[:-1]].astype(np.intp)
         if exact:
-            lookup = np.zeros(len(counts), dtype=np.intp)
-            lookup[present] = np.arange(len(present), dtype=np.intp)
-            label = lookup[small]  # intp: a gather by 32-bit labels converts them first (1.4 ms, not 0.5, at 10^6)
+            # intp for NumPy: a gather by narrower labels converts them first (1.4 ms, not 0.5, at 10^6)
+            kind = np.min_scalar_type(len(present) - 1) if compact else np.dtype(np.intp)
+            lookup = np.zeros(len(counts), dtype=kind)
+            lookup[present] = np.arange(len(present), dtype=kind)
+            label = lookup[small]
+
+        def sort() -> np.ndarray:
+            return np.argsort(reading_keys(action, n_states).astype(np.uint16), kind="stable")
+
     else:
         order = np.argsort(key, kind="stable")
         sorted_key = key[order]
@@ -145,12 +164,16 @@ def _groups(action: Action, n_states: int) -> _Groups | None:
         if exact:
             label = np.empty(n_states, dtype=np.intp)
             label[order] = np.cumsum(boundary, dtype=np.intp) - 1
+
+        def sort() -> np.ndarray:
+            return np.argsort(reading_keys(action, n_states), kind="stable")
+
     # with a label, O[:, o] = C[label, o]: one gather from a small table instead of one per part; the
     # table's entries are the same products in the same order as ObservationModel.likelihood's
     table = action.observation.likelihood_matrix(order[starts])
     with np.errstate(divide="ignore"):
         log_table = np.where(table > 0.0, np.log(np.where(table > 0.0, table, 1.0)), 0.0)
-    return _Groups(order, starts, label, table, log_table)
+    return _Groups(starts, label, table, log_table, sort, None if compact else order)
 
 
 def _entropy(belief: np.ndarray, work: np.ndarray | None = None) -> float:
@@ -313,13 +336,14 @@ class SuccessorEvaluator:
 
     def __init__(self, model: Model) -> None:
         self.model = model
-        self._groups = [_groups(action, model.n_states) for action in model.actions]
         self._work: tuple[np.ndarray, np.ndarray] | None = None
         self._spare: list[np.ndarray] = []
         self._large = model.n_states * 8 >= _LARGE_BYTES
         self._ranks: dict[int, np.ndarray] = {}
         # large beliefs only: small ones keep NumPy's sums bit for bit (the paper's worlds' figures)
         self._fused = fused if self._large else None
+        compact = self._fused is not None  # the compiled passes read labels of a byte or two
+        self._groups = [_groups(action, model.n_states, compact) for action in model.actions]
         self._fused_kinds: bool | None = None
 
     def recycle(self, vector: np.ndarray) -> None:
