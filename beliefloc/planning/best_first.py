@@ -71,7 +71,15 @@ _CACHE_MIN_BELIEFS = 16
 """The belief cache holds :data:`_CACHE_BYTES` of beliefs, and never fewer than this many: at 10^7
 states (80 MB a belief) four were too few, and a pop recomputed a chain of 2.5 Bayes updates on
 average (131 for 53 pops, each a 50-100 ms prediction); sixteen are 1.3 GB there. Beliefs of
-:data:`_RECYCLE_BYTES` and more: exactly this many."""
+:data:`_RECYCLE_BYTES` and more: this many, or fewer within :data:`_CACHE_LARGE_BYTES`."""
+_CACHE_LARGE_BYTES = 2**30
+_CACHE_FLOOR_BELIEFS = 8
+"""Beliefs of 64 MB and more (8.4·10^6 states): at most :data:`_CACHE_LARGE_BYTES` of them, never fewer than
+:data:`_CACHE_FLOOR_BELIEFS`. Each is memory faulted in once, which on a virtual machine whose host backs
+memory at first touch cost 2-10 ms a MB (0.15-0.8 s a 10^7-state belief, benchmark machine), while a belief
+made again from its parent costs 20-40 ms: at 10^7 states thirteen recomputed no more than sixteen (five
+starts), and twelve planned from the uniform belief 0.5-3.9 s sooner in five pairs of processes. Eight at
+10^6 recomputed 30 % more."""
 
 
 _RECYCLE_BYTES = 2**20
@@ -296,6 +304,15 @@ class ClosedList:
             self.successors[key] = stats
 
 
+def cache_capacity(belief_bytes: int) -> int:
+    """How many beliefs of ``belief_bytes`` a search keeps (:data:`_CACHE_MIN_BELIEFS`, :data:`_CACHE_LARGE_BYTES`).
+    Beliefs the search recycles: few, their evictions written over; more were fresh memory to fault in (10^6
+    states: 32 beliefs, 21,000 page faults and 516 MB; 16: 15,000 and 425 MB, the same 22 Bayes updates)."""
+    if belief_bytes >= _RECYCLE_BYTES:
+        return min(_CACHE_MIN_BELIEFS, max(_CACHE_FLOOR_BELIEFS, _CACHE_LARGE_BYTES // belief_bytes))
+    return max(_CACHE_MIN_BELIEFS, _CACHE_BYTES // max(1, belief_bytes))
+
+
 def plan(
     model: Model,
     belief: np.ndarray,
@@ -356,11 +373,7 @@ def _search(
 
     # small beliefs come from malloc's free lists without page faults: not worth the bookkeeping
     recycling = belief.nbytes >= _RECYCLE_BYTES
-    # large beliefs: the minimum, whose evictions are written over; more were fresh memory to fault in
-    # (10^6 states: 32 beliefs, 21,000 page faults and 516 MB; 16: 15,000 and 425 MB, the same 22
-    # Bayes updates)
-    capacity = _CACHE_MIN_BELIEFS if recycling else max(_CACHE_MIN_BELIEFS, _CACHE_BYTES // max(1, belief.nbytes))
-    cache = BeliefCache(capacity, evicted if recycling else None)
+    cache = BeliefCache(cache_capacity(belief.nbytes), evicted if recycling else None)
     cache.put(0, belief)
 
     def known(node: int) -> np.ndarray | None:
