@@ -206,7 +206,11 @@ def _measure(
 ) -> dict[str, Any]:
     env = _env(code, big)
     row: dict[str, Any] = {}
-    _check_code(code, [sys.executable, "-c", "import beliefloc; print(beliefloc.__file__)"], env, code)
+    probe = (
+        "import beliefloc, importlib.util; print(beliefloc.__file__); "
+        "print(importlib.util.find_spec('beliefloc.planning._fused'))"
+    )
+    _check_code(code, [sys.executable, "-c", probe], env, code)
     kinds = (("yaml", yaml_path), ("npz", npz_path)) if with_yaml else (("npz", npz_path),)
     for kind, path in kinds:
         walls, cpus, peaks = [], [], []
@@ -254,10 +258,14 @@ def _measure(
 
 
 def _check_code(code: Path, command: list[str], env: dict[str, str], cwd: Path) -> None:
-    """Stop unless ``command`` imports beliefloc from ``code`` (it prints ``beliefloc.__file__``)."""
-    found = subprocess.run(command, stdout=subprocess.PIPE, text=True, check=True, env=env, cwd=cwd).stdout.strip()
+    """Stop unless ``command`` imports beliefloc from ``code`` (it prints ``beliefloc.__file__``, then, if asked,
+    the compiled passes' module spec: a code that has them must run with them built)."""
+    lines = subprocess.run(command, stdout=subprocess.PIPE, text=True, check=True, env=env, cwd=cwd).stdout.split("\n")
+    found = lines[0].strip()
     if Path(found).resolve().parent != (code / "beliefloc").resolve():
         raise SystemExit(f"a process meant to run the code in {code} imports {found}")
+    if len(lines) > 1 and lines[1].strip() == "None" and (code / "beliefloc" / "planning" / "_fused.c").exists():
+        raise SystemExit(f"the code in {code} runs without its compiled passes (setup.py build_ext --inplace)")
 
 
 def _best(runs: list[dict[str, Any]]) -> dict[str, Any]:
@@ -280,11 +288,19 @@ def _best(runs: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 def _baseline_tree(ref: str, folder: Path) -> Path:
+    """The code of commit ``ref``, with its compiled parts built as an install builds them (without them
+    the baseline's search runs NumPy's passes on one core: not the code a user of that commit ran)."""
     target = folder / f"baseline-{ref}"
     if not target.exists():
         target.mkdir(parents=True)
         archive = subprocess.run(["git", "archive", ref], cwd=ROOT, check=True, stdout=subprocess.PIPE).stdout
         subprocess.run(["tar", "-x", "-C", str(target)], input=archive, check=True)
+    if (target / "setup.py").exists() and not list((target / "beliefloc").rglob("*.so")):
+        print(f"building the compiled parts of {target} ...", file=sys.stderr, flush=True)
+        subprocess.run(
+            [sys.executable, "setup.py", "-q", "build_ext", "--inplace"],
+            cwd=target, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        )  # fmt: skip
     return target
 
 
