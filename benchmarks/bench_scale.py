@@ -202,7 +202,14 @@ def _prepare(folder: Path, states: int, compressed: bool = True) -> tuple[Path, 
 
 
 def _measure(
-    code: Path, yaml_path: Path, npz_path: Path, big: bool, repeats: int, with_yaml: bool, time_limit: float | None
+    code: Path,
+    yaml_path: Path,
+    npz_path: Path,
+    big: bool,
+    repeats: int,
+    with_yaml: bool,
+    time_limit: float | None,
+    pause: float = 0.0,
 ) -> dict[str, Any]:
     env = _env(code, big)
     row: dict[str, Any] = {}
@@ -218,6 +225,7 @@ def _measure(
             command = [sys.executable, "-m", "beliefloc", "plan", str(path), "--json"]
             if time_limit is not None:
                 command += ["--time-limit", f"{time_limit:g}"]
+            time.sleep(pause)  # --pause: a machine idle before the plan, as a robot's often is
             wall, cpu, peak, code_, text = _timed_process(command, env, code)
             if code_ not in (0, 1):
                 raise SystemExit(f"plan {path} exited {code_} with {code}")
@@ -417,6 +425,14 @@ def main() -> None:
         "out of it, and two codes out of budget cannot be compared",
     )
     parser.add_argument(
+        "--pause",
+        type=float,
+        default=0.0,
+        help="seconds of an idle machine before each timed process (0: back to back). On a virtual machine "
+        "whose host takes freed memory back within seconds, a process after a pause faults all its memory in "
+        "afresh, one right after another reuses what that one freed",
+    )
+    parser.add_argument(
         "--uncompressed",
         action="store_true",
         help="the code measured (after) plans from a model file built with 'build --uncompressed' (the "
@@ -471,7 +487,7 @@ def main() -> None:
             for name, code in codes.items():
                 print(f"{states:,} states, {name} ({code}), run {repeat + 1}:", file=sys.stderr, flush=True)
                 runs[name].append(
-                    _measure(code, yaml_path, models[name], states > 4_000_000, 1, small, args.time_limit)
+                    _measure(code, yaml_path, models[name], states > 4_000_000, 1, small, args.time_limit, args.pause)
                 )
         rows.append({name: _best(found) for name, found in runs.items()})
         every.append({"states": states, "codes": {name: str(code) for name, code in codes.items()}, "runs": runs})
