@@ -450,7 +450,7 @@ def _search(
             stats_of.append(stats)
             h = weight * heuristic(stats.entropy, stats.max_belief, stats.probability)
             heapq.heappush(open_heap, (g + h, h, child, child))
-        if recycling and len(fresh) > 1:
+        if recycling:
             # only the child popped next is likely to use its prediction: the others handed back now, so that
             # a Bayes update made at the next pop is written into one of them (at 10^7 states the search's
             # peak was its cached beliefs, four predictions and a look's update: 150 MB of fresh memory less)

@@ -129,9 +129,9 @@ def reading_keys(action: Action, n_states: int) -> np.ndarray:
 
 
 def _groups(action: Action, n_states: int, compact: bool = False) -> _Groups | None:
-    """The signature groups of ``action``'s observations. ``compact``: the labels in the narrowest unsigned
-    type that holds them (for the compiled passes: a byte a state where NumPy's gathers want ``intp``), and
-    the signature order not kept (:attr:`_Groups.order` sorts again if a NumPy pass asks for it)."""
+    """The signature groups of ``action``'s observations. ``compact``, for the compiled passes: fewer than 2^16
+    signatures labelled in the narrowest unsigned type (a byte a state where NumPy's gathers want ``intp``),
+    and the signature order not kept (:attr:`_Groups.order` sorts again if a NumPy pass asks for it)."""
     parts = action.observation.parts
     if not parts:
         return None
@@ -152,10 +152,6 @@ def _groups(action: Action, n_states: int, compact: bool = False) -> _Groups | N
             lookup = np.zeros(len(counts), dtype=kind)
             lookup[present] = np.arange(len(present), dtype=kind)
             label = lookup[small]
-
-        def sort() -> np.ndarray:
-            return np.argsort(reading_keys(action, n_states).astype(np.uint16), kind="stable")
-
     else:
         order = np.argsort(key, kind="stable")
         sorted_key = key[order]
@@ -165,8 +161,9 @@ def _groups(action: Action, n_states: int, compact: bool = False) -> _Groups | N
             label = np.empty(n_states, dtype=np.intp)
             label[order] = np.cumsum(boundary, dtype=np.intp) - 1
 
-        def sort() -> np.ndarray:
-            return np.argsort(reading_keys(action, n_states), kind="stable")
+    def sort() -> np.ndarray:
+        # the same stable order as above, from the same keys (a rare pass: no 16-bit radix sort)
+        return np.argsort(reading_keys(action, n_states), kind="stable")
 
     # with a label, O[:, o] = C[label, o]: one gather from a small table instead of one per part; the
     # table's entries are the same products in the same order as ObservationModel.likelihood's
