@@ -835,7 +835,9 @@ def test_reaches_recomputed_by_a_traversal_when_a_change_goes_round_too_long(dat
 def test_successors_in_one_matrix_equal_those_one_by_one(data: dict[str, Any], seed: int, heuristic: Heuristic):
     """On a small model the successors of a belief come from one matrix (``_Search._successors``); the path
     for large models computes them one by one (``_one_by_one``, through ``SuccessorEvaluator``): the same
-    successors in the same order, with the same probabilities, beliefs, maxima and estimates."""
+    successors in the same order, with the same probabilities, beliefs, maxima and estimates; and each
+    successor's key, made for all rows at once, is :meth:`_Search._key` of its belief (a start's key), so
+    that the same cut reached either way is one node."""
     model = model_of(data)
     search = PolicyPlanner(model, threshold=THRESHOLD, heuristic=heuristic)._search
     assert search._dense is not None
@@ -843,7 +845,8 @@ def test_successors_in_one_matrix_equal_those_one_by_one(data: dict[str, Any], s
     batched = list(search._successors(belief))
     single = list(search._one_by_one(belief))
     assert [(a, o) for a, o, *_ in batched] == [(a, o) for a, o, *_ in single]
-    for (_, _, p, top, b, _, value), (_, _, p1, top1, b1, _, value1) in zip(batched, single, strict=True):
+    for (_, _, p, top, b, key, value), (_, _, p1, top1, b1, _, value1) in zip(batched, single, strict=True):
+        assert key == search._key(b, top)
         assert p == pytest.approx(p1, rel=1e-9, abs=1e-15) and 0.0 < p <= 1.0
         assert top == pytest.approx(top1, rel=1e-9)
         np.testing.assert_allclose(b, b1, rtol=1e-9, atol=1e-15)

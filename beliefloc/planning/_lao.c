@@ -1,6 +1,7 @@
 /* LAO*'s bookkeeping (issue 28): the backups and the flow of reach of beliefloc/planning/contingent.py.
  *
- * revise() is _Search._revise and flow() is _Search._flow, loop for loop: the same floating-point
+ * revise() is _Search._revise, flow() is _Search._flow and reroute() the loop of _Search._reroute, loop for
+ * loop: the same floating-point
  * operations in the same order (built with -ffp-contract=off: no fused multiply-adds), the same
  * insertion orders of the dicts and queues, so the same values, policies and expansions. The Python
  * methods stay the reference, and run where no C compiler built this. On the hallway's policy (24 backups
@@ -19,7 +20,7 @@
 
 static PyTypeObject *node_type = NULL;
 static PyObject *frontier = NULL; /* LeafKind.FRONTIER */
-static Py_ssize_t off_best, off_exits, off_leaf, off_parents, off_q, off_reach, off_stale, off_value;
+static Py_ssize_t off_best, off_children, off_exits, off_leaf, off_parents, off_q, off_reach, off_stale, off_value;
 
 #define SLOT(o, off) (*(PyObject **)((char *)(o) + (off)))
 
@@ -42,7 +43,8 @@ static PyObject *setup(PyObject *self, PyObject *args) {
     PyObject *type, *kind;
     if (!PyArg_ParseTuple(args, "O!O", &PyType_Type, &type, &kind)) return NULL;
     PyTypeObject *t = (PyTypeObject *)type;
-    if (slot_offset(t, "best", &off_best) < 0 || slot_offset(t, "exits", &off_exits) < 0 ||
+    if (slot_offset(t, "best", &off_best) < 0 || slot_offset(t, "children", &off_children) < 0 ||
+        slot_offset(t, "exits", &off_exits) < 0 ||
         slot_offset(t, "leaf", &off_leaf) < 0 || slot_offset(t, "parents", &off_parents) < 0 ||
         slot_offset(t, "q", &off_q) < 0 || slot_offset(t, "reach", &off_reach) < 0 ||
         slot_offset(t, "stale", &off_stale) < 0 || slot_offset(t, "value", &off_value) < 0)
@@ -296,6 +298,84 @@ fail:
     return NULL;
 }
 
+/* --- reroute ------------------------------------------------------------------------------------- */
+
+/* pending[child] = pending.get(child, 0.0) + sign * reach * p for each (p, observation, child) of ``branches`` */
+static int move_reach(PyObject *pending, PyObject *branches, double reach, int sign) {
+    if (!PyList_Check(branches)) {
+        PyErr_SetString(PyExc_TypeError, "an action's branches are not a list");
+        return -1;
+    }
+    for (Py_ssize_t i = 0; i < PyList_GET_SIZE(branches); i++) {
+        PyObject *branch = PyList_GET_ITEM(branches, i);
+        if (!PyTuple_Check(branch) || PyTuple_GET_SIZE(branch) != 3) {
+            PyErr_SetString(PyExc_TypeError, "a branch is not (probability, observation, node)");
+            return -1;
+        }
+        PyObject *child = PyTuple_GET_ITEM(branch, 2);
+        double p, before = 0.0;
+        if (to_double(PyTuple_GET_ITEM(branch, 0), &p) < 0 || !is_node(child)) return -1;
+        PyObject *had = PyDict_GetItemWithError(pending, child);
+        if (had == NULL && PyErr_Occurred()) return -1;
+        if (had != NULL && to_double(had, &before) < 0) return -1;
+        PyObject *sum = PyFloat_FromDouble(sign > 0 ? before + reach * p : before - reach * p);
+        if (sum == NULL) return -1;
+        int failed = PyDict_SetItem(pending, child, sum);
+        Py_DECREF(sum);
+        if (failed < 0) return -1;
+    }
+    return 0;
+}
+
+PyDoc_STRVAR(reroute_doc,
+             "reroute(changed, /)\n\n"
+             "_Search._reroute's loop: for each node of ``changed`` (node -> the best action it had) whose best\n"
+             "action is another now and whose reach is not 0, its reach taken off the old action's branches and\n"
+             "put on the new one's. Returns the changes of reach by node, in the order they were first made.");
+
+static PyObject *reroute(PyObject *self, PyObject *args) {
+    PyObject *changed, *node, *old_obj;
+    if (!PyArg_ParseTuple(args, "O!", &PyDict_Type, &changed)) return NULL;
+    PyObject *pending = PyDict_New();
+    if (pending == NULL) return NULL;
+    Py_ssize_t position = 0;
+    while (PyDict_Next(changed, &position, &node, &old_obj)) {
+        Py_ssize_t old, best;
+        double reach;
+        if (!is_node(node) || field_double(node, off_reach, &reach) < 0 || field_index(node, off_best, &best) < 0)
+            goto fail;
+        if ((old = PyLong_AsSsize_t(old_obj)) == -1 && PyErr_Occurred()) goto fail;
+        if (best == old || reach == 0.0) continue;
+        PyObject *children = field(node, off_children);
+        if (children == NULL) goto fail;
+        if (!PyDict_Check(children)) {
+            PyErr_SetString(PyExc_TypeError, "a node's children are not a dict");
+            goto fail;
+        }
+        if (old >= 0) {
+            PyObject *branches = PyDict_GetItemWithError(children, old_obj);
+            if (branches == NULL) {
+                if (!PyErr_Occurred()) PyErr_SetObject(PyExc_KeyError, old_obj);
+                goto fail;
+            }
+            if (move_reach(pending, branches, reach, -1) < 0) goto fail;
+        }
+        if (best >= 0) {
+            PyObject *best_obj = field(node, off_best), *branches;
+            if (best_obj == NULL) goto fail;
+            if ((branches = PyDict_GetItemWithError(children, best_obj)) == NULL) {
+                if (!PyErr_Occurred()) PyErr_SetObject(PyExc_KeyError, best_obj);
+                goto fail;
+            }
+            if (move_reach(pending, branches, reach, 1) < 0) goto fail;
+        }
+    }
+    return pending;
+fail:
+    Py_DECREF(pending);
+    return NULL;
+}
+
 /* --- revise --------------------------------------------------------------------------------------- */
 
 /* add ``action`` to the node's stale actions (a new set when it has none) */
@@ -521,6 +601,7 @@ static PyMethodDef methods[] = {
     {"setup", setup, METH_VARARGS, "setup(node_class, frontier, /): the node class's slots and the frontier's kind."},
     {"revise", revise, METH_VARARGS, revise_doc},
     {"flow", flow, METH_VARARGS, flow_doc},
+    {"reroute", reroute, METH_VARARGS, reroute_doc},
     {NULL, NULL, 0, NULL},
 };
 

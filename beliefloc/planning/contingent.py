@@ -532,8 +532,8 @@ class _Search:
         self._nodes: dict[int, list[_Node]] = {}
         """Every node that is not a goal, by the key of its belief (:meth:`_key`)."""
         self._quantum = _MERGE / max(1, model.n_states)
-        self._weights = np.random.default_rng(_HASH_SEED).integers(-(2**62), 2**62, size=model.n_states)
-        self._cut = (np.empty(model.n_states), np.empty(model.n_states, dtype=np.int64))
+        self._weights = np.random.default_rng(_HASH_SEED).integers(0, 2**64, size=(model.n_states, 2), dtype=np.uint64)
+        self._cut = (np.empty(model.n_states), np.empty(model.n_states, dtype=np.uint64))
         self._probe = np.random.default_rng(_HASH_SEED).random(model.n_states)
         self._cache = BeliefCache(max(4, _CACHE_BYTES // (8 * max(1, model.n_states))))
         self._starts: dict[int, np.ndarray] = {}
@@ -555,6 +555,7 @@ class _Search:
             self._rows += [(index, None)] if table is None else [(index, o) for o in range(table[1].shape[1])]
         self._row_action = np.array([action for action, _ in self._rows], dtype=np.intp)
         self._row_observes = np.array([observation is not None for _, observation in self._rows])
+        self._row_observation = [observation for _, observation in self._rows]
         self._stacked: scipy.sparse.csr_matrix | None = None
         """With :attr:`_dense`: every action's ``T_aᵀ`` stacked (the identity for one that does not move), so
         that one product predicts the belief under every action (:meth:`_predictions`)."""
@@ -607,7 +608,9 @@ class _Search:
             node.leaf = LeafKind.GOAL
             return node
         same = self._nodes.setdefault(key, [])
-        for existing in same:  # the same key for different cuts is a 2^-64 chance (or a summary's), so checked
+        if same and self._dense is not None:
+            return same[0]  # the key of the cut itself: equal keys are equal cuts (_key)
+        for existing in same:  # a summary's key (a large model) is shared by other beliefs: checked
             if float(np.abs(self.belief(existing) - belief).max()) <= self._quantum:
                 return existing
         node = _Node(next(self._numbers), origin, top)
@@ -618,7 +621,12 @@ class _Search:
 
     def _key(self, belief: np.ndarray, top: float) -> int:
         """The belief's probabilities cut to multiples of :attr:`_quantum` (:data:`_MERGE`), as one integer:
-        their dot product with fixed random 64-bit weights (wrapping around), in two scratch arrays.
+        their dot products with two fixed random vectors of unsigned 64-bit weights (wrapping around), in two scratch
+        arrays, side by side in 128 bits (:func:`_key128`). Two different cuts differ by a vector ``d`` of
+        integers below 2^35 in size (a probability over a quantum of at least 3e-6 / 2^16); a dot product
+        with random weights misses ``d`` only when ``w·d`` is 0 modulo 2^64: for the entry of ``d`` with the
+        fewest factors of 2 (at most 34), a chance of at most 2^-30 (2^-64 when that entry is odd), 2^-60 for
+        both products. So equal keys are taken for equal cuts (:meth:`_node`), with no comparison of beliefs.
 
         On a large model (one without :attr:`_dense`) that costs 100 µs at 50,000 states, more than the
         rest of a successor: there the key is the belief's maximum ``top`` and its projection on fixed random
@@ -632,7 +640,8 @@ class _Search:
         scaled, cut = self._cut
         np.multiply(belief, 1.0 / self._quantum, out=scaled)
         cut[...] = scaled  # towards zero: probabilities are >= 0, so the floor
-        return int(np.einsum("i,i->", cut, self._weights))  # integers wrap exactly, in any order of the sum
+        first, second = (cut @ self._weights).tolist()  # unsigned integers wrap exactly, in any order of the sum
+        return _key128(first, second)
 
     def estimate(self, belief: np.ndarray, h: float, mass: np.ndarray | None = None) -> float:
         """``κ · H(S | Σ) + ρ · H(Σ)``: the entropy within the groups of states that read alike (Σ, every
@@ -701,13 +710,19 @@ class _Search:
         predicted = self._predictions(belief)
         joint = self._dense * predicted[self._row_action]
         total = joint.sum(axis=1)
-        possible = np.flatnonzero(total > 0.0)
-        posteriors = joint[possible] / total[possible, None]
+        rows: np.ndarray | None = None  # the rows of the possible successors, when some are not
+        if total.min() > 0.0:
+            posteriors = joint
+            posteriors /= total[:, None]
+        else:
+            rows = np.flatnonzero(total > 0.0)
+            posteriors = joint[rows] / total[rows, None]
+            total = total[rows]
         h = np.maximum(0.0, -_xlogx(posteriors).sum(axis=1))
         tops = posteriors.max(axis=1)
-        keys = np.einsum("ij,j->i", (posteriors * (1.0 / self._quantum)).astype(np.int64), self._weights)
+        pairs = (posteriors * (1.0 / self._quantum)).astype(np.uint64) @ self._weights
         if self.kappa == 0.0:
-            values = np.zeros(len(possible))
+            values = np.zeros(len(posteriors))
         elif self._signature is None:
             values = self.kappa * h
         else:
@@ -716,14 +731,15 @@ class _Search:
             between = np.maximum(0.0, -_xlogx(masses).sum(axis=1))
             values = self.kappa * np.maximum(0.0, h - between) + self.perceiving * between
         # a sum of 1 may round above it; an action that observes nothing has probability 1 exactly
-        probabilities = np.where(self._row_observes[possible], np.minimum(total[possible], 1.0), 1.0)
+        observes = self._row_observes if rows is None else self._row_observes[rows]
+        probabilities = np.where(observes, np.minimum(total, 1.0), 1.0)
         yield from zip(
-            self._row_action[possible].tolist(),
-            [self._rows[row][1] for row in possible.tolist()],
+            self._row_action.tolist() if rows is None else self._row_action[rows].tolist(),
+            self._row_observation if rows is None else [self._rows[row][1] for row in rows.tolist()],
             probabilities.tolist(),
             tops.tolist(),
             list(posteriors),
-            keys.tolist(),
+            [(first << 64) | second for first, second in pairs.tolist()],  # _key128, written out
             values.tolist(),
             strict=True,
         )
@@ -922,6 +938,9 @@ class _Search:
     def _reroute(self, changed: dict[_Node, int]) -> None:
         """The reaches after the best action of each node of ``changed`` went from the one given there to
         its own: the node's reach leaves the old action's branches and flows down the new one's."""
+        if lao is not None:
+            self._flow(lao.reroute(changed))
+            return
         pending: dict[_Node, float] = {}
         for node, old in changed.items():
             reach = node.reach
@@ -1154,11 +1173,16 @@ def _unlink(nodes: dict[int, list[_Node]]) -> None:
     nodes.clear()
 
 
+def _key128(first: int, second: int) -> int:
+    """Two wrapped unsigned 64-bit dot products as one integer: ``first`` above, ``second`` in the low 64 bits."""
+    return (first << 64) | second
+
+
 def _xlogx(values: np.ndarray) -> np.ndarray:
     """``x ln x`` of every entry, 0 where ``x`` is 0 (scipy.special.xlogy, without importing scipy.special:
-    0.2 s of a plan command's start on the loaded machine)."""
-    positive = values > 0.0
-    return np.where(positive, values * np.log(np.where(positive, values, 1.0)), 0.0)
+    0.2 s of a plan command's start on the loaded machine). For probabilities: ``0 · ln 1`` is the 0 of a
+    zero entry, and a NaN stays NaN."""
+    return values * np.log(np.where(values > 0.0, values, 1.0))
 
 
 def _ends(node: _Node) -> bool:
