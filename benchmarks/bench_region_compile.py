@@ -118,10 +118,19 @@ def run_child(
 
 
 def export_revision(rev: str, into: Path) -> Path:
-    """The package ``beliefloc`` as it is at ``rev``, unpacked under ``into``."""
-    into.mkdir(parents=True, exist_ok=True)
-    archive = subprocess.run(["git", "archive", rev, "beliefloc"], cwd=ROOT, stdout=subprocess.PIPE, check=True)
-    subprocess.run(["tar", "-x", "-C", str(into)], input=archive.stdout, check=True)
+    """The code of commit ``rev`` unpacked under ``into`` (kept if already there), with its compiled parts built
+    as an install builds them: without them that code's search runs its Python or NumPy loops, not the code a
+    user of that commit ran (a side-by-side run once compared today's C with a baseline's Python)."""
+    if not (into / "beliefloc").exists():
+        into.mkdir(parents=True, exist_ok=True)
+        archive = subprocess.run(["git", "archive", rev], cwd=ROOT, stdout=subprocess.PIPE, check=True)
+        subprocess.run(["tar", "-x", "-C", str(into)], input=archive.stdout, check=True)
+    if (into / "setup.py").exists() and not list((into / "beliefloc").rglob("*.so")):
+        print(f"building the compiled parts of {into} ...", file=sys.stderr, flush=True)
+        subprocess.run(
+            [sys.executable, "setup.py", "-q", "build_ext", "--inplace"],
+            cwd=into, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        )  # fmt: skip
     return into
 
 

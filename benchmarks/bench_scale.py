@@ -49,6 +49,7 @@ from typing import Any
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))  # the repository root: import benchmarks.*
 
+from benchmarks.bench_region_compile import export_revision  # noqa: E402
 from benchmarks.planning.settings import single_threaded  # noqa: E402
 
 RESULTS = ROOT / "benchmarks" / "results" / "scale.md"
@@ -296,20 +297,8 @@ def _best(runs: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 def _baseline_tree(ref: str, folder: Path) -> Path:
-    """The code of commit ``ref``, with its compiled parts built as an install builds them (without them
-    the baseline's search runs NumPy's passes on one core: not the code a user of that commit ran)."""
-    target = folder / f"baseline-{ref}"
-    if not target.exists():
-        target.mkdir(parents=True)
-        archive = subprocess.run(["git", "archive", ref], cwd=ROOT, check=True, stdout=subprocess.PIPE).stdout
-        subprocess.run(["tar", "-x", "-C", str(target)], input=archive, check=True)
-    if (target / "setup.py").exists() and not list((target / "beliefloc").rglob("*.so")):
-        print(f"building the compiled parts of {target} ...", file=sys.stderr, flush=True)
-        subprocess.run(
-            [sys.executable, "setup.py", "-q", "build_ext", "--inplace"],
-            cwd=target, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-        )  # fmt: skip
-    return target
+    """The code of commit ``ref`` under ``folder`` (kept from run to run), its compiled parts built."""
+    return export_revision(ref, folder / f"baseline-{ref}")
 
 
 def _same_steps(before: list[dict[str, Any]], after: list[dict[str, Any]]) -> tuple[bool, float]:
