@@ -50,7 +50,7 @@ from pathlib import Path
 from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the repository root: import benchmarks.*
-from benchmarks.bench_region_compile import export_revision
+from benchmarks.bench_region_compile import export_revision, write_bytecode
 from benchmarks.machine import cpu_name
 from benchmarks.planning.settings import ROOT, say, single_threaded
 
@@ -246,6 +246,7 @@ def main_cli(args: argparse.Namespace) -> str:
         codes = {"before": export_revision(args.before, Path(tmp) / "before"), "after": ROOT}
         for code in codes.values():
             check_code(code)
+            write_bytecode(code)
         for repeat in range(args.repeats):
             for name, code in codes.items():
                 if name not in args.skip:

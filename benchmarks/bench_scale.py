@@ -49,7 +49,7 @@ from typing import Any
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))  # the repository root: import benchmarks.*
 
-from benchmarks.bench_region_compile import export_revision  # noqa: E402
+from benchmarks.bench_region_compile import export_revision, write_bytecode  # noqa: E402
 from benchmarks.planning.settings import single_threaded  # noqa: E402
 
 RESULTS = ROOT / "benchmarks" / "results" / "scale.md"
@@ -448,12 +448,7 @@ def main() -> None:
     if args.baseline:
         codes["before"] = _baseline_tree(args.baseline, args.workdir)
     for code in codes.values():
-        # byte code written for every module, as an install writes it: a process does not compile the modules
-        # changed since their last .pyc (PYTHONDONTWRITEBYTECODE, as on CI, never writes them), nor a baseline
-        # tree's every module
-        subprocess.run(
-            [sys.executable, "-m", "compileall", "-q", "beliefloc"], cwd=code, check=True, stdout=subprocess.DEVNULL
-        )
+        write_bytecode(code)
     rows = []
     every: list[dict[str, Any]] = []
     sizes: dict[int, dict[str, int]] = {}
