@@ -25,8 +25,9 @@ ratios between the rows of one run are what to read.
 
 With ``--cli`` the whole command ``python -m beliefloc plan maps/MAP.yaml --policy --json`` is timed instead
 (what issue 28's "<= 3 s" is about: process start, map compilation and the search), in turn with the package
-as it was at ``--before`` (``git archive`` into a temporary directory, on ``PYTHONPATH``; ``python -P`` keeps
-the working directory's package out) and with today's, ``--repeats`` times: wall seconds and the child's
+as it was at ``--before`` (``git archive`` into a temporary directory with its compiled parts built, on
+``PYTHONPATH``; ``python -P`` keeps the working directory's package out) and with today's, both with their
+byte code written, ``--repeats`` times: wall seconds and the child's
 CPU seconds (user + system), and from its JSON the status, expansions, expected cost and policy nodes.
 
 With ``--simulate N`` the command is ``python -m beliefloc simulate maps/MAP.yaml -n N -s contingent --seed
