@@ -1013,10 +1013,20 @@ class _Search:
     def _push_tips(self, tips: Iterable[_Node]) -> None:
         """Each frontier leaf of ``tips`` (whose reach changed) into :attr:`_tips`, if it is reached with at
         least ``prune_below``."""
-        prune_below = self.prune_below
         for node in tips:
-            if node.reach >= prune_below and node.reach > 0.0:
+            if self._reached_enough(node.reach):
                 heapq.heappush(self._tips, (-node.reach * node.value, -node.reach, node.number, node))
+
+    def _reached_enough(self, reach: float) -> bool:
+        """Whether a frontier leaf reached with ``reach`` is one to expand (else it is pruned)."""
+        return reach >= self.prune_below and reach > 0.0
+
+    def _leaf_reach(self, node: _Node, traversal: dict[int, float]) -> float:
+        """The reach by which the search judged the frontier leaf ``node``: its own (:meth:`_flow`), which
+        counts the visits of a loop that the traversal's (``traversal``, :meth:`best_policy`) cuts where it
+        closes. With the traversal's, a leaf the search would expand next was shown pruned, and a policy
+        out of budget had no frontier leaf."""
+        return node.reach
 
     def _retrace(self) -> None:
         """Every reach and the tips anew, by one traversal of the best policy from the current start."""
@@ -1027,7 +1037,7 @@ class _Search:
         self._reached, self._tips = order, []
         for node in order:
             node.reach = reach[node.number]
-            if node.leaf is LeafKind.FRONTIER and node.reach >= self.prune_below and node.reach > 0.0:
+            if node.leaf is LeafKind.FRONTIER and self._reached_enough(node.reach):
                 heapq.heappush(self._tips, (-node.reach * node.value, -node.reach, node.number, node))
         self._exact = True
 
@@ -1108,7 +1118,7 @@ class _Search:
                 )
             else:
                 kind = node.leaf or LeafKind.LOOP
-                if kind is LeafKind.FRONTIER and reach[node.number] < self.prune_below:
+                if kind is LeafKind.FRONTIER and not self._reached_enough(self._leaf_reach(node, reach)):
                     kind = LeafKind.PRUNED
                 frozen[node.number] = PolicyNode(
                     node.number, node.value, node.max_belief, most_likely, None, None, kind
@@ -1145,12 +1155,15 @@ class _TraversalSearch(_Search):
     def _flow(self, pending: dict[_Node, float]) -> None:
         pass
 
+    def _leaf_reach(self, node: _Node, traversal: dict[int, float]) -> float:
+        return traversal[node.number]
+
     def next_tip(self, root: _Node) -> _Node | None:
         order, reach = self.best_policy(root)
         best: _Node | None = None
         for node in order:
             here = reach[node.number]
-            open_tip = node.leaf is LeafKind.FRONTIER and here >= self.prune_below and here > 0.0
+            open_tip = node.leaf is LeafKind.FRONTIER and self._reached_enough(here)
             if open_tip and (best is None or here * node.value > reach[best.number] * best.value):
                 best = node
         return best
