@@ -18,6 +18,7 @@ from beliefloc.belief import entropy, point
 from beliefloc.cli.app import app
 from beliefloc.errors import EXIT_NEGATIVE
 from beliefloc.model import Model
+from beliefloc.planning import best_first
 from beliefloc.planning.best_first import ClosedList, PlanStatus, belief_key, plan
 from beliefloc.planning.settings import Heuristic
 from beliefloc.planning.successors import SuccessorEvaluator
@@ -206,6 +207,53 @@ def test_successor_statistics_match_the_bayes_update():
         assert stats.probability == pytest.approx(p, abs=1e-12)
         assert stats.entropy == pytest.approx(entropy(posterior), abs=1e-9)
         assert stats.max_belief == pytest.approx(posterior.max(), abs=1e-12)
+        if model.actions[stats.action].transition is None and stats.observation is not None:
+            assert stats.change == pytest.approx(np.abs(posterior - belief).sum(), abs=1e-12)
+        else:
+            assert stats.change is None  # a move's successor is another belief, not a reading of this one
+
+
+FAINT_LOOK = {
+    "name": "faint",
+    "grid": {"rows": 1, "cols": 2, "headings": 1},
+    "landmarks": [{"class": "door", "cell": [0, 0]}],
+    "actions": {"up": {"cost": 1}, "down": {"cost": 1}},
+    "sensors": {
+        "look": {"type": "look", "classes": ["door"], "range": 0.0, "false_positive": 0.49999999, "false_negative": 0.5}
+    },
+}
+"""Two cells a look barely tells apart: "door" has likelihood 0.5 in the first and 0.49999999 in the
+second, so a reading moves the belief by about 2e-9; moving up or down bumps."""
+
+
+def test_a_reading_that_barely_moves_the_belief_is_the_belief_again(monkeypatch: pytest.MonkeyPatch):
+    model = model_of(FAINT_LOOK)
+    start = np.array([0.9, 0.1])
+    result = plan(model, start)
+    # the two bumps are the only children: no reading is pushed, and nothing else is reachable
+    assert result.status is PlanStatus.NO_PLAN and result.generated == 2
+    monkeypatch.setattr(best_first, "UNINFORMATIVE_READING", 0.0)
+    without = plan(model, start, max_expansions=50)
+    assert without.status is PlanStatus.BUDGET_EXCEEDED and without.generated > 50  # looks after looks
+
+
+def test_a_reading_that_barely_moves_the_belief_is_kept_when_it_reaches_the_goal():
+    model = model_of(FAINT_LOOK)
+    result = plan(model, np.array([0.95 - 5e-10, 0.05 + 5e-10]))
+    assert result.found and [(s.action, s.observation) for s in result.steps] == [("look", "door")]
+    assert result.belief is not None and result.belief.max() >= 0.95
+
+
+def test_readings_that_barely_move_the_belief_spare_expansions_not_the_plan(monkeypatch: pytest.MonkeyPatch):
+    """The kitchen's noisy look repeated at one spot: its likeliest reading moves the belief less each time."""
+    model = compile_model(load_map(MAPS / "kitchen.yaml"))
+    start = uniform(model.n_states)
+    spared = plan(model, start)
+    monkeypatch.setattr(best_first, "UNINFORMATIVE_READING", 0.0)
+    every = plan(model, start)
+    assert spared.found and every.found
+    assert spared.steps == every.steps
+    assert spared.expanded < every.expanded
 
 
 def test_plan_cli_not_localizable_no_plan_and_gave_up_exit_1(runner, tmp_path: Path):

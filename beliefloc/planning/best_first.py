@@ -18,7 +18,9 @@ cheaper plans for a longer search (``benchmarks/results/planning-weight.md`` mea
 Differences from the pseudocode, each for a stated reason:
 
 * **Duplicates** are detected on pop with :func:`belief_key`: beliefs equal to within about 1e-9
-  in every entry are one node. Without it, the reachable set of a noise-free world is infinite.
+  in every entry are one node. Without it, the reachable set of a noise-free world is infinite. A
+  reading that moves the belief by less than :data:`UNINFORMATIVE_READING` is the belief just
+  expanded: not pushed at all.
 * **Termination is honest, and anytime.** The open list running empty means every reachable belief
   was searched and none is a goal: :attr:`PlanStatus.NO_PLAN`. A budget (expansions, seconds) that
   runs out gives :attr:`PlanStatus.BUDGET_EXCEEDED`, never a fake success -- but not empty-handed:
@@ -66,6 +68,16 @@ from beliefloc.source.located import gc_paused
 
 KEY_RESOLUTION = 2**30
 """Beliefs are compared after rounding every entry to a multiple of 2^-30 (about 1e-9)."""
+UNINFORMATIVE_READING = 1e-6
+"""A perception's reading that moves the belief by less than this in L1 (``Σ_j |b'_j - b_j|``,
+:attr:`SuccessorStats.change`) gives the belief just expanded: the child is not pushed (unless it is a
+goal). On noisy looks, the likeliest reading of a look repeated at one spot moves the belief ~100 times
+less each time, and the key told those beliefs apart until the 4th-6th repeat: runs of expansions whose
+``h`` did not move (10^7 states: 53 expansions, 43 with this rule; 10^6: 26, 24). On 360 plans of the
+paper's worlds (10^2-10^4 states, from the uniform belief and from beliefs reached by random actions)
+the same plans with 16 % fewer expansions, and on 180 uniform-cost plans the same optimal plans; at
+10^-5 one of those 180 was dearer (its optimal plan repeats a look five times, then reads a rare
+observation whose update crosses the threshold)."""
 _CACHE_BYTES = 256 * 2**20
 _CACHE_MIN_BELIEFS = 16
 """The belief cache holds :data:`_CACHE_BYTES` of beliefs, and never fewer than this many: at 10^7
@@ -95,7 +107,8 @@ _PROGRESS_EVERY = 256
 class PlanStatus(enum.Enum):
     FOUND = "found"
     NO_PLAN = "no_plan"
-    """Every reachable belief was searched; none reaches the threshold."""
+    """Every reachable belief was searched; none reaches the threshold (beliefs one :func:`belief_key` are
+    one, and a reading that moves a belief by less than :data:`UNINFORMATIVE_READING` tells nothing)."""
     BUDGET_EXCEEDED = "budget_exceeded"
     """The expansion or time budget ran out first; a plan may or may not exist."""
 
@@ -439,6 +452,8 @@ def _search(
             successors = evaluator.evaluate(current, whole)
             memory.remember(key, successors)
         for stats in successors:
+            if stats.change is not None and stats.change < UNINFORMATIVE_READING and stats.max_belief < threshold:
+                continue  # the belief just expanded, again (a closed node)
             child = len(parent)
             if stats.observation is None and stats.action in whole:
                 fresh[child] = whole[stats.action]

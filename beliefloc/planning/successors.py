@@ -92,6 +92,9 @@ class SuccessorStats:
     """``H(b')`` in nats."""
     max_belief: float
     """``max_j b'_j``."""
+    change: float | None = None
+    """For a perception's reading, ``Σ_j |b'_j - b_j|``: how far it moves the belief it read (None for an
+    action that moves)."""
 
 
 @dataclass(eq=False)
@@ -599,11 +602,17 @@ class SuccessorEvaluator:
         probability = mass @ table
         inner = table.T @ mass_log_mass + (table * groups.log_likelihood).T @ mass
         top = (peak[:, None] * table).max(axis=0)
+        change: list[float | None] | None = None
+        if self.model.actions[index].transition is None:
+            # Σ_j |b_j C[g_j, o] / p_o - b_j| by group: how far each reading moves the belief it read
+            with np.errstate(divide="ignore", invalid="ignore"):
+                change = (np.abs(table / probability - 1.0).T @ mass).tolist()
         out = []
         for o in np.flatnonzero(probability > 0.0).tolist():
             p = float(probability[o])
             entropy = max(0.0, float(np.log(p) - inner[o] / p))
-            out.append(SuccessorStats(index, o, p, entropy, min(1.0, float(top[o] / p))))
+            moved = None if change is None else change[o]
+            out.append(SuccessorStats(index, o, p, entropy, min(1.0, float(top[o] / p)), moved))
         return out
 
     def _rank(self, index: int, groups: _Groups) -> np.ndarray:
