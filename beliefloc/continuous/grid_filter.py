@@ -234,8 +234,9 @@ class FilterConfig:
 
 
 @dataclass(frozen=True)
-class Mode:
-    """One place the belief holds: its best state's (refined, for the first) pose and its mass."""
+class FilterMode:
+    """One place the filter's belief holds: its best state's (refined, for the first) pose and its mass (the
+    discrete models' counterpart is :class:`beliefloc.pose.Mode`)."""
 
     x: float
     y: float
@@ -263,7 +264,7 @@ class Update:
     """The inlier fraction of this update's beams at the pose."""
     surprise: float
     """Nats per beam (see :func:`beliefloc.continuous.fit.surprise`)."""
-    modes: tuple[Mode, ...]
+    modes: tuple[FilterMode, ...]
     beams: int
     recovered: bool = False
     """Uniform mass was mixed back in after this update (the scans did not fit a confident belief)."""
@@ -476,7 +477,7 @@ class GridFilter:
         self.updates += 1
         modes = self.modes()
         x, y, yaw = self.refine((modes[0].x, modes[0].y, modes[0].yaw), beams)
-        best = Mode(x, y, yaw, modes[0].probability)
+        best = FilterMode(x, y, yaw, modes[0].probability)
         modes = (best, *modes[1:])
         previous = self._last_best  # the last update's best, carried by the odometry
         continued = (
@@ -588,7 +589,7 @@ class GridFilter:
 
     # --- reading the belief ----------------------------------------------------------------------
 
-    def modes(self) -> tuple[Mode, ...]:
+    def modes(self) -> tuple[FilterMode, ...]:
         """The belief's modes, most probable first: each the best state left (its cell centre and
         heading yaw), and the mass within :attr:`FilterConfig.mode_radius` and
         :attr:`FilterConfig.mode_yaw` of it (then removed); until a mode holds less than 1 %."""
@@ -600,7 +601,7 @@ class GridFilter:
         disk = np.hypot(dr, dc) * c.cell_size <= c.mode_radius
         sector = 2 * math.pi / headings
         yaw_reach = min(headings // 2, math.floor(c.mode_yaw / sector + 1e-9))
-        found: list[Mode] = []
+        found: list[FilterMode] = []
         rows, cols = self.free.shape
         for _ in range(c.max_modes):
             k, r, col = (int(v) for v in np.unravel_index(int(np.argmax(rest)), rest.shape))
@@ -615,12 +616,12 @@ class GridFilter:
             mass = float((patch * mask).sum())
             rest[ks, r0:r1, c0:c1] = patch * ~mask
             pose = self.state_pose(int(k), int(r), int(col))
-            found.append(Mode(pose[0], pose[1], pose[2], mass))
+            found.append(FilterMode(pose[0], pose[1], pose[2], mass))
             if mass < 0.01 and found:
                 break
         return tuple(found)
 
-    def _remember_rivals(self, best: Mode, others: tuple[Mode, ...]) -> None:
+    def _remember_rivals(self, best: FilterMode, others: tuple[FilterMode, ...]) -> None:
         """Add as rivals the modes holding at least ``rival_min`` and the former best, when they lie
         beyond ``mode_radius`` of the best and of every rival already carried."""
         c = self.config
@@ -635,7 +636,7 @@ class GridFilter:
                 continue
             self.rivals.append([x, y, yaw, 0.0])
 
-    def _search_rivals(self, best: Mode, beams: Beams) -> None:
+    def _search_rivals(self, best: FilterMode, beams: Beams) -> None:
         """The global rival search (:attr:`FilterConfig.history`): score every state against the
         scan, take the :attr:`FilterConfig.global_candidates` best places beyond ``mode_radius`` of
         ``best`` (by suppression, as :meth:`modes`), refine them, and add as rivals those the
@@ -886,7 +887,7 @@ class GridFilter:
             out.append(mask)
         return out
 
-    def rival_gap(self, best: Mode, beams: Beams) -> tuple[float, float, float]:
+    def rival_gap(self, best: FilterMode, beams: Beams) -> tuple[float, float, float]:
         """``(now, remembered, raw)``: ``min`` over the rivals farther than ``mode_radius`` from
         ``best`` of how much better ``best``'s pose explains the scan than the rival's refined pose,
         clutter-trimmed (:func:`trimmed_gap`, the beams :meth:`_walled` kept); of the same over the

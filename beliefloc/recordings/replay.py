@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from beliefloc.continuous.grid_filter import FilterConfig, GridFilter, Mode, Update
+from beliefloc.continuous.grid_filter import FilterConfig, FilterMode, GridFilter, Update
 from beliefloc.continuous.likelihood_field import Scan, select_beams
 from beliefloc.continuous.motion import compose, relative
 from beliefloc.model import GridLayout
@@ -40,7 +40,7 @@ class TrackResult:
     odometry since that update (scans the gate let pass still move the robot)."""
     covariance: np.ndarray
     """6x6, ROS's ``PoseWithCovariance`` layout."""
-    modes: tuple[Mode, ...]
+    modes: tuple[FilterMode, ...]
     """The final belief's modes (the first refined), most probable first."""
     reason: str | None
     """Why the run ended not localized; None when localized."""
