@@ -18,9 +18,9 @@ cheaper plans for a longer search (``benchmarks/results/planning-weight.md`` mea
 Differences from the pseudocode, each for a stated reason:
 
 * **Duplicates** are detected on pop with :func:`belief_key`: beliefs equal to within about 1e-9
-  in every entry are one node. Without it, the reachable set of a noise-free world is infinite. A
-  reading that moves the belief by less than :data:`UNINFORMATIVE_READING` is the belief just
-  expanded: not pushed at all.
+  in every entry are one node. Without it, the reachable set of a noise-free world is infinite. In
+  the paper's greedy search, a reading that moves the belief by less than :data:`UNINFORMATIVE_READING`
+  is the belief just expanded: not pushed at all.
 * **Termination is honest, and anytime.** The open list running empty means every reachable belief
   was searched and none is a goal: :attr:`PlanStatus.NO_PLAN`. A budget (expansions, seconds) that
   runs out gives :attr:`PlanStatus.BUDGET_EXCEEDED`, never a fake success -- but not empty-handed:
@@ -73,11 +73,13 @@ UNINFORMATIVE_READING = 1e-6
 :attr:`SuccessorStats.change`) gives the belief just expanded: the child is not pushed (unless it is a
 goal). On noisy looks, the likeliest reading of a look repeated at one spot moves the belief ~100 times
 less each time, and the key told those beliefs apart until the 4th-6th repeat: runs of expansions whose
-``h`` did not move (10^7 states: 53 expansions, 43 with this rule; 10^6: 26, 24). On 360 plans of the
-paper's worlds (10^2-10^4 states, from the uniform belief and from beliefs reached by random actions)
-the same plans with 16 % fewer expansions, and on 180 uniform-cost plans the same optimal plans; at
-10^-5 one of those 180 was dearer (its optimal plan repeats a look five times, then reads a rare
-observation whose update crosses the threshold)."""
+``h`` did not move (10^7 states: 53 expansions, 43 with this rule; 10^6: 26, 24). On the paper's worlds
+the same plans: 1,276 plans from beliefs reached by random actions (10^2-10^4 states, 16 % fewer
+expansions) and the 320 best-first episodes of Tables I-II (10^2-10^5). Only the paper's
+greedy search (``weight >= 1`` and an entropy estimate) skips such readings: the least-cost searches keep
+them all, because at 10^2 states one uniform-cost plan of 444 was dearer without them (7 -> 12: a look
+repeated five times, then a rare reading, whose update divides the tiny differences by its small
+probability)."""
 _CACHE_BYTES = 256 * 2**20
 _CACHE_MIN_BELIEFS = 16
 """The belief cache holds :data:`_CACHE_BYTES` of beliefs, and never fewer than this many: at 10^7
@@ -107,8 +109,9 @@ _PROGRESS_EVERY = 256
 class PlanStatus(enum.Enum):
     FOUND = "found"
     NO_PLAN = "no_plan"
-    """Every reachable belief was searched; none reaches the threshold (beliefs one :func:`belief_key` are
-    one, and a reading that moves a belief by less than :data:`UNINFORMATIVE_READING` tells nothing)."""
+    """Every reachable belief was searched; none reaches the threshold (beliefs of one :func:`belief_key` are
+    one, and in the greedy search a reading that moves a belief by less than :data:`UNINFORMATIVE_READING`
+    tells nothing)."""
     BUDGET_EXCEEDED = "budget_exceeded"
     """The expansion or time budget ran out first; a plan may or may not exist."""
 
@@ -409,6 +412,8 @@ def _search(
     root_h = heuristic(*evaluator.entropy_max(belief), 1.0)
     open_heap: list[tuple[float, float, int, int]] = [(root_h, root_h, 0, 0)]
     closed: set[bytes] = set()
+    # the least-cost searches (h = 0, or g weighed against a small w·h) keep every reading (UNINFORMATIVE_READING)
+    skip_uninformative = heuristic is not Heuristic.ZERO and weight >= DEFAULT_WEIGHT
     key_work = KeyWork(belief.shape) if recycling else None  # small beliefs: new arrays cost less than ufunc calls
     expanded = 0
     status = PlanStatus.NO_PLAN
@@ -452,7 +457,8 @@ def _search(
             successors = evaluator.evaluate(current, whole)
             memory.remember(key, successors)
         for stats in successors:
-            if stats.change is not None and stats.change < UNINFORMATIVE_READING and stats.max_belief < threshold:
+            uninformative = stats.change is not None and stats.change < UNINFORMATIVE_READING
+            if skip_uninformative and uninformative and stats.max_belief < threshold:
                 continue  # the belief just expanded, again (a closed node)
             child = len(parent)
             if stats.observation is None and stats.action in whole:
