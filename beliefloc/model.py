@@ -295,6 +295,10 @@ class LandmarkTable(Sequence[Landmark]):
     def __len__(self) -> int:
         return len(self._table)
 
+    def as_table(self) -> tuple[tuple[str, ...], np.ndarray]:
+        """The class names and the table (class index, row, column) it reads, without making triples."""
+        return self._classes, self._table
+
     @cached_property
     def _triples(self) -> tuple[Landmark, ...]:
         from beliefloc.source.located import gc_paused

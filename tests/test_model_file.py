@@ -19,6 +19,7 @@ from beliefloc.cli.app import app
 from beliefloc.errors import ModelError, OutputError
 from beliefloc.files import npz_archive
 from beliefloc.files.model_file import load_model, save_model
+from beliefloc.model import LandmarkTable
 
 from .conftest import MAPS
 
@@ -125,6 +126,32 @@ def test_a_loaded_model_makes_its_landmark_triples_only_when_asked(tmp_path: Pat
     assert len(table) == len(model.grid.landmarks) > 0 and "_triples" not in vars(table)
     assert table == model.grid.landmarks and table[0] == model.grid.landmarks[0]
     assert table != model.grid.landmarks[1:] and table != "not landmarks"
+
+
+@given(
+    st.lists(st.tuples(st.integers(0, 3), st.integers(0, 2), st.integers(0, 2)), max_size=12),
+    st.permutations(["chair", "door", "sink", "ä"]),
+)
+@settings(max_examples=25, deadline=None)
+def test_a_landmark_table_is_saved_as_its_triples_would_be(rows: list[tuple[int, int, int]], names: list[str]) -> None:
+    """``build MODEL.npz``: a loaded model's landmark table is written without making its triples, and the
+    file is the one the triples give (classes in the order they first appear, unused ones left out)."""
+    model = compile_model(load_map(MAPS / "kitchen.yaml"))
+    assert model.grid is not None
+    array = np.array(rows, dtype=np.int32).reshape(-1, 3)
+    table = LandmarkTable(names, array)
+    triples = tuple(LandmarkTable(names, array))
+    with tempfile.TemporaryDirectory() as folder:
+        written = {}
+        for kind, landmarks in (("table", table), ("triples", triples)):
+            grid = dataclasses.replace(model.grid, landmarks=landmarks)
+            save_model(dataclasses.replace(model, grid=grid), Path(folder) / f"{kind}.npz")
+            with np.load(Path(folder) / f"{kind}.npz") as npz:
+                written[kind] = (npz["grid_landmarks"], json.loads(npz["header"].tobytes())["grid"]["landmark_classes"])
+    assert "_triples" not in vars(table)  # saving did not make them
+    assert np.array_equal(written["table"][0], written["triples"][0])
+    assert written["table"][0].dtype == written["triples"][0].dtype
+    assert written["table"][1] == written["triples"][1]
 
 
 def test_other_version_is_refused(tmp_path: Path, window_copy: Path) -> None:
