@@ -327,75 +327,50 @@ def test_expected_cost_and_branches_match_an_independent_recomputation(
 # --- 2. the least expected cost: never above best-first search with replanning ------------------
 
 
-LOOPS_BACK_PAST_THE_PARENT: dict[str, Any] = {
-    "name": "loops",
-    "grid": {"rows": 2, "cols": 3, "headings": 1},
-    "landmarks": [{"class": "a", "cell": [0, 0]}, {"class": "b", "cell": [0, 2]}, {"class": "a", "cell": [0, 1]}],
-    "actions": {
-        "up": {"cost": 1, "failure": 0.0},
-        "down": {"cost": 1, "failure": 0.0},
-        "left": {"cost": 10, "failure": 0.0},
-        "right": {"cost": 10, "failure": 0.0},
-    },
-    "sensors": {
-        "look": {
-            "type": "look",
-            "classes": ["a", "b"],
-            "range": 1.0,
-            "false_positive": 0.05,
-            "false_negative": 0.05,
-            "cost": 1,
-        }
-    },
-}
+def look_world(
+    rows: int,
+    cols: int,
+    headings: int,
+    landmarks: list[tuple[str, int, int]],
+    moves: dict[str, int],
+    failure: float = 0.0,
+    name: str = "random",
+) -> dict[str, Any]:
+    """A small map for a found example: ``moves`` (name -> cost) that fail with ``failure``, and a look at
+    classes ``a`` and ``b`` within one cell, wrong both ways with 0.05."""
+    return {
+        "name": name,
+        "grid": {"rows": rows, "cols": cols, "headings": headings},
+        "landmarks": [{"class": cls, "cell": [r, c]} for cls, r, c in landmarks],
+        "actions": {move: {"cost": cost, "failure": failure} for move, cost in moves.items()},
+        "sensors": {
+            "look": {
+                "type": "look",
+                "classes": ["a", "b"],
+                "range": 1.0,
+                "false_positive": 0.05,
+                "false_negative": 0.05,
+                "cost": 1,
+            }
+        },
+    }
+
+
+LOOPS_BACK_PAST_THE_PARENT = look_world(
+    2, 3, 1, [("a", 0, 0), ("b", 0, 2), ("a", 0, 1)], {"up": 1, "down": 1, "left": 10, "right": 10}, name="loops"
+)
 """Six cells where the h = 0 policy has loop leaves that return to an ancestor above their parent (found by a
 sweep over small maps; AO*'s policy costs 3.9042, best-first search with replanning 3.8841)."""
 
 
-TWO_LANDMARKS_DEAR_SIDEWAYS: dict[str, Any] = {
-    "name": "random",
-    "grid": {"rows": 2, "cols": 3, "headings": 1},
-    "landmarks": [{"class": "a", "cell": [0, 0]}, {"class": "b", "cell": [0, 1]}],
-    "actions": {
-        "up": {"cost": 1, "failure": 0.0},
-        "down": {"cost": 1, "failure": 0.0},
-        "left": {"cost": 10, "failure": 0.0},
-        "right": {"cost": 10, "failure": 0.0},
-    },
-    "sensors": {
-        "look": {
-            "type": "look",
-            "classes": ["a", "b"],
-            "range": 1.0,
-            "false_positive": 0.05,
-            "false_negative": 0.05,
-            "cost": 1,
-        }
-    },
-}
+TWO_LANDMARKS_DEAR_SIDEWAYS = look_world(
+    2, 3, 1, [("a", 0, 0), ("b", 0, 1)], {"up": 1, "down": 1, "left": 10, "right": 10}
+)
 """Found by Hypothesis: with the entropy estimate and branches below 0.001 pruned, the incremental
 search and the traversal end at complete policies worth 3.2745 and 3.2662."""
-LOOK_AND_TURN_PRUNED_AT_THE_NOISE: dict[str, Any] = {
-    "name": "random",
-    "grid": {"rows": 1, "cols": 3, "headings": 1},
-    "landmarks": [{"class": "a", "cell": [0, 0]}],
-    "actions": {
-        "up": {"cost": 1, "failure": 0.1},
-        "down": {"cost": 1, "failure": 0.1},
-        "left": {"cost": 10, "failure": 0.1},
-        "right": {"cost": 10, "failure": 0.1},
-    },
-    "sensors": {
-        "look": {
-            "type": "look",
-            "classes": ["a", "b"],
-            "range": 1.0,
-            "false_positive": 0.05,
-            "false_negative": 0.05,
-            "cost": 1,
-        }
-    },
-}
+LOOK_AND_TURN_PRUNED_AT_THE_NOISE = look_world(
+    1, 3, 1, [("a", 0, 0)], {"up": 1, "down": 1, "left": 10, "right": 10}, failure=0.1
+)
 """Found by Hypothesis: with branches below 0.05 pruned, as likely as the look's errors, the two searches
 prune different leaves of a policy full of loops and joins (18 and 13 paths that meet a node again) and
 end at complete policies worth 13.788 (the traversal) and 14.310 (the incremental search), 3.8 % apart;
@@ -422,46 +397,14 @@ def test_exact_policy_is_never_costlier_than_best_first_with_replanning(data: di
 # --- 3. goal leaves reach the threshold; a complete unpruned policy has no frontier -------------
 
 
-A_REMAINDER_OUT_OF_THE_POLICY = {
-    "name": "random",
-    "grid": {"rows": 1, "cols": 3, "headings": 4},
-    "landmarks": [{"class": "a", "cell": [0, 0]}],
-    "actions": {
-        "forward": {"cost": 1, "failure": 0.0},
-        "backward": {"cost": 1, "failure": 0.0},
-        "rotate_cw": {"cost": 1, "failure": 0.0},
-    },
-    "sensors": {
-        "look": {
-            "type": "look", "classes": ["a", "b"], "range": 1.0, "false_positive": 0.05, "false_negative": 0.05,
-            "cost": 1,
-        }
-    },
-}  # fmt: skip
+A_REMAINDER_OUT_OF_THE_POLICY = look_world(1, 3, 4, [("a", 0, 0)], {"forward": 1, "backward": 1, "rotate_cw": 1})
 """Found by hypothesis: a node the policy had left kept a reach of 6e-18 from the incremental sums and was
 expanded as a tip until the budget ran out; the search said "out of budget" with a complete policy."""
 
 
-A_LOOP_COUNTED_TWICE_AT_THE_PRUNING_BAR: dict[str, Any] = {
-    "name": "random",
-    "grid": {"rows": 3, "cols": 3, "headings": 4},
-    "landmarks": [{"class": "a", "cell": [2, 1]}, {"class": "b", "cell": [1, 1]}, {"class": "a", "cell": [1, 0]}],
-    "actions": {
-        "forward": {"cost": 10, "failure": 0.0},
-        "backward": {"cost": 1, "failure": 0.0},
-        "rotate_cw": {"cost": 10, "failure": 0.0},
-    },
-    "sensors": {
-        "look": {
-            "type": "look",
-            "classes": ["a", "b"],
-            "range": 1.0,
-            "false_positive": 0.05,
-            "false_negative": 0.05,
-            "cost": 1,
-        }
-    },
-}
+A_LOOP_COUNTED_TWICE_AT_THE_PRUNING_BAR = look_world(
+    3, 3, 4, [("a", 2, 1), ("b", 1, 1), ("a", 1, 0)], {"forward": 10, "backward": 1, "rotate_cw": 10}
+)
 """Found by Hypothesis: out of budget at a tip whose reach, counted with its loop's visits, was above the
 bar of 0.2 and, with the loop cut, below it; the policy showed that leaf pruned and no frontier leaf."""
 
