@@ -86,14 +86,15 @@ _CACHE_MIN_BELIEFS = 16
 states (80 MB a belief) four were too few, and a pop recomputed a chain of 2.5 Bayes updates on
 average (131 for 53 pops, each a 50-100 ms prediction); sixteen are 1.3 GB there. Beliefs of
 :data:`_RECYCLE_BYTES` and more: this many, or fewer within :data:`_CACHE_LARGE_BYTES`."""
-_CACHE_LARGE_BYTES = 2**30
+_CACHE_LARGE_BYTES = 2**29
 _CACHE_FLOOR_BELIEFS = 8
-"""Beliefs of 64 MB and more (8.4·10^6 states): at most :data:`_CACHE_LARGE_BYTES` of them, never fewer than
+"""Beliefs of 32 MB and more (4.2·10^6 states): at most :data:`_CACHE_LARGE_BYTES` of them, never fewer than
 :data:`_CACHE_FLOOR_BELIEFS`. Each is memory faulted in once, which on a virtual machine whose host backs
-memory at first touch cost 2-10 ms a MB (0.15-0.8 s a 10^7-state belief, benchmark machine), while a belief
-made again from its parent costs 20-40 ms: at 10^7 states thirteen recomputed no more than sixteen (five
-starts), and twelve planned from the uniform belief 0.5-3.9 s sooner in five pairs of processes. Eight at
-10^6 recomputed 30 % more."""
+memory at first touch cost 2-10 ms a MB (0.15-0.8 s a 10^7-state belief, benchmark machines), while a belief
+made again from its parent costs 20-40 ms. At 10^7 states eight recomputed as many as thirteen from the
+uniform belief and five of seven other starts (the other two: 109 and 29 Bayes updates against 85 and 20),
+and a search from the uniform belief in a fresh process took 10.1-10.9 s instead of 12.8 (1.6 s less system
+time); thirteen had planned 0.5-3.9 s sooner than sixteen. Eight at 10^6 recomputed 30 % more."""
 
 
 _RECYCLE_BYTES = 2**20
