@@ -82,19 +82,17 @@ repeated five times, then a rare reading, whose update divides the tiny differen
 probability)."""
 _CACHE_BYTES = 256 * 2**20
 _CACHE_MIN_BELIEFS = 16
-"""The belief cache holds :data:`_CACHE_BYTES` of beliefs, and never fewer than this many: at 10^7
-states (80 MB a belief) four were too few, and a pop recomputed a chain of 2.5 Bayes updates on
-average (131 for 53 pops, each a 50-100 ms prediction); sixteen are 1.3 GB there. Beliefs of
-:data:`_RECYCLE_BYTES` and more: this many, or fewer within :data:`_CACHE_LARGE_BYTES`."""
-_CACHE_LARGE_BYTES = 2**29
-_CACHE_FLOOR_BELIEFS = 8
-"""Beliefs of 32 MB and more (4.2·10^6 states): at most :data:`_CACHE_LARGE_BYTES` of them, never fewer than
-:data:`_CACHE_FLOOR_BELIEFS`. Each is memory faulted in once, which on a virtual machine whose host backs
-memory at first touch cost 2-10 ms a MB (0.15-0.8 s a 10^7-state belief, benchmark machines), while a belief
-made again from its parent costs 20-40 ms. At 10^7 states eight recomputed as many as thirteen from the
-uniform belief and five of seven other starts (the other two: 109 and 29 Bayes updates against 85 and 20),
-and a search from the uniform belief in a fresh process took 10.1-10.9 s instead of 12.8 (1.6 s less system
-time); thirteen had planned 0.5-3.9 s sooner than sixteen. Eight at 10^6 recomputed 30 % more."""
+"""The belief cache holds :data:`_CACHE_BYTES` of small beliefs, and never fewer than this many."""
+_CACHE_LARGE_BELIEFS = 8
+"""Beliefs the search recycles (:data:`_RECYCLE_BYTES` and more): this many. Each is memory faulted in once,
+which on a virtual machine whose host backs memory at first touch costs 2-10 ms a MB, while a belief made
+again from its parent costs 0.3-0.5 ms a MB: a cached belief pays only if it spares ten recomputations. At
+10^7 states (80 MB a belief) four were too few (a pop recomputed a chain of 2.5 Bayes updates on average);
+eight recomputed as many as thirteen from the uniform belief and five of seven other starts (the other two:
+109 and 29 Bayes updates against 85 and 20), and a search from the uniform belief in a fresh process took
+10.1-10.9 s instead of 12.8. At 10^6 states, eight against sixteen from 16 starts: as many Bayes updates
+from 14 (the others 3 and 4 more), 0.05-0.26 s less system time and faster searches from 15 (0.43-1.15 s
+against 0.49-1.26 s)."""
 
 
 _RECYCLE_BYTES = 2**20
@@ -322,11 +320,10 @@ class ClosedList:
 
 
 def cache_capacity(belief_bytes: int) -> int:
-    """How many beliefs of ``belief_bytes`` a search keeps (:data:`_CACHE_MIN_BELIEFS`, :data:`_CACHE_LARGE_BYTES`).
-    Beliefs the search recycles: few, their evictions written over; more were fresh memory to fault in (10^6
-    states: 32 beliefs, 21,000 page faults and 516 MB; 16: 15,000 and 425 MB, the same 22 Bayes updates)."""
+    """How many beliefs of ``belief_bytes`` a search keeps (:data:`_CACHE_MIN_BELIEFS`, :data:`_CACHE_LARGE_BELIEFS`).
+    Beliefs the search recycles: few, their evictions written over; more were fresh memory to fault in."""
     if belief_bytes >= _RECYCLE_BYTES:
-        return min(_CACHE_MIN_BELIEFS, max(_CACHE_FLOOR_BELIEFS, _CACHE_LARGE_BYTES // belief_bytes))
+        return _CACHE_LARGE_BELIEFS
     return max(_CACHE_MIN_BELIEFS, _CACHE_BYTES // max(1, belief_bytes))
 
 
