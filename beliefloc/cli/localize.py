@@ -267,7 +267,7 @@ def localize(
     if belief_filter is BeliefFilterKind.LATTICE and model.grid is not None:
         from beliefloc.robots.belief_filter import LatticeFilter
 
-        # a large floor's tables take seconds (the depot's million poses: ~5 s): say what the wait is
+        # a large floor's tables take seconds (the depot's million poses: 5-9 s): say what the wait is
         if not quiet:
             err.print("pose lattice: casting its rays and reading tables...", highlight=False, soft_wrap=True)
         began = time.perf_counter()
