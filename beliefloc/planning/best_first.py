@@ -78,11 +78,11 @@ key told those beliefs apart until the 4th-6th repeat: runs of expansions whose 
 states: 53 expansions, 43 with a bar of 10^-6, 37 with 10^-4; 10^6: 26, 24, 22). On the paper's worlds the
 same plans at 10^-4 as at 10^-6: 1,204 plans from beliefs reached by random actions (10^2-10^4 states,
 14-15 % fewer expansions; at 10^-3 and 10^-2 the same plans too, 10^2-10^3 states), and the 320 best-first
-episodes of Tables I-II (10^2-10^5) to the digit, their replans expanding 35-37 % fewer beliefs than in
-the last run before any bar. Only the paper's greedy search (``weight >= 1`` and an entropy estimate)
-skips such readings: the least-cost searches keep them all, because at 10^2 states one uniform-cost plan of
-444 was dearer without them even at 10^-6 (7 -> 12: a look repeated five times, then a rare reading, whose
-update divides the tiny differences by its small probability)."""
+episodes of Tables I-II (10^2-10^5) to the digit, their replans expanding 37 % fewer beliefs than with no
+bar. Only the paper's greedy search (``weight >= 1`` and an entropy estimate) skips such readings: the
+least-cost searches keep them all, because at 10^2 states one uniform-cost plan of 444 was dearer without
+them even at 10^-6 (7 -> 12: a look repeated five times, then a rare reading, whose update divides the tiny
+differences by its small probability)."""
 _CACHE_BYTES = 256 * 2**20
 _CACHE_MIN_BELIEFS = 16
 """The belief cache holds :data:`_CACHE_BYTES` of small beliefs, and never fewer than this many."""
