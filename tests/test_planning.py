@@ -123,7 +123,7 @@ def test_a_search_out_of_time_stops_at_the_next_pop_even_on_a_duplicate(monkeypa
     from beliefloc.planning import best_first
 
     model = compile_model(load_map(MAPS / "kitchen.yaml"))
-    reads = {"n": 0, "late": 12}
+    reads = {"n": 0, "late": 40}
     keys: list[int] = []
 
     def clock() -> float:

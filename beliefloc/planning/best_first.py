@@ -68,21 +68,18 @@ from beliefloc.source.located import gc_paused
 
 KEY_RESOLUTION = 2**30
 """Beliefs are compared after rounding every entry to a multiple of 2^-30 (about 1e-9)."""
-UNINFORMATIVE_READING = 1e-4
+UNINFORMATIVE_READING = 1e-6
 """A perception's reading that moves the belief by less than this in L1 (``Σ_j |b'_j - b_j|``,
 :attr:`SuccessorStats.change`) gives the belief just expanded: the child is not pushed (unless it is a
-goal). What a plan does from such a child it can do from the parent, one look cheaper: the probability of
-anything the robot later sees differs between the two beliefs by less than half the bar. On noisy looks,
-the likeliest reading of a look repeated at one spot moves the belief ~100 times less each time, and the
-key told those beliefs apart until the 4th-6th repeat: runs of expansions whose ``h`` did not move (10^7
-states: 53 expansions, 43 with a bar of 10^-6, 37 with 10^-4; 10^6: 26, 24, 22). On the paper's worlds the
-same plans at 10^-4 as at 10^-6: 1,204 plans from beliefs reached by random actions (10^2-10^4 states,
-14-15 % fewer expansions; at 10^-3 and 10^-2 the same plans too, 10^2-10^3 states), and the 320 best-first
-episodes of Tables I-II (10^2-10^5) to the digit, their replans expanding 37 % fewer beliefs than with no
-bar. Only the paper's greedy search (``weight >= 1`` and an entropy estimate) skips such readings: the
-least-cost searches keep them all, because at 10^2 states one uniform-cost plan of 444 was dearer without
-them even at 10^-6 (7 -> 12: a look repeated five times, then a rare reading, whose update divides the tiny
-differences by its small probability)."""
+goal). On noisy looks, the likeliest reading of a look repeated at one spot moves the belief ~100 times
+less each time, and the key told those beliefs apart until the 4th-6th repeat: runs of expansions whose
+``h`` did not move (10^7 states: 53 expansions, 43 with this rule; 10^6: 26, 24). On the paper's worlds
+the same plans: 1,276 plans from beliefs reached by random actions (10^2-10^4 states, 16 % fewer
+expansions) and the 320 best-first episodes of Tables I-II (10^2-10^5). Only the paper's
+greedy search (``weight >= 1`` and an entropy estimate) skips such readings: the least-cost searches keep
+them all, because at 10^2 states one uniform-cost plan of 444 was dearer without them (7 -> 12: a look
+repeated five times, then a rare reading, whose update divides the tiny differences by its small
+probability)."""
 _CACHE_BYTES = 256 * 2**20
 _CACHE_MIN_BELIEFS = 16
 """The belief cache holds :data:`_CACHE_BYTES` of small beliefs, and never fewer than this many."""
