@@ -123,7 +123,7 @@ def test_a_search_out_of_time_stops_at_the_next_pop_even_on_a_duplicate(monkeypa
     from beliefloc.planning import best_first
 
     model = compile_model(load_map(MAPS / "kitchen.yaml"))
-    reads = {"n": 0, "late": 40}
+    reads = {"n": 0, "late": 15}
     keys: list[int] = []
 
     def clock() -> float:
@@ -239,6 +239,7 @@ def test_a_reading_that_barely_moves_the_belief_is_the_belief_again(monkeypatch:
     ):
         assert least_cost.status is PlanStatus.BUDGET_EXCEEDED and least_cost.generated > 50
     monkeypatch.setattr(best_first, "UNINFORMATIVE_READING", 0.0)
+    monkeypatch.setattr(best_first, "REPEATED_READING", 0.0)
     without = plan(model, start, max_expansions=50)
     assert without.status is PlanStatus.BUDGET_EXCEEDED and without.generated > 50
 
@@ -255,11 +256,40 @@ def test_readings_that_barely_move_the_belief_spare_expansions_not_the_plan(monk
     model = compile_model(load_map(MAPS / "kitchen.yaml"))
     start = uniform(model.n_states)
     spared = plan(model, start)
+    monkeypatch.setattr(best_first, "REPEATED_READING", best_first.UNINFORMATIVE_READING)
+    once = plan(model, start)  # looks repeated at one spot searched as any other reading
     monkeypatch.setattr(best_first, "UNINFORMATIVE_READING", 0.0)
+    monkeypatch.setattr(best_first, "REPEATED_READING", 0.0)
     every = plan(model, start)
-    assert spared.found and every.found
-    assert spared.steps == every.steps
-    assert spared.expanded < every.expanded
+    assert spared.found and once.found and every.found
+    assert spared.steps == once.steps == every.steps
+    assert spared.expanded < once.expanded < every.expanded
+
+
+SLOW_LOOK = {
+    **FAINT_LOOK,
+    "name": "slow",
+    "sensors": {
+        "look": {"type": "look", "classes": ["door"], "range": 0.0, "false_positive": 0.4996, "false_negative": 0.5}
+    },
+}
+"""FAINT_LOOK with "door" at likelihood 0.5 against 0.4996: a reading moves the belief by about 1e-4, more
+than UNINFORMATIVE_READING and less than REPEATED_READING."""
+
+
+def test_a_look_repeated_at_one_spot_whose_reading_barely_moves_the_belief_is_not_searched(
+    monkeypatch: pytest.MonkeyPatch,
+):
+    model = model_of(SLOW_LOOK)
+    start = np.array([0.9, 0.1])
+    result = plan(model, start)
+    # the start's children (two bumps, two readings of the first look) and the bumps of each reading: the
+    # readings of a second look are not pushed, so the search ends having searched all it would
+    assert result.status is PlanStatus.NO_PLAN and (result.expanded, result.generated) == (3, 8)
+    monkeypatch.setattr(best_first, "REPEATED_READING", best_first.UNINFORMATIVE_READING)
+    looking = plan(model, start, max_expansions=50)  # ~900 looks, each moving the belief by 1e-4, would do
+    assert looking.status is PlanStatus.BUDGET_EXCEEDED and looking.generated > 50
+    assert all(step.action == "look" for step in looking.steps)
 
 
 def test_plan_cli_not_localizable_no_plan_and_gave_up_exit_1(runner, tmp_path: Path):
