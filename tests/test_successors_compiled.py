@@ -340,3 +340,27 @@ def _evaluate_large(model) -> int:
     successors._LARGE_BYTES = 0
     belief = np.full(model.n_states, 1.0 / model.n_states)
     return len(SuccessorEvaluator(model).evaluate(belief))
+
+
+def test_a_vector_filled_on_two_cores_is_filled():
+    vector = np.empty(1_000_001)
+    assert threads.filled(vector, 0.25) is vector
+    assert (vector == 0.25).all()
+
+
+def test_a_task_of_the_pool_that_splits_its_work_does_it_itself():
+    """A task of the pool that fills a new vector on "two cores" must not wait on the pool: with every thread
+    of the pool doing so, none would be left to run the halves."""
+    pool = threads.pool()
+    if pool is None:
+        pytest.skip("one core: no pool")
+    workers = pool._max_workers
+    meeting = threading.Barrier(workers)
+
+    def task(value: float) -> np.ndarray:
+        meeting.wait(10)  # every thread of the pool in one of these tasks
+        return threads.filled(np.empty(10_001), value)
+
+    filled = [job.result(timeout=30) for job in [pool.submit(task, float(i)) for i in range(workers)]]
+    for value, vector in enumerate(filled):
+        assert (vector == value).all()

@@ -346,7 +346,7 @@ class _ModelReader:
         if moves:
             # made in this thread: freed, their memory is what a search's first beliefs are cut from (made in
             # the pool's threads, it went back to the kernel, and at 10^7 states 240 MB were fresh pages again)
-            self._ones = np.ones(self.n)
+            self._ones = threads.filled(np.empty(self.n), 1.0) if pool is not None else np.ones(self.n)
             for _ in range(min(len(moves), threads.size()) if pool is not None else 1):
                 self._scratch.put(np.empty(self.n))
         checked = (pool.map if pool is not None else map)(lambda move: self._transition(*move), moves)

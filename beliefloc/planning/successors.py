@@ -355,8 +355,12 @@ class SuccessorEvaluator:
             self._spare.append(vector)
 
     def _vector(self) -> np.ndarray:
-        """A vector of |S| floats to write a belief into: a recycled one, or a new one."""
-        return self._spare.pop() if self._spare else np.empty(self.model.n_states)
+        """A vector of |S| floats to write a belief into: a recycled one, or a new one (a large one with its
+        memory faulted in on two cores, :func:`threads.filled`)."""
+        if self._spare:
+            return self._spare.pop()
+        vector = np.empty(self.model.n_states)
+        return threads.filled(vector, 0.0) if self._large else vector
 
     def _predict(self, action: Action, belief: np.ndarray) -> np.ndarray:
         """:func:`beliefloc.belief.predict` into a recycled vector, bit for bit.
